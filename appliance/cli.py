@@ -11,7 +11,7 @@ import sys
 
 import typer
 
-from appliance.commands import calibrate, config, localize, replay, run
+from appliance.commands import arm_sim, bench, calibrate, config, devices, localize, logs, replay, run
 from appliance.errors import ApplianceError
 
 app = typer.Typer(
@@ -26,7 +26,11 @@ app.command("calibrate")(calibrate.command)
 app.command("run")(run.command)
 app.command("localize")(localize.command)
 app.command("replay")(replay.command)
+app.command("arm-sim")(arm_sim.command)
+app.command("devices")(devices.command)
 app.add_typer(config.app, name="config")
+app.add_typer(logs.app, name="logs")
+app.add_typer(bench.app, name="bench")
 
 
 def main() -> None:

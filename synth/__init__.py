@@ -1,0 +1,1 @@
+"""Synthetic stereo rig: rendered scenes and chessboards with exact truth, and the evaluator."""

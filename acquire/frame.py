@@ -65,16 +65,20 @@ class AcquireError(ApplianceError):
     """Base of the typed driver failures."""
 
 
+class InvalidDevice(AcquireError):
+    """A device string that names no driver (``/dev/videoN``, ``gige:``, ``fake:``)."""
+
+
 class DeviceNotFound(AcquireError):
-    pass
+    """The device does not exist, or delivers no frame within ``camera.open_timeout_s``."""
 
 
 class PermissionDenied(AcquireError):
-    pass
+    """The device exists but this user may not read it."""
 
 
 class FormatNotSupported(AcquireError):
-    pass
+    """The device refuses the requested pixel format, resolution or frame rate."""
 
 
 class DeviceLost(AcquireError):

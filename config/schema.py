@@ -28,8 +28,10 @@ class CameraConfig:
     open_timeout_s: float = rng(gt=0)
     reconnect_min_s: float = rng(gt=0)
     reconnect_max_s: float = rng(gt=0)
+    out_of_sync_frames: int = rng(min=1)
     fake_rate_hz: float = field()
     fake_loop: bool = field()
+    fake_restamp: bool = field()
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,10 @@ NEEDS = ("GigE support needs Aravis 0.8 and PyGObject: apt-get install gir1.2-ar
 def load_aravis():
     """Return the ``Aravis`` GObject-introspection module, or raise :class:`AcquireError` saying what is missing."""
     try:
+        import aravis  # noqa: F401 - PyPI's aravis-python, if installed, brings its own libaravis
+    except ImportError:
+        pass
+    try:
         import gi
 
         gi.require_version("Aravis", "0.8")

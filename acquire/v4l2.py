@@ -10,6 +10,7 @@ image is decoded: OpenCV's ``CAP_PROP_POS_MSEC`` is not a reliable capture time 
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 import time
@@ -73,7 +74,11 @@ class OpenCVCamera:
             raise FormatNotSupported(f"{source}: camera.pixel_format {pixel_format} is not a V4L2 format "
                                      f"(use {' or '.join(V4L2_FORMATS)})")
         check_readable(source)
+        # A stalled V4L2 read waits in select() for OPENCV_VIDEOIO_V4L_SELECT_TIMEOUT seconds
+        # (default 10, read once per process): bound it by camera.open_timeout_s instead.
+        os.environ.setdefault("OPENCV_VIDEOIO_V4L_SELECT_TIMEOUT", str(max(1, math.ceil(open_timeout_s))))
         self.name = source
+        self._cap = None
         self.frames = 0
         cap = cv2.VideoCapture(source, api)
         if not cap.isOpened():  # OpenCV only warns on stderr
@@ -95,8 +100,8 @@ class OpenCVCamera:
         self.info = CameraInfo(width, height, got_format, fps if fps > 0 else fps_hz)
 
     def _first_frame(self, timeout_s: float) -> tuple[int, np.ndarray]:
-        # VideoCapture.read blocks (V4L2: up to its own 10 s select timeout), so the first
-        # frame is awaited in a thread to honour camera.open_timeout_s.
+        # VideoCapture.read blocks (V4L2: up to its select timeout, whole seconds), so the
+        # first frame is awaited in a thread to honour camera.open_timeout_s exactly.
         box: list = []
         worker = threading.Thread(target=lambda: box.append(self._grab()), daemon=True)
         worker.start()

@@ -106,7 +106,6 @@ class PairedDriver(DriverBase):
         l, r = left.info, right.info
         self.info = DriverInfo(driver, device, l.width_px, l.height_px, l.pixel_format,
                                min(l.fps_hz, r.fps_hz), tuple(c.serial for c in (l, r) if c.serial))
-        self._startup_drops = 0
         self._queue: queue.Queue = queue.Queue(maxsize=16)
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._reader, args=(side,), daemon=True,
@@ -116,9 +115,8 @@ class PairedDriver(DriverBase):
 
     @property
     def dropped_pairs(self) -> int:
-        """Images dropped for skew since the first pair (the start-up backlog of the camera
-        opened first is not counted)."""
-        return self.pairer.dropped - self._startup_drops
+        """Images dropped for skew (the start-up backlog of the camera opened first is not counted)."""
+        return self.pairer.dropped
 
     def _reader(self, side: int) -> None:
         camera = self.cameras[side]
@@ -148,8 +146,6 @@ class PairedDriver(DriverBase):
                 raise stamp_ns  # the camera's own typed error (DeviceLost ...)
             self.pairer.push(side, stamp_ns, image)
             for (stamp_l, left), (stamp_r, right) in self.pairer.pop():
-                if seq == 0:
-                    self._startup_drops = self.pairer.dropped
                 yield StereoFrame(left, right, seq, stamp_l, stamp_r)
                 seq += 1
             if self.pairer.dropped_in_row >= self.out_of_sync_frames:

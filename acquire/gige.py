@@ -12,6 +12,7 @@ synchronised unless PTP is set up, so host time is what can pair two cameras.
 from __future__ import annotations
 
 import socket
+import threading
 
 import numpy as np
 
@@ -71,6 +72,7 @@ class AravisCamera:
                  open_timeout_s: float, buffers: int = 8):
         self.name = f"gige:{address}"
         self._camera = self._stream = None
+        self._lost = False
         if pixel_format not in GENICAM_FORMAT:
             raise FormatNotSupported(f"{self.name}: camera.pixel_format {pixel_format} is not a GigE format "
                                      f"(use {' | '.join(GENICAM_FORMAT)})")
@@ -129,6 +131,7 @@ class AravisCamera:
         while True:
             buffer = self._stream.timeout_pop_buffer(self._timeout_us) if self._stream else None
             if buffer is None:
+                self._lost = True
                 raise DeviceLost(f"{self.name}: no frame for {self._timeout_us / 1e6:g} s after {self.frames} "
                                  "(cable, power or bandwidth?)")
             try:
@@ -145,9 +148,15 @@ class AravisCamera:
             return stamp_ns, image
 
     def close(self) -> None:
-        if self._camera is not None:
+        # a lost camera is not told to stop: each unanswered GVCP command costs seconds of retries
+        if self._camera is not None and not self._lost:
             try:
                 self._camera.stop_acquisition()
             except Exception:  # noqa: BLE001 - a lost camera cannot be stopped; closing must go on
                 pass
+        held = [self._stream, self._camera]
         self._stream = self._camera = None
+        if self._lost:
+            # Releasing a lost camera retries GVCP commands for seconds: let a thread wait for it
+            # so the run loop can reconnect at once.
+            threading.Thread(target=held.clear, daemon=True, name=f"release-{self.name}").start()

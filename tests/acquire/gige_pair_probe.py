@@ -1,26 +1,47 @@
-"""Run inside a network namespace (see test_gige.py): two Aravis fake GigE cameras on 127.0.0.1
-and 127.0.0.2, opened as one stereo pair by address; prints what the driver delivered as JSON."""
+"""Run inside a network namespace made by test_gige.py: Aravis fake GigE cameras on 127.0.0.1 and
+127.0.0.2 (an address the namespace's lo has), opened by address; prints what happened as JSON.
 
+    python gige_pair_probe.py pair          two cameras as one stereo pair: 8 pairs
+    python gige_pair_probe.py out-of-sync   the same with a zero skew allowed: OutOfSync
+    python gige_pair_probe.py lost          one camera that stops mid-stream: DeviceLost
+"""
+
+import gc
 import json
 import sys
 
-from appliance.acquire import open_driver
+from appliance.acquire import AcquireError, open_driver
 from appliance.acquire.gige import load_aravis
 from appliance.config import load_config
 
 Aravis = load_aravis()
+mode = sys.argv[1]
 fakes = [Aravis.GvFakeCamera.new(address, serial) for address, serial in
          (("127.0.0.1", "LEFT01"), ("127.0.0.2", "RIGHT02"))]
 if not all(f.is_running() for f in fakes):
     sys.exit("fake cameras did not start")
-cfg = load_config(overrides={"camera": {"width_px": 64, "height_px": 48, "pixel_format": "MONO8",
-                                        "fps_hz": 25.0, "max_stereo_skew_ms": 5.0}}).camera
-with open_driver("gige:127.0.0.1,127.0.0.2", cfg) as driver:
-    frames = iter(driver)
-    got = [next(frames) for _ in range(8)]
+camera = {"width_px": 64, "height_px": 48, "pixel_format": "MONO8", "fps_hz": 25.0, "max_stereo_skew_ms": 5.0,
+          "open_timeout_s": 1.0, "out_of_sync_frames": 6}
+if mode == "out-of-sync":
+    camera["max_stereo_skew_ms"] = 0.0
+cfg = load_config(overrides={"camera": camera}).camera
+device = "gige:127.0.0.2" if mode == "lost" else "gige:127.0.0.1,127.0.0.2"
+got, error = [], None
+with open_driver(device, cfg) as driver:
+    try:
+        for frame in driver:
+            got.append(frame)
+            if mode == "lost" and len(got) == 2:
+                del fakes[1]  # the right camera goes away
+                gc.collect()
+            if len(got) == 8:
+                break
+    except AcquireError as exc:
+        error = f"{type(exc).__name__}: {exc}"
 print(json.dumps({
     "info": [driver.info.driver, driver.info.width_px, driver.info.height_px, driver.info.pixel_format,
              list(driver.info.serials)],
+    "error": error,
     "seq": [f.seq for f in got],
     "skew_ms": [(f.stamp_left_ns - f.stamp_right_ns) / 1e6 for f in got],
     "period_ms": [(b.stamp_ns - a.stamp_ns) / 1e6 for a, b in zip(got, got[1:])],

@@ -90,8 +90,9 @@ def test_errors_name_the_camera(fake_camera):
         open_driver("gige:127.0.0.9", camera_cfg(width_px=W, height_px=H, pixel_format="MONO8"))
 
 
-def test_stereo_pair_of_two_cameras_in_a_network_namespace():
-    """Two fakes need two addresses: 127.0.0.2 is added to lo inside a namespace made here."""
+def in_namespace(mode: str) -> dict:
+    """Run gige_pair_probe.py MODE in a network namespace made here, where lo also has 127.0.0.2
+    (the fake camera only listens on an address an interface has; two fakes need two)."""
     if not (shutil.which("unshare") and shutil.which("ip")):
         pytest.skip("needs unshare (util-linux) and ip (iproute2) to make a network namespace")
     probe = subprocess.run(["unshare", "--net", "true"], capture_output=True, text=True)
@@ -100,13 +101,31 @@ def test_stereo_pair_of_two_cameras_in_a_network_namespace():
     script = Path(__file__).with_name("gige_pair_probe.py")
     out = subprocess.run(
         ["unshare", "--net", "sh", "-c",
-         'ip link set lo up && ip addr add 127.0.0.2/8 dev lo && exec "$0" "$@"', sys.executable, str(script)],
+         'ip link set lo up && ip addr add 127.0.0.2/8 dev lo && exec "$0" "$@"', sys.executable, str(script), mode],
         capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
-    got = json.loads(out.stdout)
+    return json.loads(out.stdout)
+
+
+def test_stereo_pair_of_two_cameras():
+    got = in_namespace("pair")
+    assert got["error"] is None
     assert got["info"] == ["gige-pair", 64, 48, "Mono8", ["LEFT01", "RIGHT02"]]
     assert got["seq"] == list(range(8))
     assert got["dropped"] <= 2, got  # a loaded machine may make a fake camera miss a frame now and then
     assert all(abs(s) <= 5.0 for s in got["skew_ms"])
     assert all(abs(p - 40.0) < 10.0 for p in got["period_ms"])
     assert got["shapes"] == [[48, 64, 3, 48, 64, 3]] * 8
+
+
+def test_pair_never_within_skew_is_out_of_sync():
+    got = in_namespace("out-of-sync")
+    assert got["seq"] == [] and got["dropped"] >= 6
+    assert got["error"] == ("OutOfSync: gige:127.0.0.1 and gige:127.0.0.2: 6 images in a row found no partner "
+                            "within 0 ms (camera.max_stereo_skew_ms)")
+
+
+def test_camera_gone_mid_stream_is_device_lost():
+    got = in_namespace("lost")
+    assert got["seq"][:2] == [0, 1]
+    assert got["error"].startswith("DeviceLost: gige:127.0.0.2: no frame for 1 s after ")

@@ -47,3 +47,11 @@ def test_faster_camera_drops_its_extra_images():
     pairs = feed(pairer, range(0, 200, 20), range(0, 200, 40))  # 50 Hz against 25 Hz
     assert pairs == [(f"L{t}", f"R{t}") for t in range(0, 200, 40)]
     assert pairer.dropped == 4  # L20 L60 L100 L140 (L180 still waits)
+
+
+def test_start_up_backlog_is_not_counted():
+    pairer = StampPairer(5 * MS)
+    # the left camera started 100 ms earlier: its first images can never pair, and are not errors
+    pairs = feed(pairer, range(0, 200, 20), range(101, 200, 20))
+    assert pairs == [(f"L{t}", f"R{t + 1}") for t in range(100, 200, 20)]
+    assert pairer.dropped == 0 and pairer.dropped_in_row == 0

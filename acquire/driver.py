@@ -122,16 +122,16 @@ class PairedDriver(DriverBase):
         camera = self.cameras[side]
         while not self._stop.is_set():
             try:
-                item = (side, *camera.read())
+                item = (side, *camera.read(), None)
             except AcquireError as exc:
-                item = (side, exc, None)
+                item = (side, 0, None, exc)
             while not self._stop.is_set():
                 try:
                     self._queue.put(item, timeout=0.1)
                     break
                 except queue.Full:
                     continue
-            if item[2] is None:
+            if item[3] is not None:
                 return
 
     def __iter__(self) -> Iterator[StereoFrame]:
@@ -139,11 +139,11 @@ class PairedDriver(DriverBase):
         names = " and ".join(c.name for c in self.cameras)
         while True:
             try:
-                side, stamp_ns, image = self._queue.get(timeout=self.timeout_s)
+                side, stamp_ns, image, error = self._queue.get(timeout=self.timeout_s)
             except queue.Empty:
                 raise DeviceLost(f"{names}: no image for {self.timeout_s:g} s from either camera") from None
-            if image is None:
-                raise stamp_ns  # the camera's own typed error (DeviceLost ...)
+            if error is not None:
+                raise error  # the camera's own typed error (DeviceLost ...)
             self.pairer.push(side, stamp_ns, image)
             for (stamp_l, left), (stamp_r, right) in self.pairer.pop():
                 yield StereoFrame(left, right, seq, stamp_l, stamp_r)

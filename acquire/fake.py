@@ -65,17 +65,16 @@ class FakeDriver(DriverBase):
             if not self._pairs:
                 raise DeviceNotFound(f"{self.name}: no left/right image pairs in this folder "
                                      "(names like left_00.png/right_00.png)")
-            self._lap, nominal_hz, recorded = self._folder, FOLDER_RATE_HZ, False
+            self._lap, nominal_hz = self._folder, FOLDER_RATE_HZ
         elif self.path.suffix.lower() == ".mcap":
-            self._lap, nominal_hz, recorded = self._mcap, None, True
+            self._lap, nominal_hz = self._mcap, None  # paced by its recorded stamps
         else:
             cap = cv2.VideoCapture(str(self.path))
             fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
             cap.release()
             if fps <= 0:
                 raise FormatNotSupported(f"{self.name}: not a folder, an .mcap log or a video OpenCV can read")
-            self._lap, nominal_hz, recorded = self._video, fps, False
-        self._recorded = recorded
+            self._lap, nominal_hz = self._video, fps
         lap = self._lap()
         first = next(lap, None)
         lap.close()

@@ -47,7 +47,8 @@ def parse_device(device: str) -> DeviceSpec:
     if text.startswith("fake:"):
         path = text[len("fake:"):]
         if not path:
-            raise InvalidDevice(f"device {device!r}: fake: needs a path (fake:FOLDER, fake:VIDEO or fake:LOG.mcap)")
+            raise InvalidDevice(f"device {device!r}: fake: needs a path "
+                                "(fake:FOLDER, fake:VIDEO or fake:LOG.mcap)")
         return DeviceSpec("fake", (path,))
     if text.startswith("gige:"):
         addresses = _split(device, text[len("gige:"):])

@@ -108,8 +108,8 @@ class PairedDriver(DriverBase):
                                min(l.fps_hz, r.fps_hz), tuple(c.serial for c in (l, r) if c.serial))
         self._queue: queue.Queue = queue.Queue(maxsize=16)
         self._stop = threading.Event()
-        self._threads = [threading.Thread(target=self._reader, args=(side,), daemon=True,
-                                          name=f"acquire-{cam.name}") for side, cam in enumerate(self.cameras)]
+        self._threads = [threading.Thread(target=self._reader, args=(side,), daemon=True, name=f"acquire-{cam.name}")
+                         for side, cam in enumerate(self.cameras)]
         for t in self._threads:
             t.start()
 

@@ -73,7 +73,8 @@ class FakeDriver(DriverBase):
             fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
             cap.release()
             if fps <= 0:
-                raise FormatNotSupported(f"{self.name}: not a folder, an .mcap log or a video OpenCV can read")
+                raise FormatNotSupported(f"{self.name}: not a folder, an .mcap log or a video "
+                                         "OpenCV can read")
             self._lap, nominal_hz = self._video, fps
         lap = self._lap()
         first = next(lap, None)

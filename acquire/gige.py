@@ -27,7 +27,7 @@ NEEDS = ("GigE support needs Aravis 0.8 and PyGObject: apt-get install gir1.2-ar
 
 
 def load_aravis():
-    """Return the ``Aravis`` GObject-introspection module, or raise :class:`AcquireError` saying what is missing."""
+    """The ``Aravis`` GObject-introspection module; :class:`AcquireError` says what is missing."""
     try:
         import aravis  # noqa: F401 - PyPI's aravis-python, if installed, brings its own libaravis
     except ImportError:
@@ -132,8 +132,8 @@ class AravisCamera:
             buffer = self._stream.timeout_pop_buffer(self._timeout_us) if self._stream else None
             if buffer is None:
                 self._lost = True
-                raise DeviceLost(f"{self.name}: no frame for {self._timeout_us / 1e6:g} s after {self.frames} "
-                                 "(cable, power or bandwidth?)")
+                raise DeviceLost(f"{self.name}: no frame for {self._timeout_us / 1e6:g} s after "
+                                 f"{self.frames} (cable, power or bandwidth?)")
             try:
                 if buffer.get_status() != self._success:
                     self.incomplete += 1

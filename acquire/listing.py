@@ -59,7 +59,8 @@ class V4L2Device:
     problem: str = ""
 
 
-def list_v4l2_devices(sysfs_root: str | Path = SYSFS_ROOT, dev_root: str | Path = DEV_ROOT) -> list[V4L2Device]:
+def list_v4l2_devices(sysfs_root: str | Path = SYSFS_ROOT,
+                      dev_root: str | Path = DEV_ROOT) -> list[V4L2Device]:
     """The V4L2 devices under ``sysfs_root`` (empty when there are none), by number."""
     root = Path(sysfs_root)
     if not root.is_dir():

@@ -108,7 +108,7 @@ class StereoCalibration:
         F = np.linalg.inv(K2).T @ E @ np.linalg.inv(K1)
         F = F / F[2, 2] if abs(F[2, 2]) > 1e-12 else F
         R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(
-            K1, D1, K2, D2, size, R, T, flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha
+            K1, D1, K2, D2, size, R, T.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha
         )
         return cls(size, K1, D1, K2, D2, R, T, E, F, R1, R2, P1, P2, Q, **extra)
 

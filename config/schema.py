@@ -43,6 +43,7 @@ class CalibrationConfig:
     outlier_factor: float = rng(gt=1)
     detector: Literal["sb", "classic"] = field()
     rectify_alpha: float = rng(min=0, max=1)
+    refine_intrinsics: bool = field()
     live_target_pairs: int = rng(min=3)
 
 

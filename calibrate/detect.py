@@ -1,0 +1,62 @@
+"""Chessboard corner detection in one image and in a stereo pair."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from appliance.calibrate.board import Board
+
+_SB_FLAGS = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
+_CLASSIC_FLAGS = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+_SUBPIX = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+
+
+def to_grey(image: np.ndarray) -> np.ndarray:
+    """A uint8 grey view of a BGR or grey image; shape (H, W)."""
+    return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
+
+
+def find_corners(image: np.ndarray, board: Board, detector: str = "sb") -> np.ndarray | None:
+    """The board's inner corners in ``image``, or None when the whole board is not seen.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W) or (H, W, 3), uint8
+    board : Board
+    detector : {"sb", "classic"}
+        ``sb``: ``findChessboardCornersSB`` (sector-based, accurate); ``classic``:
+        ``findChessboardCorners`` refined by ``cornerSubPix``.
+
+    Returns
+    -------
+    ndarray, shape (cols*rows, 2), float32, px — or None.
+    """
+    grey = to_grey(image)
+    if detector == "sb":
+        ok, corners = cv2.findChessboardCornersSB(grey, board.size, flags=_SB_FLAGS)
+    else:
+        ok, corners = cv2.findChessboardCorners(grey, board.size, flags=_CLASSIC_FLAGS)
+        if ok:
+            # half the smallest corner spacing, at least 2 px: never pulls a corner onto its neighbour
+            spacing = np.linalg.norm(np.diff(corners.reshape(board.rows, board.cols, 2), axis=1), axis=2).min()
+            win = int(max(2, min(11, spacing / 2)))
+            corners = cv2.cornerSubPix(grey, corners, (win, win), (-1, -1), _SUBPIX)
+    if not ok or corners is None:
+        return None
+    return corners.reshape(-1, 2).astype(np.float32)
+
+
+def orient_like(reference: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """``corners`` reordered so that they run in the same direction as ``reference``.
+
+    A chessboard's corner order is ambiguous up to a 180-degree turn; the two views of a pair
+    see the board from nearly the same direction, so the first-to-last corner vectors must agree.
+
+    Parameters
+    ----------
+    reference, corners : ndarray, shape (N, 2), px
+    """
+    if np.dot(reference[-1] - reference[0], corners[-1] - corners[0]) < 0:
+        return corners[::-1].copy()
+    return corners

@@ -64,7 +64,8 @@ def error_chart(keys: list[str], view_rms_px: np.ndarray, height_px: int = 420) 
 
 
 def _short(keys: list[str]) -> list[str]:
-    """The keys without their common prefix and suffix (``left01.jpg/right01.jpg`` -> ``01``...)."""
+    """The left names without their common prefix and suffix (``left01.jpg/right01.jpg`` -> ``01``)."""
+    keys = [k.split("/")[0] for k in keys]
     if len(keys) < 2:
         return keys
     head = len(os.path.commonprefix(keys))

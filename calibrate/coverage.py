@@ -33,7 +33,7 @@ def pose_params(corners_px: np.ndarray, cols: int, image_size: tuple[int, int]) 
     w, h = image_size
     ul, ur, dr, dl = corners_px[0], corners_px[cols - 1], corners_px[-1], corners_px[-cols]
     a, b, c = ur - ul, dr - ur, dl - dr
-    area = abs(np.cross(a, b)) / 2 + abs(np.cross(c, dl - ul)) / 2    # two triangles of the quadrilateral
+    area = abs(_cross(a, b)) / 2 + abs(_cross(c, dl - ul)) / 2    # two triangles of the quadrilateral
     border = np.sqrt(area)
     mean = corners_px.mean(axis=0)
     x = np.clip((mean[0] - border / 2) / max(w - border, 1.0), 0, 1)
@@ -42,6 +42,11 @@ def pose_params(corners_px: np.ndarray, cols: int, image_size: tuple[int, int]) 
     cos = np.dot(-a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
     skew = min(1.0, 2 * abs(np.pi / 2 - np.arccos(np.clip(cos, -1, 1))))
     return np.array([x, y, size, skew])
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> float:
+    """z of the cross product of two 2D vectors."""
+    return float(u[0] * v[1] - u[1] * v[0])
 
 
 def adds_coverage(params: np.ndarray, kept: list[np.ndarray]) -> bool:

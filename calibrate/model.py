@@ -187,7 +187,7 @@ def load_calibration(path: str | Path, alpha: float = 0.0) -> StereoCalibration:
             return float(node.real()) if not node.empty() else float("nan")
 
         meta = {}
-        for key in ("date", "pattern", "source"):
+        for key in ("date", "pattern", "source", "pairs"):
             node = fs.getNode(key)
             if not node.empty():
                 meta[key] = node.string()

@@ -67,12 +67,13 @@ def _stereo(views: list[View], board: Board, size, refine: bool):
 
 
 def solve_stereo(views: Views, board: Board, *, min_pairs: int = 8, outlier_factor: float = 2.5,
-                 refine: bool = True, alpha: float = 0.0, source: str = "") -> StereoSolution:
+                 outlier_min_px: float = 0.3, refine: bool = True, alpha: float = 0.0,
+                 source: str = "") -> StereoSolution:
     """Calibrate a stereo pair from chessboard views.
 
     Each camera is calibrated alone (``calibrateCamera``), then the pair (``stereoCalibrate``,
     intrinsics refined jointly when ``refine``), then rectified (``stereoRectify``). Views whose
-    RMS reprojection error exceeds ``outlier_factor`` x the median are dropped and the whole
+    RMS reprojection error exceeds ``outlier_factor`` x the median (and ``outlier_min_px``) are dropped and the whole
     calibration is redone, until none is left or ``min_pairs`` would be undercut.
 
     Parameters
@@ -82,7 +83,9 @@ def solve_stereo(views: Views, board: Board, *, min_pairs: int = 8, outlier_fact
     min_pairs : int
         Fewer usable views than this is an error.
     outlier_factor : float
-        A view is an outlier above this multiple of the median view RMS.
+        A view is an outlier above this multiple of the median view RMS ...
+    outlier_min_px : float
+        ... and above this RMS, px.
     refine : bool
         Refine the intrinsics in the stereo step (else keep the single-camera ones).
     alpha : float
@@ -106,7 +109,7 @@ def solve_stereo(views: Views, board: Board, *, min_pairs: int = 8, outlier_fact
         rms, K1, D1, K2, D2, R, T, per_view = _stereo(kept, board, size, refine)
         view_rms = np.sqrt(np.mean(per_view ** 2, axis=1))
         worst = np.argsort(view_rms)[::-1]
-        limit = outlier_factor * np.median(view_rms)
+        limit = max(outlier_factor * np.median(view_rms), outlier_min_px)
         out = [int(i) for i in worst if view_rms[i] > limit]
         if not out or len(kept) - len(out) < min_pairs:
             break

@@ -56,6 +56,7 @@ def finish(views: Views, board: Board, cfg, out: str | Path, ros_out: str | Path
            source: str) -> CalibrationRun:
     """Solve, then write the calibration, the report pictures and the ROS files."""
     sol = solve_stereo(views, board, min_pairs=cfg.min_pairs, outlier_factor=cfg.outlier_factor,
+                       outlier_min_px=cfg.outlier_min_px,
                        refine=cfg.refine_intrinsics, alpha=cfg.rectify_alpha, source=source)
     out = Path(out)
     save_calibration(sol.calib, out)

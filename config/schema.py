@@ -41,6 +41,7 @@ class CalibrationConfig:
     square_mm: float = rng(gt=0)
     min_pairs: int = rng(min=3)
     outlier_factor: float = rng(gt=1)
+    outlier_min_px: float = rng(min=0)
     detector: Literal["sb", "classic"] = field()
     rectify_alpha: float = rng(min=0, max=1)
     refine_intrinsics: bool = field()

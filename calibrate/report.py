@@ -32,9 +32,10 @@ def error_chart(keys: list[str], view_rms_px: np.ndarray, height_px: int = 420) 
     bar, gap, x0, y0, top = 14, 12, 70, height_px - 110, 40
     width = x0 + n * (2 * bar + gap) + 40
     img = np.full((height_px, max(width, 480), 3), 255, np.uint8)
-    vmax = float(view_rms_px.max()) * 1.15 or 1.0
+    step = _nice_step(float(view_rms_px.max()) / 5 or 0.1)
+    vmax = step * (np.floor(view_rms_px.max() / step) + 1)
     scale = (y0 - top) / vmax
-    for t in np.linspace(0, vmax, 6):                       # y axis with grid
+    for t in np.arange(0, vmax + step / 2, step):           # y axis with grid
         y = int(round(y0 - t * scale))
         cv2.line(img, (x0, y), (img.shape[1] - 20, y), (225, 225, 225), 1)
         cv2.putText(img, f"{t:.2f}", (8, y + 4), _FONT, 0.4, (60, 60, 60), 1, cv2.LINE_AA)
@@ -51,8 +52,8 @@ def error_chart(keys: list[str], view_rms_px: np.ndarray, height_px: int = 420) 
         cv2.line(img, (xs, y), (min(xs + 6, img.shape[1] - 20), y), (0, 0, 200), 1)
     cv2.line(img, (x0, top - 10), (x0, y0), (0, 0, 0), 1)
     cv2.line(img, (x0, y0), (img.shape[1] - 20, y0), (0, 0, 0), 1)
-    cv2.putText(img, "Mean reprojection error per view (px)", (x0, 22), _FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(img, f"overall RMS {mean:.3f} px", (x0, y - 5), _FONT, 0.4, (0, 0, 200), 1, cv2.LINE_AA)
+    cv2.putText(img, "RMS reprojection error per view (px)", (x0, 22), _FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"- - overall {mean:.3f} px", (x0 + 330, 22), _FONT, 0.5, (0, 0, 200), 1, cv2.LINE_AA)
     ly = height_px - 30
     for k, (name, colour) in enumerate((("left camera", _LEFT), ("right camera", _RIGHT))):
         lx = x0 + k * 150
@@ -61,6 +62,12 @@ def error_chart(keys: list[str], view_rms_px: np.ndarray, height_px: int = 420) 
     cv2.putText(img, "view (pair name)", (img.shape[1] // 2 - 50, height_px - 50), _FONT, 0.4, (60, 60, 60), 1,
                 cv2.LINE_AA)
     return img
+
+
+def _nice_step(raw: float) -> float:
+    """The 1, 2 or 5 x 10^k at or above ``raw``."""
+    mag = 10 ** np.floor(np.log10(raw))
+    return float(next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw))
 
 
 def _short(keys: list[str]) -> list[str]:

@@ -25,8 +25,10 @@ def find_corners(image: np.ndarray, board: Board, detector: str = "sb") -> np.nd
     image : ndarray, shape (H, W) or (H, W, 3), uint8
     board : Board
     detector : {"sb", "classic"}
-        ``sb``: ``findChessboardCornersSB`` (sector-based, accurate); ``classic``:
-        ``findChessboardCorners`` refined by ``cornerSubPix``.
+        ``sb``: ``findChessboardCornersSB`` (sector-based, finds boards the classic detector misses);
+        ``classic``: ``findChessboardCorners`` (much faster). Both are refined by ``cornerSubPix``:
+        on rendered boards with exact truth, SB's own sub-pixel corners bias the focal length by
+        +0.3..0.4 %, the refined ones by under 0.05 % (benchmarks/calibration.py).
 
     Returns
     -------
@@ -37,14 +39,13 @@ def find_corners(image: np.ndarray, board: Board, detector: str = "sb") -> np.nd
         ok, corners = cv2.findChessboardCornersSB(grey, board.size, flags=_SB_FLAGS)
     else:
         ok, corners = cv2.findChessboardCorners(grey, board.size, flags=_CLASSIC_FLAGS)
-        if ok:
-            # half the smallest corner spacing, at least 2 px: never pulls a corner onto its neighbour
-            spacing = np.linalg.norm(np.diff(corners.reshape(board.rows, board.cols, 2), axis=1), axis=2).min()
-            win = int(max(2, min(11, spacing / 2)))
-            corners = cv2.cornerSubPix(grey, corners, (win, win), (-1, -1), _SUBPIX)
     if not ok or corners is None:
         return None
-    return corners.reshape(-1, 2).astype(np.float32)
+    corners = corners.reshape(-1, 1, 2).astype(np.float32)
+    # half the smallest corner spacing, 2..11 px: never pulls a corner onto its neighbour
+    spacing = np.linalg.norm(np.diff(corners.reshape(board.rows, board.cols, 2), axis=1), axis=2).min()
+    win = int(max(2, min(11, spacing / 2)))
+    return cv2.cornerSubPix(grey, corners, (win, win), (-1, -1), _SUBPIX).reshape(-1, 2)
 
 
 def orient_like(reference: np.ndarray, corners: np.ndarray) -> np.ndarray:

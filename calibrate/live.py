@@ -19,14 +19,23 @@ from rich.progress import BarColumn, Progress, TextColumn
 from appliance.calibrate.board import Board
 from appliance.calibrate.coverage import PARAMS, adds_coverage, coverage, pose_params
 from appliance.calibrate.detect import find_corners, orient_like
+from appliance.calibrate.model import CalibrationError
 from appliance.calibrate.stereo import CalibrationRun, board_from, finish
 from appliance.calibrate.views import View, Views
 
 
 def pairs_folder(out: str | Path) -> Path:
-    """Where live capture saves the kept pairs of calibration file ``out``."""
+    """Where live capture saves the kept pairs of calibration file ``out``.
+
+    ``<stem>_pairs`` next to it, or ``<stem>_pairs_2``, ``_3``, ... when that already holds files
+    (earlier captures are never overwritten).
+    """
     out = Path(out)
-    return out.with_name(f"{out.stem}_pairs")
+    for n in range(1, 10000):
+        folder = out.with_name(f"{out.stem}_pairs" + (f"_{n}" if n > 1 else ""))
+        if not folder.exists() or not any(folder.iterdir()):
+            return folder
+    raise CalibrationError(f"{out.parent}: too many {out.stem}_pairs_N folders")
 
 
 def _watch_enter(stop: threading.Event) -> None:

@@ -26,7 +26,7 @@ def summary_table(run: CalibrationRun) -> Table:
     t.add_column("figure")
     t.add_column("value", justify="right")
     rows = [
-        ("pairs used / found", f"{len(sol.views)} / {len(run.views.views) + len(run.views.skipped)}"),
+        ("pairs used / with the board in both views", f"{len(sol.views)} / {len(run.views.views)}"),
         ("image size", f"{c.image_size[0]} x {c.image_size[1]} px"),
         ("stereo RMS reprojection error", f"{c.rms_px:.3f} px"),
         ("worst view", f"{sol.views[worst].key}: {view_rms[worst]:.3f} px"),

@@ -31,3 +31,14 @@ def test_coverage_is_kept_range_over_target():
     assert np.array_equal(coverage([]), np.zeros(4))
     cov = coverage([np.array([0.1, 0.5, 0.2, 0.0]), np.array([0.45, 0.5, 0.6, 0.5])])
     assert np.allclose(cov, [0.5, 0.0, 1.0, 1.0])
+
+
+def test_live_pairs_folder_never_reuses_a_full_one(tmp_path):
+    from appliance.calibrate.live import pairs_folder
+
+    out = tmp_path / "calib.yaml"
+    assert pairs_folder(out) == tmp_path / "calib_pairs"
+    (tmp_path / "calib_pairs").mkdir()
+    assert pairs_folder(out) == tmp_path / "calib_pairs"          # empty: reused
+    (tmp_path / "calib_pairs" / "left_00.png").write_bytes(b"x")
+    assert pairs_folder(out) == tmp_path / "calib_pairs_2"

@@ -45,7 +45,8 @@ def rendered(detector: str, cfg, folder: Path, rig_path: Path) -> None:
     print(f"  stereo RMS {c.rms_px:.3f} px, epipolar RMS {c.epipolar_rms_px:.3f} px")
     print(f"  focal length fx {e['fx_pct']:+.3f} %, fy {e['fy_pct']:+.3f} % (worst camera; goal 0.1 %)")
     print(f"  principal point {e['pp_px']:.2f} px (worst camera; goal 1 px)")
-    print(f"  baseline {c.baseline_mm:.3f} mm, truth {truth.baseline_mm:.3f} mm: {e['baseline_pct']:+.3f} % (goal 0.1 %)")
+    print(f"  baseline {c.baseline_mm:.3f} mm, truth {truth.baseline_mm:.3f} mm: "
+          f"{e['baseline_pct']:+.3f} % (goal 0.1 %)")
     print(f"  rectified f {c.f_px:.2f} px, truth's {truth.f_px:.2f} px: {e['f_rect_pct']:+.3f} % "
           "(a choice of the rectification, see compare.py)")
     print("  depth of true points triangulated through it, RMS: "

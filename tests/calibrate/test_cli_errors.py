@@ -50,7 +50,8 @@ def test_mismatched_sizes_reported_and_skipped(tmp_path):
     (folder / "left_9.png").write_bytes(b"not a png")
     cv2.imwrite(str(folder / "right_9.png"), img)
     r = appliance("calibrate", "--images", folder, "--out", tmp_path / "c.yaml", "--min-pairs", "3")
-    line = check_error(r, "only 0 usable image pairs", "left_0.png/right_0.png: sizes differ: left 640x480, right 320x240")
+    line = check_error(r, "only 0 usable image pairs",
+                       "left_0.png/right_0.png: sizes differ: left 640x480, right 320x240")
     assert "(+1 more)" in line
 
 

@@ -56,9 +56,3 @@ def opencv_pairs(dest: Path, keys=OPENCV_KEYS) -> Path:
             elif src.with_suffix(".jpg.gz").is_file():
                 (dest / src.name).write_bytes(gzip.decompress(src.with_suffix(".jpg.gz").read_bytes()))
     return dest
-
-
-def need_chessboards() -> None:
-    """Fail clearly when the rendered chessboard fixtures are missing."""
-    assert CHESSBOARD.is_dir() and RIG.is_file(), \
-        "fixtures/chessboard and fixtures/rig.yaml are missing: run python fixtures/make_fixtures.py"

@@ -2,7 +2,8 @@
 
     python benchmarks/calibration.py [--detector sb|classic|both]
 
-Rendered (fixtures/chessboard, truth fixtures/rig.yaml): relative error of the focal lengths and
+Rendered (fixtures/chessboard, truth fixtures/rig.yaml; while those are not generated, the set the
+tests render, tests/calibrate/render.py): relative error of the focal lengths and
 the baseline (goal: within 0.1 %), principal point error (goal: within 1 px).
 Real (OpenCV's left01..right14.jpg, 9x6 corners, 30 mm squares, published baseline ~99.8 mm;
 Debian package opencv-doc): stereo RMS, epipolar RMS and the baseline found.
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import importlib.util
 import shutil
 import tempfile
 import time
@@ -29,10 +31,15 @@ REPO = Path(__file__).resolve().parents[1]
 OPENCV_DATA = Path("/usr/share/doc/opencv-doc/examples/data")
 
 
+def test_render(folder: Path) -> Path:
+    """Render the tests' own chessboard set (tests/calibrate/render.py) into ``folder``; returns the rig path."""
+    spec = importlib.util.spec_from_file_location("render", REPO / "tests" / "calibrate" / "render.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.render_chessboards(folder)
+
+
 def rendered(detector: str, cfg, folder: Path, rig_path: Path) -> None:
-    if not folder.is_dir() or not rig_path.is_file():
-        print(f"rendered: {folder} or {rig_path} missing (python fixtures/make_fixtures.py)")
-        return
     truth = load_calibration(rig_path)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
@@ -40,7 +47,7 @@ def rendered(detector: str, cfg, folder: Path, rig_path: Path) -> None:
         dt = time.perf_counter() - t0
     c = run.solution.calib
     e = compare(c, truth)
-    print(f"\nrendered chessboards ({detector}): {len(run.solution.views)} pairs used, "
+    print(f"\nrendered chessboards {folder} ({detector}): {len(run.solution.views)} pairs used, "
           f"{len(run.views.skipped)} skipped, {len(run.solution.dropped)} dropped, {dt:.1f} s")
     print(f"  stereo RMS {c.rms_px:.3f} px, epipolar RMS {c.epipolar_rms_px:.3f} px")
     print(f"  focal length fx {e['fx_pct']:+.3f} %, fy {e['fy_pct']:+.3f} % (worst camera; goal 0.1 %)")
@@ -78,7 +85,7 @@ def real(detector: str, cfg) -> None:
           f"skipped {[n for n, _ in run.views.skipped]}, dropped {run.solution.dropped}, {dt:.1f} s")
     print(f"  stereo RMS {c.rms_px:.3f} px, epipolar RMS {c.epipolar_rms_px:.3f} px, "
           f"rectified f {c.f_px:.1f} px")
-    print(f"  baseline {c.baseline_mm:.2f} mm (published ~99.8 mm), T = {np.round(c.T, 2)} mm")
+    print(f"  baseline {c.baseline_mm:.2f} mm (published ~99.8 mm), T = ({c.T[0]:.2f}, {c.T[1]:.2f}, {c.T[2]:.2f}) mm")
 
 
 def main() -> None:
@@ -89,11 +96,17 @@ def main() -> None:
     parser.add_argument("--rig", type=Path, default=REPO / "fixtures" / "rig.yaml", help="their true rig")
     parser.add_argument("--skip-real", action="store_true", help="skip OpenCV's sample pairs")
     args = parser.parse_args()
-    for detector in (["sb", "classic"] if args.detector == "both" else [args.detector]):
-        cfg = load_config(overrides={"calibration": {"detector": detector}}).calibration
-        rendered(detector, cfg, args.rendered, args.rig)
-        if not args.skip_real:
-            real(detector, cfg)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder, rig = args.rendered, args.rig
+        if not folder.is_dir() or not rig.is_file():
+            print(f"{folder} or {rig} missing: using the tests' rendered set (tests/calibrate/render.py)")
+            folder = Path(tmp) / "chessboard"
+            rig = test_render(folder)
+        for detector in (["sb", "classic"] if args.detector == "both" else [args.detector]):
+            cfg = load_config(overrides={"calibration": {"detector": detector}}).calibration
+            rendered(detector, cfg, folder, rig)
+            if not args.skip_real:
+                real(detector, cfg)
 
 
 if __name__ == "__main__":

@@ -43,8 +43,9 @@ def find_corners(image: np.ndarray, board: Board, detector: str = "sb") -> np.nd
         return None
     corners = corners.reshape(-1, 1, 2).astype(np.float32)
     # half the smallest corner spacing, 2..11 px: never pulls a corner onto its neighbour
-    spacing = np.linalg.norm(np.diff(corners.reshape(board.rows, board.cols, 2), axis=1), axis=2).min()
-    win = int(max(2, min(11, spacing / 2)))
+    grid = corners.reshape(board.rows, board.cols, 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=a), axis=2).min() for a in (0, 1))
+    win = int(max(2, min(11, spacing / 3)))
     return cv2.cornerSubPix(grey, corners, (win, win), (-1, -1), _SUBPIX).reshape(-1, 2)
 
 

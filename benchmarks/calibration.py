@@ -14,12 +14,10 @@ from __future__ import annotations
 import argparse
 import gzip
 import importlib.util
-import shutil
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from appliance.calibrate import load_calibration
 from appliance.calibrate.board import Board

@@ -1,0 +1,1 @@
+"""MCAP field logs: writing, reading, checking and recovering (see docs/logs.md)."""

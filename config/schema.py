@@ -132,6 +132,8 @@ class SerialConfig:
     reconnect_min_s: float = rng(gt=0)
     reconnect_max_s: float = rng(gt=0)
     queue_results: int = rng(min=1)
+    frame_rate_hz: float = rng(gt=0)
+    segment_tolerance_mm: float = rng(min=0)
 
 
 @dataclass(frozen=True)

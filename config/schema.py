@@ -113,6 +113,7 @@ class LoggingConfig:
     image_encoding: Literal["jpeg", "png"]
     jpeg_quality: int = rng(min=1, max=100)
     chunk_size_bytes: int = rng(min=1024)
+    flush_interval_s: float = rng(gt=0)
     rotate_size_bytes: int = rng(min=0)
     rotate_duration_s: float = rng(min=0)
     min_free_bytes: int = rng(min=0)

@@ -79,7 +79,9 @@ def iter_records(path: str | Path, status: ReadStatus | None = None, *,
                     zlib.error, MemoryError) as exc:
                 if status.readable_bytes == 0:
                     raise LogError(f"{path}: not an MCAP file (or an empty one)") from None
-                if fh.tell() >= status.size_bytes:
+                if status.readable_bytes == status.size_bytes:
+                    status.problem = "truncated: ends without its index (the writer did not finish)"
+                elif fh.tell() >= status.size_bytes:
                     status.problem = (f"truncated: the last record is incomplete and there is no index "
                                       f"(the writer did not finish); {status.readable_bytes} of "
                                       f"{status.size_bytes} bytes readable")

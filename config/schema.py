@@ -64,6 +64,7 @@ class SegmentConfig:
 @dataclass(frozen=True)
 class SkeletonConfig:
     method: Literal["fast", "thinning"]
+    downscale: int = rng(min=1, max=8)
 
 
 @dataclass(frozen=True)

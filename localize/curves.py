@@ -1,0 +1,90 @@
+"""Smooth curves along a branch in disparity space: u(v) or v(u), and d along it.
+
+A straight 3D line is a straight line in (u, v, d) space (the rectified projection is a
+homography of 3D space), so a low-degree polynomial of the row fits a branch piece
+well; extrapolation beyond the fitted span is linear (for forks and tips).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import Polynomial
+
+
+def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Polynomial, np.ndarray]:
+    """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs.
+
+    Returns
+    -------
+    (Polynomial, inliers bool (N,))
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    degree = int(min(degree, max(len(t) - 1, 0)))
+    keep = np.ones(len(t), bool)
+    poly = Polynomial.fit(t, y, degree)
+    for _ in range(rounds):
+        res = y - poly(t)
+        mad = 1.4826 * np.median(np.abs(res[keep] - np.median(res[keep]))) + 1e-3
+        new = np.abs(res) <= k_mad * mad + 0.05
+        if new.sum() <= degree + 1 or (new == keep).all():
+            break
+        keep = new
+        poly = Polynomial.fit(t[keep], y[keep], degree)
+    return poly, keep
+
+
+def degree_for(n_samples: int, span_px: float) -> int:
+    """Polynomial degree for a branch piece: 1 when short, up to 3 when long."""
+    if n_samples < 12 or span_px < 40:
+        return 1
+    return 2 if span_px < 160 else 3
+
+
+@dataclass(frozen=True, eq=False)
+class BranchCurve:
+    """A branch piece in the rectified left image with its disparity.
+
+    ``t`` is the parameter (row v for steep pieces, column u for flat ones); the other
+    image coordinate is ``s(t)``; the disparity ``d(t)``; the radius is ``radius_px``
+    (median along the piece).
+    """
+
+    segment: int
+    by_row: bool
+    t_range: tuple[float, float]
+    s_poly: Polynomial
+    d_poly: Polynomial
+    radius_px: float
+    n_samples: int
+
+    def _eval(self, poly: Polynomial, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, float))
+        lo, hi = self.t_range
+        tc = np.clip(t, lo, hi)
+        slope = poly.deriv()(tc)
+        return poly(tc) + slope * (t - tc)
+
+    def s_at(self, t) -> np.ndarray:
+        return self._eval(self.s_poly, t)
+
+    def d_at(self, t) -> np.ndarray:
+        return self._eval(self.d_poly, t)
+
+    def uv_at(self, t) -> np.ndarray:
+        """(N, 2) rectified left (u, v) at parameters ``t``."""
+        t = np.atleast_1d(np.asarray(t, float))
+        s = self.s_at(t)
+        return np.column_stack([s, t] if self.by_row else [t, s])
+
+    def t_of(self, uv) -> np.ndarray:
+        """Parameter of points (N, 2) (their v when by row, else their u)."""
+        uv = np.asarray(uv, float).reshape(-1, 2)
+        return uv[:, 1] if self.by_row else uv[:, 0]
+
+    def uvd(self, step_px: float = 4.0) -> np.ndarray:
+        """Samples (N, 3) of (u, v, d) along the fitted span every ``step_px`` of t."""
+        lo, hi = self.t_range
+        t = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
+        return np.column_stack([self.uv_at(t), self.d_at(t)])

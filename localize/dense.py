@@ -1,0 +1,372 @@
+"""Improved matching: dense sub-pixel centre lines along every branch piece.
+
+For a steep piece, each rectified row crosses the branch once in each image; the middle
+of that crossing (sub-pixel edges, :mod:`edges`) is the projection of the axis point of
+that row's epipolar plane in both views, so its disparity is the axis' disparity. The
+matching right crossing is chosen among the runs of the same row inside the working
+disparity range with a similar width, consistently along the piece (a robust polynomial
+in the row), and the piece becomes a smooth (u, v, d) curve (:mod:`curves`).
+
+Forks are placed where the child's centre line meets the parent's, with the parent's
+disparity there; tips where the centre line leaves the mask, with the piece's disparity
+extrapolated. Flat pieces (rows ambiguous) take the disparity of the forks/joints at
+their ends and, at a tip, the horizontal offset of the branch's end between the views;
+a flat piece with no such anchor is left out rather than guessed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from appliance.config.schema import MatchConfig
+from appliance.localize.curves import BranchCurve, degree_for, robust_fit
+from appliance.localize.edges import Runs, find_runs
+from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
+from appliance.localize.matching import FeatureUVD, Matching, PieceUVD
+from appliance.localize.radius import radius_at
+from numpy.polynomial import Polynomial
+
+
+@dataclass(frozen=True, eq=False)
+class StereoMasks:
+    """The rectified pair as the dense matcher needs it.
+
+    Attributes
+    ----------
+    left_mask, right_mask : ndarray (H, W) uint8
+    left_gray, right_gray : ndarray (H, W) float32
+    radius_map : ndarray (H, W) float32
+        Left mask's ridge radius map (:func:`radius.ridge_radius_map`), px.
+    d_range_px : (float, float)
+        Disparities of the working range.
+    """
+
+    left_mask: np.ndarray
+    right_mask: np.ndarray
+    left_gray: np.ndarray
+    right_gray: np.ndarray
+    radius_map: np.ndarray
+    d_range_px: tuple[float, float]
+
+
+def _angle_deg(pts: np.ndarray) -> float:
+    """Angle of a point set's main direction from the horizontal, degrees (0..90)."""
+    c = pts - pts.mean(0)
+    _, _, vt = np.linalg.svd(c, full_matrices=False)
+    return float(np.degrees(np.arctan2(abs(vt[0, 1]), abs(vt[0, 0]))))
+
+
+def _centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
+    t, s = pts[:, axis], pts[:, 1 - axis]
+    uniq, inv = np.unique(t, return_inverse=True)
+    s_mean = np.bincount(inv, s) / np.bincount(inv)
+    half = (scale - 1) / 2
+    ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
+    return ts, np.interp(ts, uniq, s_mean)
+
+
+def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.ndarray) -> np.ndarray:
+    """True where a point (N, 2) lies inside a junction region at an end of segment ``s``."""
+    near = np.zeros(len(xy), bool)
+    for node in graph.seg_nodes[s]:
+        if node >= 0 and graph.node_kind[node] == JUNCTION:
+            nxy = graph.to_full(graph.node_yx[node])
+            r = radius_at(radius_map, nxy)[0]
+            near |= np.hypot(*(xy - nxy).T) < 1.6 * r + graph.scale + 1
+    return near
+
+
+def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> BranchCurve | None:
+    """Dense row-by-row match of a steep segment; None when it finds too little."""
+    pts = graph.to_full(graph.seg_yx[s])
+    rows, xc = _centre_guess(pts, 1, graph.scale)
+    keep = ~_near_junction(graph, s, np.column_stack([xc, rows]), sm.radius_map)
+    rows, xc = rows[keep].astype(int), xc[keep]
+    if len(rows) < 4:
+        return None
+    il = runs_l.find(rows, xc)
+    sin_t = max(np.sin(np.radians(_angle_deg(pts))), 0.2)
+    r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
+    ok = il >= 0
+    w_l = np.where(ok, runs_l.span_px[np.maximum(il, 0)], np.inf)
+    ok &= w_l <= 1.5 * (2 * r_loc / sin_t + 1) + 2
+    rows, il, w_l = rows[ok], il[ok], w_l[ok]
+    n = len(rows)
+    if n < 4:
+        return None
+    c_l = runs_l.centre_px[il]
+    dmin, dmax = sm.d_range_px
+    q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
+    cd = c_l[q] - runs_r.centre_px[rr]
+    cw = runs_r.span_px[rr]
+    good = np.abs(cw - w_l[q]) <= 0.35 * w_l[q] + 1.5
+    q, cd, cw = q[good], cd[good], cw[good]
+    if len(q) < 4:
+        return None
+    t = rows.astype(float)
+    degree = degree_for(n, float(t.max() - t.min()))
+    single = np.bincount(q, minlength=n)[q] == 1
+    if single.sum() >= max(4, 0.3 * n):
+        model, _ = robust_fit(t[q[single]], cd[single], 1)
+    else:
+        hist, edges = np.histogram(cd, bins=np.arange(dmin - 1, dmax + 2, 1.0))
+        hist = np.convolve(hist, [1, 2, 1], "same")
+        model = Polynomial([edges[np.argmax(hist)] + 0.5])
+    for tol in (3.0, 1.5, 0.75):
+        res = np.abs(cd - model(t[q]))
+        order = np.lexsort((res, q))
+        first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
+        chosen = first[res[first] <= tol]
+        if len(chosen) < max(4, 0.25 * n):
+            return None
+        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree)
+    chosen = chosen[inl]
+    tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
+    wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
+    u_poly, _ = robust_fit(tf, cf, degree)
+    d_poly, _ = robust_fit(tf, df, degree)
+    slope = u_poly.deriv()(tf)
+    radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
+    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, d_poly, radius, len(tf))
+
+
+def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    c = pts.mean(0)
+    _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
+    return c, vt[0]
+
+
+def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
+    a = np.column_stack([e1, -e2])
+    if abs(np.linalg.det(a)) < 0.05:
+        return None
+    t = np.linalg.solve(a, c2 - c1)
+    return c1 + t[0] * e1
+
+
+class _Builder:
+    """Places forks, tips and joints on the fitted curves and collects pieces."""
+
+    def __init__(self, graph: SkeletonGraph, sm: StereoMasks, curves: dict, cfg: MatchConfig):
+        self.g, self.sm, self.curves, self.cfg = graph, sm, curves, cfg
+        self.node_xy = graph.to_full(graph.node_yx)
+        self.incident = [[] for _ in range(len(graph.node_kind))]
+        for s, ends in enumerate(graph.seg_nodes):
+            for node in ends:
+                if node >= 0:
+                    self.incident[node].append(s)
+        self.uvd: dict[int, np.ndarray] = {}
+        self.radius: dict[int, float] = {}
+
+    def seg_points(self, s: int) -> np.ndarray:
+        c = self.curves.get(s)
+        if c is not None:
+            lo, hi = c.t_range
+            return c.uv_at(np.linspace(lo, hi, max(2, int(hi - lo) + 1)))
+        return self.g.to_full(self.g.seg_yx[s])
+
+    def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
+        pts = self.seg_points(s)
+        dist = np.hypot(*(pts - p).T)
+        sel = pts[(dist >= 1.6 * r) & (dist <= 1.6 * r + max(40.0, 4 * r))]
+        return sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
+
+    def fork(self, node: int) -> None:
+        segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
+        if len(segs) < 3:
+            return
+        p = self.node_xy[node]
+        r = radius_at(self.sm.radius_map, p)[0]
+        near = {s: self._near_points(s, p, r) for s in segs}
+        dirs = {}
+        for s, pts in near.items():
+            v = pts.mean(0) - p
+            dirs[s] = v / max(np.hypot(*v), 1e-9)
+        pairs = [(np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:]]
+        _, pa, pb = min(pairs)
+        children = [s for s in segs if s not in (pa, pb)]
+        child = max(children, key=lambda s: self.curves[s].radius_px if s in self.curves else 0.0)
+        c1, e1 = _line(np.vstack([near[pa], near[pb]]))
+        c2, e2 = _line(near[child])
+        xy = _intersect(c1, e1, c2, e2)
+        if xy is None or np.hypot(*(xy - p)) > 2.5 * r + 2 * self.g.scale:
+            xy = p
+        ds = [self.curves[s].d_at(self.curves[s].t_of(xy))[0] for s in (pa, pb) if s in self.curves]
+        if not ds:
+            ds = [self.curves[s].d_at(self.curves[s].t_of(xy))[0] for s in children if s in self.curves]
+        if not ds:
+            return
+        self.uvd[node] = np.array([xy[0], xy[1], float(np.mean(ds))])
+        radii = [self.curves[s].radius_px for s in children if s in self.curves]
+        self.radius[node] = float(np.mean(radii)) if radii else float(r)
+
+    def _walk_out(self, c: BranchCurve, node: int) -> float:
+        """Parameter of the tip: the fitted centre line followed outwards to the mask's end."""
+        lo, hi = c.t_range
+        t_node = c.t_of(self.node_xy[node])[0]
+        start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
+        reach = 3 * c.radius_px + 3 * self.g.scale + 4
+        t = start + sign * np.arange(0, reach, 0.25)
+        uv = np.rint(c.uv_at(t)).astype(int)
+        h, w = self.sm.left_mask.shape
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < w) & (uv[:, 1] >= 0) & (uv[:, 1] < h)
+        on = np.zeros(len(t), bool)
+        on[inside] = self.sm.left_mask[uv[inside, 1], uv[inside, 0]] > 0
+        off = np.flatnonzero(~on)
+        last = (off[0] - 1) if len(off) else len(t) - 1
+        return float(t[max(last, 0)] + sign * 0.5)
+
+    def tip(self, node: int) -> None:
+        segs = [s for s in self.incident[node] if s in self.curves and self.curves[s].by_row]
+        if not segs:
+            return
+        c = self.curves[segs[0]]
+        t = self._walk_out(c, node)
+        u, v = c.uv_at(t)[0]
+        self.uvd[node] = np.array([u, v, c.d_at(t)[0]])
+        self.radius[node] = c.radius_px
+
+    def joint(self, node: int) -> None:
+        segs = [s for s in self.incident[node] if s in self.curves]
+        if segs:
+            c = self.curves[segs[0]]
+            t = c.t_of(self.node_xy[node])
+            self.uvd[node] = np.array([*c.uv_at(t)[0], c.d_at(t)[0]])
+            self.radius[node] = c.radius_px
+
+
+def _flat_curve(b: _Builder, s: int, runs_lt: Runs, runs_r: Runs) -> BranchCurve | None:
+    """A flat piece: centre line v(u) from the columns; disparity from its anchored ends."""
+    g, sm = b.g, b.sm
+    pts = g.to_full(g.seg_yx[s])
+    cols, yc = _centre_guess(pts, 0, g.scale)
+    keep = ~_near_junction(g, s, np.column_stack([cols, yc]), sm.radius_map)
+    cols, yc = cols[keep].astype(int), yc[keep]
+    if len(cols) < 4:
+        return None
+    it = runs_lt.find(cols, yc)
+    ok = it >= 0
+    if ok.sum() < 4:
+        return None
+    t, vc, hgt = cols[ok].astype(float), runs_lt.centre_px[it[ok]], runs_lt.span_px[it[ok]]
+    degree = degree_for(len(t), float(t.max() - t.min()))
+    v_poly, inl = robust_fit(t, vc, degree)
+    slope = v_poly.deriv()(t[inl])
+    radius = float(np.median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
+    ends = []
+    for node in g.seg_nodes[s]:
+        if node < 0:
+            continue
+        if node in b.uvd:
+            ends.append(b.uvd[node][[0, 2]])
+        elif g.node_kind[node] == ENDPOINT:
+            e = _flat_tip(b, node, t, v_poly, runs_r, [b.uvd[n][2] for n in g.seg_nodes[s] if n in b.uvd])
+            if e is not None:
+                b.uvd[node] = e
+                b.radius[node] = radius
+                ends.append(e[[0, 2]])
+    if not ends:
+        return None
+    ends = np.array(ends)
+    d_poly = Polynomial.fit(ends[:, 0], ends[:, 1], 1) if len(ends) == 2 and abs(ends[1, 0] - ends[0, 0]) > 1 \
+        else Polynomial([ends[:, 1].mean()])
+    return BranchCurve(s, False, (float(t[inl].min()), float(t[inl].max())), v_poly, d_poly, radius, int(inl.sum()))
+
+
+def _flat_tip(b: _Builder, node: int, t: np.ndarray, v_poly, runs_r: Runs, known_d: list) -> np.ndarray | None:
+    """Tip of a flat piece: where its row run ends, and the same end in the right image."""
+    g, sm = b.g, b.sm
+    p = b.node_xy[node]
+    sign = 1.0 if abs(p[0] - t.max()) <= abs(p[0] - t.min()) else -1.0
+    u_end = t.max() if sign > 0 else t.min()
+    row = int(np.rint(v_poly(u_end)))
+    runs_l = find_runs(sm.left_mask[row:row + 1], sm.left_gray[row:row + 1])
+    il = runs_l.find(np.zeros(1, int), np.array([u_end]))[0]
+    if il < 0:
+        return None
+    edge_l = runs_l.right_px[il] if sign > 0 else runs_l.left_px[il]
+    dmin, dmax = sm.d_range_px
+    rr = np.flatnonzero(runs_r.row == row)
+    edge_r = runs_r.right_px[rr] if sign > 0 else runs_r.left_px[rr]
+    d = edge_l - edge_r
+    d = d[(d >= dmin) & (d <= dmax)]
+    if len(d) == 0:
+        return None
+    if known_d:
+        d = d[np.argmin(np.abs(d - np.mean(known_d)))]
+    elif len(d) == 1:
+        d = d[0]
+    else:
+        return None
+    return np.array([edge_l, row, float(d)])
+
+
+def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
+    """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
+    runs_l = find_runs(sm.left_mask, sm.left_gray)
+    runs_r = find_runs(sm.right_mask, sm.right_gray)
+    curves, flat = {}, []
+    for s, yx in enumerate(graph.seg_yx):
+        if graph.seg_recovered[s] or graph.seg_length_px[s] < cfg.min_segment_px or len(yx) < 2:
+            continue
+        if _angle_deg(graph.to_full(yx)) < cfg.max_horizontal_deg:
+            flat.append(s)
+            continue
+        c = fit_steep(graph, s, runs_l, runs_r, sm)
+        if c is not None:
+            curves[s] = c
+    b = _Builder(graph, sm, curves, cfg)
+    kinds = graph.node_kind
+    for node in np.flatnonzero(kinds == JUNCTION):
+        b.fork(node)
+    for node in np.flatnonzero(kinds == ENDPOINT):
+        b.tip(node)
+    for node in np.flatnonzero(kinds == JOINT):
+        b.joint(node)
+    if flat:
+        runs_lt = find_runs(sm.left_mask.T, sm.left_gray.T)
+        for s in flat:
+            c = _flat_curve(b, s, runs_lt, runs_r)
+            if c is not None:
+                curves[s] = c
+        for node in np.flatnonzero(kinds == JUNCTION):
+            if node not in b.uvd:
+                b.fork(node)
+        for node in np.flatnonzero(kinds == JOINT):
+            if node not in b.uvd:
+                b.joint(node)
+
+    h, w = sm.left_mask.shape
+    dmin, dmax = sm.d_range_px
+    features = []
+    for node, (u, v, d) in sorted(b.uvd.items()):
+        kind = {ENDPOINT: "endpoint", JUNCTION: "bifurcation"}.get(int(kinds[node]))
+        if kind is None or not (0.95 * dmin <= d <= 1.05 * dmax):
+            continue
+        if kind == "endpoint" and min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
+            continue
+        features.append(FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node]))
+    pieces = []
+    for s, c in sorted(curves.items()):
+        uvd = c.uvd()
+        a, z = graph.seg_nodes[s]
+        ends = [b.uvd.get(n) for n in (a, z)]
+        # order the samples from node a to node z and put the nodes' own points at the ends
+        if ends[0] is not None and np.hypot(*(uvd[-1, :2] - ends[0][:2])) < np.hypot(*(uvd[0, :2] - ends[0][:2])):
+            uvd = uvd[::-1]
+        elif ends[0] is None and ends[1] is not None and \
+                np.hypot(*(uvd[0, :2] - ends[1][:2])) < np.hypot(*(uvd[-1, :2] - ends[1][:2])):
+            uvd = uvd[::-1]
+        parts = ([ends[0][None]] if ends[0] is not None else []) + [uvd] + \
+                ([ends[1][None]] if ends[1] is not None else [])
+        pieces.append(PieceUVD(s, np.vstack(parts), c.radius_px, False, (int(a), int(z))))
+    for s in np.flatnonzero(graph.seg_recovered):
+        a, z = graph.seg_nodes[s]
+        if a in b.uvd and z in b.uvd:
+            r = np.mean([b.radius.get(a, np.nan), b.radius.get(z, np.nan)])
+            pieces.append(PieceUVD(int(s), np.vstack([b.uvd[a], b.uvd[z]]), float(r), True, (int(a), int(z))))
+    stats = {"segments": len(graph.seg_yx), "matched_segments": len(curves), "flat_segments": len(flat)}
+    return Matching(features, pieces, stats)

@@ -1,0 +1,166 @@
+"""The skeleton as a graph: nodes (endpoints, merged junctions) joined by pixel segments.
+
+Skan-like and vectorised: node pixels are classified by neighbour count (1: endpoint,
+>= 3: junction, 8-connected junction pixels merged into one node), the remaining path
+pixels fall apart into connected components, one per segment, and segments are joined
+to the nodes their pixels touch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import cv2
+import numpy as np
+
+from appliance.localize.skeleton import DX, DY, Skeleton, neighbour_code, neighbour_tables
+
+ENDPOINT, JOINT, JUNCTION = 1, 2, 3
+
+
+@dataclass(frozen=True, eq=False)
+class SkeletonGraph:
+    """Nodes and segments of a skeleton.
+
+    Coordinates ``*_yx`` are skeleton pixels (row, col) at the skeleton's resolution;
+    :meth:`to_full` converts to full-resolution (x, y).
+
+    Attributes
+    ----------
+    shape : (int, int)
+        Skeleton image shape.
+    scale : int
+        Full-resolution pixels per skeleton pixel.
+    node_yx : ndarray, shape (K, 2), float
+        Node positions (junction clusters: centroid).
+    node_kind : ndarray, shape (K,), int
+        ENDPOINT (1 neighbour), JUNCTION (>= 3) or JOINT (an endpoint joined by a bridge).
+    node_pixels : list of ndarray (n, 2) int
+        The pixels of each node.
+    seg_nodes : ndarray, shape (S, 2), int
+        Node index at each end of each segment, -1 where there is none (closed loop).
+    seg_yx : list of ndarray (n, 2) int
+        The pixels of each segment (unordered; empty for two adjacent nodes).
+    seg_length_px : ndarray, shape (S,)
+        Length along the pixel path, full-resolution px.
+    seg_recovered : ndarray, shape (S,), bool
+        Segment bridged across an occlusion rather than seen.
+    """
+
+    shape: tuple[int, int]
+    scale: int
+    node_yx: np.ndarray
+    node_kind: np.ndarray
+    node_pixels: list
+    seg_nodes: np.ndarray
+    seg_yx: list
+    seg_length_px: np.ndarray
+    seg_recovered: np.ndarray = field(default=None)
+
+    def __post_init__(self):
+        if self.seg_recovered is None:
+            object.__setattr__(self, "seg_recovered", np.zeros(len(self.seg_yx), bool))
+
+    @property
+    def node_degree(self) -> np.ndarray:
+        """Number of segment ends at each node, shape (K,)."""
+        ends = self.seg_nodes[self.seg_nodes >= 0]
+        return np.bincount(ends, minlength=len(self.node_kind))
+
+    def to_full(self, yx: np.ndarray) -> np.ndarray:
+        """Skeleton (row, col) -> full-resolution (x, y), shape (N, 2) float."""
+        yx = np.asarray(yx, np.float64).reshape(-1, 2)
+        return (yx[:, ::-1] + 0.5) * self.scale - 0.5
+
+    def image(self) -> np.ndarray:
+        """The skeleton pixels of all nodes and seen segments, uint8 0/1."""
+        img = np.zeros(self.shape, np.uint8)
+        for yx in [p for p in self.node_pixels] + [p for p, r in zip(self.seg_yx, self.seg_recovered) if not r]:
+            if len(yx):
+                img[yx[:, 0], yx[:, 1]] = 1
+        return img
+
+    def with_segments(self, nodes: np.ndarray, pixels: list, lengths_px: np.ndarray, joints: np.ndarray) -> SkeletonGraph:
+        """A copy with extra recovered segments, and the nodes ``joints`` turned into JOINTs."""
+        kind = self.node_kind.copy()
+        kind[np.asarray(joints, int)] = JOINT
+        return replace(
+            self, node_kind=kind,
+            seg_nodes=np.vstack([self.seg_nodes, np.asarray(nodes, int).reshape(-1, 2)]),
+            seg_yx=list(self.seg_yx) + list(pixels),
+            seg_length_px=np.concatenate([self.seg_length_px, np.asarray(lengths_px, float)]),
+            seg_recovered=np.concatenate([self.seg_recovered, np.ones(len(pixels), bool)]),
+        )
+
+
+def _shifted(img: np.ndarray, k: int) -> np.ndarray:
+    """``out[y, x] = img[y + DY[k], x + DX[k]]`` (0 outside)."""
+    h, w = img.shape
+    pad = np.pad(img, 1)
+    return pad[1 + DY[k]:1 + DY[k] + h, 1 + DX[k]:1 + DX[k] + w]
+
+
+def _group(labels: np.ndarray, ys: np.ndarray, xs: np.ndarray, n: int) -> list:
+    """Pixels (row, col) grouped by label 1..n, as a list of n arrays."""
+    lab = labels[ys, xs]
+    order = np.argsort(lab, kind="stable")
+    counts = np.bincount(lab, minlength=n + 1)[1:]
+    yx = np.column_stack([ys, xs])[order]
+    return np.split(yx, np.cumsum(counts)[:-1]) if n else []
+
+
+def build_graph(skel: Skeleton) -> SkeletonGraph:
+    """The graph of a skeleton (see module docstring)."""
+    s = (skel.image > 0).astype(np.uint8)
+    count, _, _ = neighbour_tables()
+    n = count[neighbour_code(s)] * s
+    junction = (n >= 3).astype(np.uint8)
+    endpoint = n == 1
+    path = (n == 2).astype(np.uint8)
+
+    n_j, jlab = cv2.connectedComponents(junction, connectivity=8, ltype=cv2.CV_32S)
+    n_j -= 1
+    ey, ex = np.nonzero(endpoint)
+    node_img = jlab.copy()
+    node_img[ey, ex] = n_j + 1 + np.arange(len(ey))
+    n_nodes = n_j + len(ey)
+    jy, jx = np.nonzero(junction)
+    node_pixels = _group(jlab, jy, jx, n_j) + [np.array([[y, x]]) for y, x in zip(ey, ex)]
+    node_yx = np.array([p.mean(0) for p in node_pixels]).reshape(-1, 2)
+    node_kind = np.r_[np.full(n_j, JUNCTION), np.full(len(ey), ENDPOINT)].astype(int)
+
+    n_s, slab = cv2.connectedComponents(path, connectivity=8, ltype=cv2.CV_32S)
+    n_s -= 1
+    py, px = np.nonzero(path)
+    seg_yx = _group(slab, py, px, n_s)
+
+    # segment <-> node contacts, and node <-> node contacts (segments without pixels)
+    seg_node, node_node = [], []
+    node_at = node_img > 0
+    for k in range(8):
+        nb = _shifted(node_img, k)
+        on = (slab > 0) & (nb > 0)
+        seg_node.append(np.column_stack([slab[on], nb[on]]))
+        on = node_at & (nb > 0) & (nb != node_img)
+        node_node.append(np.column_stack([node_img[on], nb[on]]))
+    sn = np.unique(np.vstack(seg_node), axis=0) - 1
+    nn = np.unique(np.sort(np.vstack(node_node), axis=1), axis=0) - 1
+    ends = np.full((n_s, 2), -1)
+    filled = np.zeros(n_s, int)
+    for s_id, node in sn:
+        if filled[s_id] < 2:
+            ends[s_id, filled[s_id]] = node
+            filled[s_id] += 1
+
+    # lengths: 4-steps 1, diagonal steps sqrt 2, plus one step onto each end node
+    length = np.zeros(n_s + 1)
+    for k, step in ((2, 1.0), (4, 1.0), (3, np.sqrt(2)), (5, np.sqrt(2))):
+        nb = _shifted(slab, k)
+        same = (slab > 0) & (nb == slab)
+        length += step * np.bincount(slab[same], minlength=n_s + 1)
+    length = length[1:] + filled
+    seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
+    seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
+    length = np.r_[length, np.ones(len(nn))] * skel.scale
+    return SkeletonGraph(s.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
+                         seg_yx, length)

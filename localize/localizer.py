@@ -1,0 +1,184 @@
+"""The localizer: a stereo pair in, branches and their tips and forks in 3D out.
+
+Stages (each timed in ``LocalizationResult.timings_ms``): segment, rectify, skeleton,
+prune, recover, radius, match, triangulate. ``variant="paper"`` runs the paper's choice
+at every step (full-size thinning, 5 px spur pruning, Hough recovery, feature matching);
+``"improved"`` runs what the configuration says (by default: fast skeleton, radius-aware
+pruning, collinear recovery, dense centre-line matching).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from appliance.calibrate.model import StereoCalibration
+from appliance.config.schema import LocalizeConfig
+from appliance.localize.dense import StereoMasks, match_dense
+from appliance.localize.graph import SkeletonGraph
+from appliance.localize.match import match_features
+from appliance.localize.matching import Matching
+from appliance.localize.prune import prune
+from appliance.localize.radius import ridge_radius_map
+from appliance.localize.recover import recover
+from appliance.localize.rectify import Rectifier
+from appliance.localize.result import Branch, Feature, LocalizationResult
+from appliance.localize.segment import as_mask, segment_color
+from appliance.localize.skeleton import skeletonize
+from appliance.localize.triangulate import disparity_range_px, triangulate
+
+Variant = Literal["improved", "paper"]
+
+
+def paper_config(cfg: LocalizeConfig) -> LocalizeConfig:
+    """``cfg`` with the paper's choice at every step (segmentation settings kept)."""
+    return replace(
+        cfg,
+        skeleton=replace(cfg.skeleton, method="thinning"),
+        prune=replace(cfg.prune, min_length_px=5.0, radius_factor=0.0),
+        recover=replace(cfg.recover, method="hough"),
+        match=replace(cfg.match, method="features"),
+    )
+
+
+class _Clock:
+    def __init__(self):
+        self.timings: dict[str, float] = {}
+        self._t = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.timings[stage] = self.timings.get(stage, 0.0) + (now - self._t) * 1e3
+        self._t = now
+
+
+class Localizer:
+    """Branch localization for one calibrated rig.
+
+    Parameters
+    ----------
+    calib : StereoCalibration
+    cfg : LocalizeConfig
+    variant : {"improved", "paper"}
+    """
+
+    def __init__(self, calib: StereoCalibration, cfg: LocalizeConfig, variant: Variant = "improved"):
+        if variant not in ("improved", "paper"):
+            raise ValueError(f"variant must be 'improved' or 'paper', got {variant!r}")
+        self.calib = calib
+        self.variant = variant
+        self.cfg = paper_config(cfg) if variant == "paper" else cfg
+        self.rectifier = Rectifier.from_calibration(calib)
+        self.d_range_px = disparity_range_px(calib, self.cfg.working_range_mm)
+
+    # -- stages -------------------------------------------------------------------------------
+    def _masks(self, left, right, mask_left, mask_right, clock):
+        seg = self.cfg.segment
+        occluder = None
+        if mask_left is not None or mask_right is not None:
+            if mask_left is None or mask_right is None:
+                raise ValueError("give both mask_left and mask_right, or neither")
+            ml = as_mask(mask_left, left.shape[:2], "left mask")
+            mr = as_mask(mask_right, right.shape[:2], "right mask")
+        else:
+            ml, occluder = segment_color(left, seg)
+            mr, _ = segment_color(right, seg)
+        clock.lap("segment")
+        r = self.rectifier
+        ml, mr = r.rectify(ml, 0, nearest=True), r.rectify(mr, 1, nearest=True)
+        if occluder is not None and self.cfg.recover.method == "collinear":
+            occluder = r.rectify(occluder, 0, nearest=True)
+        return ml, mr, occluder
+
+    def _graph(self, mask: np.ndarray, radius_map: np.ndarray, occluder, clock) -> SkeletonGraph:
+        c = self.cfg
+        skel = skeletonize(mask, c.skeleton.method, c.skeleton.downscale)
+        clock.lap("skeleton")
+        _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius_map)
+        clock.lap("prune")
+        graph = recover(graph, c.recover, radius_map, occluder)
+        clock.lap("recover")
+        return graph
+
+    def localize(self, left: np.ndarray, right: np.ndarray, stamp_ns: int = 0,
+                 mask_left: np.ndarray | None = None, mask_right: np.ndarray | None = None) -> LocalizationResult:
+        """Localize the branches of one stereo pair.
+
+        Parameters
+        ----------
+        left, right : ndarray (H, W, 3) uint8 BGR
+            Original (distorted, unrectified) images of the calibration's size.
+        stamp_ns : int
+            Capture time, copied into the result.
+        mask_left, mask_right : ndarray (H, W), optional
+            Branch masks from an external segmenter (non-zero = branch), in the original
+            images; the embedded colour recogniser runs when they are not given.
+
+        Raises
+        ------
+        LocalizeError
+            An image or mask of the wrong size, or an empty external mask.
+        """
+        r = self.rectifier
+        r.check_size(left, "left image")
+        r.check_size(right, "right image")
+        clock = _Clock()
+        ml, mr, occluder = self._masks(left, right, mask_left, mask_right, clock)
+        clock.lap("rectify")
+        if not ml.any() or not mr.any():
+            return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
+        c = self.cfg
+        window = 2 * c.skeleton.downscale + 1 if c.skeleton.method == "fast" else 1
+        radius_l = ridge_radius_map(ml, window)
+        clock.lap("radius")
+        graph_l = self._graph(ml, radius_l, occluder, clock)
+        if c.match.method == "features":
+            radius_r = ridge_radius_map(mr, window)
+            clock.lap("radius")
+            graph_r = self._graph(mr, radius_r, None, clock)
+            matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
+        else:
+            gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY) if left.ndim == 3 else left
+            gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY) if right.ndim == 3 else right
+            gl = r.rectify(gl.astype(np.float32), 0)
+            gr = r.rectify(gr.astype(np.float32), 1)
+            clock.lap("rectify")
+            sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px)
+            matching = match_dense(graph_l, sm, c.match)
+        clock.lap("match")
+        result = self._assemble(matching, stamp_ns)
+        clock.lap("triangulate")
+        timings = dict(clock.timings)
+        timings["total"] = sum(timings.values())
+        return replace(result, timings_ms=timings)
+
+    # -- output -------------------------------------------------------------------------------
+    def _assemble(self, m: Matching, stamp_ns: int) -> LocalizationResult:
+        """Rectified (u, v, d) -> the result contract (left camera frame, original pixels)."""
+        calib, k = self.calib, self.cfg.safety_factor_k
+        f = calib.f_px
+        features, node_id = [], {}
+        if m.features:
+            uvd = np.array([[ft.u, ft.v, ft.d] for ft in m.features])
+            xyz = triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib)
+            z_rect = calib.f_px * calib.baseline_mm / (uvd[:, 2] - (calib.P1[0, 2] - calib.P2[0, 2]))
+            left_px = self.rectifier.to_original(uvd[:, :2], 0)
+            right_px = self.rectifier.to_original(np.column_stack([uvd[:, 0] - uvd[:, 2], uvd[:, 1]]), 1)
+            for i, ft in enumerate(m.features):
+                radius_mm = float(ft.radius_px * z_rect[i] / f)
+                node_id[ft.node] = i
+                features.append(Feature(i, ft.kind, tuple(left_px[i]), tuple(right_px[i]), tuple(xyz[i]),
+                                        radius_mm, float(xyz[i, 2] - k * radius_mm)))
+        branches = []
+        for p in m.pieces:
+            if not np.isfinite(p.radius_px) or len(p.uvd) < 2 or (p.uvd[:, 2] <= 0).any():
+                continue
+            poly = triangulate(p.uvd[:, 0], p.uvd[:, 1], p.uvd[:, 2], calib)
+            radius_mm = float(p.radius_px * np.median(poly[:, 2]) / f)
+            ids = tuple(node_id.get(n, -1) for n in p.nodes)
+            branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
+        return LocalizationResult(tuple(features), tuple(branches), int(stamp_ns))

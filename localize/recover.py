@@ -1,0 +1,156 @@
+"""Recovery of branches cut by leaves and apples: bridges between segment ends.
+
+``hough`` (paper): straight lines of the skeleton found by the probabilistic Hough
+transform, cut back to the gap between two skeleton ends lying on one line.
+``collinear`` (improved): two ends are bridged when each points at the other within
+``max_angle_deg``, their radii are similar and the gap is short, or (for a gap longer than
+four radii) at least half covered by an occluder.
+Bridges become recovered segments of the graph; the ends they join become JOINT nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from appliance.config.schema import RecoverConfig
+from appliance.localize.graph import ENDPOINT, SkeletonGraph
+from appliance.localize.radius import radius_at
+
+
+@dataclass(frozen=True)
+class EndGeometry:
+    """Skeleton ends: node index, full-resolution position (x, y), outward unit direction, radius px."""
+
+    node: np.ndarray     # (E,)
+    xy_px: np.ndarray    # (E, 2)
+    dir: np.ndarray      # (E, 2)
+    radius_px: np.ndarray  # (E,)
+    segment: np.ndarray  # (E,)
+
+
+def end_geometry(graph: SkeletonGraph, radius_map: np.ndarray, reach_px: float = 20.0) -> EndGeometry:
+    """Position, outward direction (line fit to the last ``reach_px`` of its segment) and radius of every endpoint."""
+    nodes, xy, dirs, seg_of = [], [], [], []
+    for s, (a, b) in enumerate(graph.seg_nodes):
+        for node in (a, b):
+            if node < 0 or graph.node_kind[node] != ENDPOINT:
+                continue
+            p = graph.to_full(graph.node_yx[node])[0]
+            pts = graph.to_full(graph.seg_yx[s])
+            near = pts[np.hypot(*(pts - p).T) <= reach_px]
+            if len(near) < 2:
+                continue
+            c = near.mean(0)
+            _, _, vt = np.linalg.svd(near - c, full_matrices=False)
+            d = vt[0] if np.dot(vt[0], p - c) >= 0 else -vt[0]
+            nodes.append(node), xy.append(p), dirs.append(d), seg_of.append(s)
+    xy = np.array(xy).reshape(-1, 2)
+    return EndGeometry(np.array(nodes, int), xy, np.array(dirs).reshape(-1, 2),
+                       radius_at(radius_map, xy), np.array(seg_of, int))
+
+
+def _line_pixels(graph: SkeletonGraph, a_xy: np.ndarray, b_xy: np.ndarray) -> np.ndarray:
+    """Skeleton pixels (row, col) of the straight line between two full-resolution points."""
+    pa, pb = ((np.asarray(p) + 0.5) / graph.scale - 0.5 for p in (a_xy, b_xy))
+    n = int(np.ceil(np.abs(pb - pa).max())) + 1
+    t = np.linspace(0, 1, n)[:, None]
+    pts = np.rint(pa + t * (pb - pa)).astype(int)[:, ::-1]
+    return np.unique(pts, axis=0)
+
+
+def _bridge(graph: SkeletonGraph, ends: EndGeometry, pairs: list[tuple[int, int]]) -> SkeletonGraph:
+    if not pairs:
+        return graph
+    nodes = [(ends.node[i], ends.node[j]) for i, j in pairs]
+    pixels = [_line_pixels(graph, ends.xy_px[i], ends.xy_px[j]) for i, j in pairs]
+    lengths = [float(np.hypot(*(ends.xy_px[i] - ends.xy_px[j]))) for i, j in pairs]
+    return graph.with_segments(np.array(nodes), pixels, np.array(lengths), np.array(nodes).ravel())
+
+
+def _covered(occluder: np.ndarray | None, a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of the segment a-b (full-resolution px) over occluder pixels (1 if no mask)."""
+    if occluder is None:
+        return 1.0
+    n = int(np.hypot(*(b - a))) + 2
+    t = np.linspace(0, 1, n)[:, None]
+    p = np.rint(a + t * (b - a)).astype(int)
+    h, w = occluder.shape
+    ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
+    return float((occluder[p[ok, 1], p[ok, 0]] > 0).mean()) if ok.any() else 0.0
+
+
+def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray,
+                      occluder: np.ndarray | None = None) -> SkeletonGraph:
+    """Bridge pairs of ends that point at each other (see module docstring); greedy, best pairs first."""
+    ends = end_geometry(graph, radius_map)
+    if len(ends.node) < 2:
+        return graph
+    gap = ends.xy_px[None, :, :] - ends.xy_px[:, None, :]          # i -> j
+    dist = np.hypot(gap[..., 0], gap[..., 1])
+    unit = gap / np.maximum(dist, 1e-9)[..., None]
+    cos_i = np.einsum("ik,ijk->ij", ends.dir, unit)
+    cos_j = -np.einsum("jk,ijk->ij", ends.dir, unit)
+    r = np.maximum(ends.radius_px, 0.5)
+    ratio = np.maximum(r[:, None], r[None, :]) / np.minimum(r[:, None], r[None, :])
+    cos_max = np.cos(np.radians(cfg.max_angle_deg))
+    ok = (cos_i >= cos_max) & (cos_j >= cos_max) & (dist <= cfg.max_gap_px) & (ratio <= cfg.max_radius_ratio)
+    ok &= ends.segment[:, None] != ends.segment[None, :]
+    ok = np.triu(ok, 1)
+    cost = (np.arccos(np.clip(cos_i, -1, 1)) + np.arccos(np.clip(cos_j, -1, 1))) + dist / max(cfg.max_gap_px, 1)
+    used, pairs = set(), []
+    cand = sorted(zip(cost[ok], *np.nonzero(ok)))
+    for _, i, j in cand:
+        if i in used or j in used:
+            continue
+        long_gap = dist[i, j] > 4 * (r[i] + r[j]) / 2
+        if long_gap and _covered(occluder, ends.xy_px[i], ends.xy_px[j]) < 0.5:
+            continue
+        used.update((i, j))
+        pairs.append((int(i), int(j)))
+    return _bridge(graph, ends, pairs)
+
+
+def recover_hough(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray) -> SkeletonGraph:
+    """The paper's recovery: skeleton ends on one Hough line, with a gap between them, are joined."""
+    ends = end_geometry(graph, radius_map)
+    if len(ends.node) < 2:
+        return graph
+    s = graph.scale
+    img = graph.image() * 255
+    lines = cv2.HoughLinesP(img, 1, np.pi / 180, max(1, int(cfg.hough_threshold / s)),
+                            minLineLength=cfg.hough_min_length_px / s, maxLineGap=cfg.max_gap_px / s)
+    if lines is None:
+        return graph
+    used, pairs = set(), []
+    for x1, y1, x2, y2 in lines.reshape(-1, 4):
+        a, b = graph.to_full(np.array([[y1, x1], [y2, x2]]))
+        length = np.hypot(*(b - a))
+        if length < 1:
+            continue
+        u = (b - a) / length
+        rel = ends.xy_px - a
+        t = rel @ u
+        off = np.abs(rel @ np.array([-u[1], u[0]]))
+        on = np.flatnonzero((off <= 2.0 * s) & (t >= -2.0 * s) & (t <= length + 2.0 * s))
+        on = on[np.argsort(t[on])]
+        for i, j in zip(on[:-1], on[1:]):
+            gap = t[j] - t[i]
+            if (i in used or j in used or ends.segment[i] == ends.segment[j] or gap > cfg.max_gap_px
+                    or np.dot(ends.dir[i], u) < 0 or np.dot(ends.dir[j], u) > 0):
+                continue
+            used.update((i, j))
+            pairs.append((int(i), int(j)))
+    return _bridge(graph, ends, pairs)
+
+
+def recover(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray,
+            occluder: np.ndarray | None = None) -> SkeletonGraph:
+    """Dispatch on ``cfg.method``: none | hough | collinear."""
+    if cfg.method == "hough":
+        return recover_hough(graph, cfg, radius_map)
+    if cfg.method == "collinear":
+        return recover_collinear(graph, cfg, radius_map, occluder)
+    return graph

@@ -1,0 +1,85 @@
+"""Rectification of a stereo pair with maps computed once per calibration.
+
+Rectified images have their epipolar lines on pixel rows: a 3D point seen at row ``v``
+in the rectified left image is at the same row in the rectified right image.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from appliance.calibrate.model import StereoCalibration
+from appliance.localize.errors import LocalizeError
+
+
+@dataclass(frozen=True, eq=False)
+class Rectifier:
+    """Remap tables of both cameras and the point mappings between frames.
+
+    Attributes
+    ----------
+    calib : StereoCalibration
+    maps : tuple of two (map1, map2) pairs
+        ``cv2.initUndistortRectifyMap`` tables (fixed point, CV_16SC2) of the left and
+        right camera.
+    """
+
+    calib: StereoCalibration
+    maps: tuple
+
+    @classmethod
+    def from_calibration(cls, calib: StereoCalibration) -> Rectifier:
+        """Build the remap tables (the only expensive step; done once)."""
+        size = tuple(int(s) for s in calib.image_size)
+        maps = tuple(
+            cv2.initUndistortRectifyMap(K, D, Rr, P, size, cv2.CV_16SC2)
+            for K, D, Rr, P in ((calib.K1, calib.D1, calib.R1, calib.P1), (calib.K2, calib.D2, calib.R2, calib.P2))
+        )
+        return cls(calib, maps)
+
+    def check_size(self, image: np.ndarray, what: str) -> None:
+        """Raise LocalizeError unless ``image`` has the calibration's size."""
+        w, h = self.calib.image_size
+        if image is None or image.ndim < 2 or image.shape[:2] != (h, w):
+            got = "nothing" if image is None else f"{image.shape[1]}x{image.shape[0]}"
+            raise LocalizeError(f"{what}: image is {got}, the calibration is for {w}x{h}")
+
+    def rectify(self, image: np.ndarray, side: int, nearest: bool = False) -> np.ndarray:
+        """Rectified copy of one camera's image.
+
+        Parameters
+        ----------
+        image : ndarray, shape (H, W) or (H, W, C)
+        side : int
+            0 left camera, 1 right camera.
+        nearest : bool
+            Nearest-neighbour interpolation (for masks); linear otherwise.
+        """
+        m1, m2 = self.maps[side]
+        interp = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
+        return cv2.remap(image, m1, m2, interp, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+    def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
+        """Rectified pixel positions -> pixel positions in the original (distorted) image.
+
+        Parameters
+        ----------
+        pts_px : ndarray, shape (N, 2)
+            (u, v) in the rectified image of ``side``.
+
+        Returns
+        -------
+        ndarray, shape (N, 2), float64
+        """
+        pts = np.asarray(pts_px, np.float64).reshape(-1, 2)
+        if len(pts) == 0:
+            return np.zeros((0, 2))
+        c = self.calib
+        P, Rr, K, D = (c.P1, c.R1, c.K1, c.D1) if side == 0 else (c.P2, c.R2, c.K2, c.D2)
+        rays = np.column_stack([(pts[:, 0] - P[0, 2]) / P[0, 0], (pts[:, 1] - P[1, 2]) / P[1, 1], np.ones(len(pts))])
+        rays = rays @ Rr  # rows: R^T @ ray, back into the camera's unrectified frame
+        img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
+        return img.reshape(-1, 2)

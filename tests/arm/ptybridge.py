@@ -49,6 +49,9 @@ class PtyBridge:
     def close(self) -> None:
         self._stop.set()
         self._thread.join()
+        # no stale name may lead a straggler to a later test's pty that reuses the number
+        self.link_path.unlink(missing_ok=True)
+        self.sim_path.unlink(missing_ok=True)
         with self._lock:
             for pair in (self._link, self._sim):
                 for fd in pair or ():

@@ -38,6 +38,7 @@ from appliance.logs.metadata import calibration_record, config_record, device_re
 log = logging.getLogger("appliance.logs")
 
 NO_SPACE = (errno.ENOSPC, errno.EDQUOT)
+RECORD_OVERHEAD_BYTES = 48  # a message record's header plus its index entry, for the size estimate
 
 
 class LogWriter:
@@ -219,8 +220,7 @@ class LogWriter:
                 w.add_metadata(name, record)
             self._file.flush()
         except OSError as exc:
-            if self._file is not None:
-                self._file.close()
+            _close_quietly(self._file)
             self._writer = self._file = None
             if exc.errno in NO_SPACE or not first:
                 self._stop(f"{path}: {exc.strerror}")
@@ -228,6 +228,7 @@ class LogWriter:
             raise LogError(f"{path}: cannot create the log file ({exc.strerror})") from None
         self._writer = w
         self._file_first_ns = None
+        self._file_bytes = self._file.tell()  # + messages still in the chunk being built
         self._last_flush = time.monotonic()
 
     def _finish(self) -> None:
@@ -243,14 +244,11 @@ class LogWriter:
         except Exception as exc:  # noqa: BLE001 - the file stays recoverable
             self._stop(f"{self.path}: could not finish the file ({exc}); `appliance logs recover` reads it")
         finally:
-            try:
-                f.close()
-            except OSError:
-                pass
+            _close_quietly(f)
 
     def _rotate_due(self, stamp_ns: int) -> bool:
         size, duration = self.cfg.rotate_size_bytes, self.cfg.rotate_duration_s
-        if size and self._file.tell() >= size:
+        if size and max(self._file.tell(), self._file_bytes) >= size:
             return True
         return bool(duration and self._file_first_ns is not None
                     and stamp_ns - self._file_first_ns >= duration * 1e9)
@@ -260,6 +258,8 @@ class LogWriter:
         """Run a write; an OS error stops logging, anything else drops this message only."""
         try:
             write(*args)
+            if time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
+                self._flush()
         except OSError as exc:
             self._stop(f"{self.path}: write failed ({exc.strerror or exc})")
             self._finish()
@@ -267,11 +267,10 @@ class LogWriter:
         except Exception as exc:  # noqa: BLE001 - never raise into the run loop
             self._warn_once(write.__name__, f"logging: message not logged ({type(exc).__name__}: {exc})")
             return False
-        if self._writer is not None and time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
-            self._flush()
         return True
 
     def _add(self, topic: str, data: bytes, log_time_ns: int, sequence: int = 0) -> None:
+        self._file_bytes += len(data) + RECORD_OVERHEAD_BYTES
         self._writer.add_message(self._channels[topic], log_time=int(log_time_ns), data=data,
                                  publish_time=time.time_ns(), sequence=int(sequence) & 0xFFFFFFFF)
 
@@ -342,3 +341,12 @@ def _jsonable(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
     return str(value)
+
+
+def _close_quietly(f) -> None:
+    """Close a file whose buffered bytes may no longer fit on the disk."""
+    if f is not None:
+        try:
+            f.close()
+        except OSError:
+            pass

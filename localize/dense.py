@@ -97,12 +97,20 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     n = len(rows)
     if n < 4:
         return None
+    # a branch's width varies smoothly along it: rows much narrower (partly occluded) or wider
+    # (merged with a crossing branch) than the trend are not its centre
+    w_fit, _ = robust_fit(rows.astype(float), w_l, 2)
+    ok = np.abs(w_l - w_fit(rows)) <= 0.1 * w_fit(rows) + 1.5
+    rows, il, w_l = rows[ok], il[ok], w_l[ok]
+    n = len(rows)
+    if n < 4:
+        return None
     c_l = runs_l.centre_px[il]
     dmin, dmax = sm.d_range_px
     q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
     cd = c_l[q] - runs_r.centre_px[rr]
     cw = runs_r.span_px[rr]
-    good = np.abs(cw - w_l[q]) <= 0.35 * w_l[q] + 1.5
+    good = np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5
     q, cd, cw = q[good], cd[good], cw[good]
     if len(q) < 4:
         return None

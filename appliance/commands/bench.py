@@ -1,15 +1,80 @@
-"""`appliance bench localize`."""
+"""`appliance bench localize`: speed of the pipeline on this machine, against OpenCV SGBM."""
 
 from __future__ import annotations
 
+import json
+import statistics
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
 import typer
 
-from appliance.commands.common import not_implemented
+from appliance.commands.common import ConfigOption, effective_config
 
 app = typer.Typer(help="Benchmarks of the pipeline on this machine.", no_args_is_help=True)
 
 
 @app.command("localize")
-def localize() -> None:
-    """Not implemented yet."""
-    not_implemented("bench localize")
+def localize(
+    left: Annotated[Path, typer.Argument(help="Left image.")],
+    right: Annotated[Path, typer.Argument(help="Right image.")],
+    calib: Annotated[Path, typer.Option("--calib", help="Stereo calibration.")],
+    runs: Annotated[int, typer.Option("--runs", min=1, help="Timed runs (after 2 warm-up runs).")] = 30,
+    sgbm_runs: Annotated[int, typer.Option("--sgbm-runs", min=1, help="Timed SGBM runs.")] = 5,
+    paper: Annotated[bool, typer.Option("--paper", help="Time the paper's method.")] = False,
+    mask_left: Annotated[Optional[Path], typer.Option("--mask-left", help="External left mask.")] = None,
+    mask_right: Annotated[Optional[Path], typer.Option("--mask-right", help="External right mask.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print {median_ms, stages, sgbm_median_ms} as JSON.")] = False,
+    config: ConfigOption = None,
+) -> None:
+    """Time the whole localization per pair on one core (median of --runs after a warm-up), per stage,
+    and OpenCV StereoSGBM (SGBM_3WAY, same disparity range) on the same rectified pair."""
+    import cv2
+
+    from appliance.commands.localize import load_inputs
+    from appliance.localize import Localizer
+    from appliance.localize.sgbm import sgbm_disparity
+
+    cv2.setNumThreads(1)
+    cfg = effective_config(config)
+    cal, (img_l, img_r), (m_l, m_r) = load_inputs(calib, left, right, mask_left, mask_right)
+    loc = Localizer(cal, cfg.localize, "paper" if paper else "improved")
+    for _ in range(2):
+        loc.localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
+    totals, stages = [], {}
+    for _ in range(runs):
+        t = time.perf_counter()
+        res = loc.localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
+        totals.append((time.perf_counter() - t) * 1e3)
+        for k, v in res.timings_ms.items():
+            if k != "total":
+                stages.setdefault(k, []).append(v)
+    gl = loc.rectifier.rectify(cv2.cvtColor(img_l, cv2.COLOR_BGR2GRAY), 0)
+    gr = loc.rectifier.rectify(cv2.cvtColor(img_r, cv2.COLOR_BGR2GRAY), 1)
+    sgbm = []
+    for _ in range(sgbm_runs):
+        t = time.perf_counter()
+        sgbm_disparity(gl, gr, loc.d_range_px)
+        sgbm.append((time.perf_counter() - t) * 1e3)
+    median = statistics.median(totals)
+    stage_med = {k: round(statistics.median(v), 3) for k, v in stages.items()}
+    sgbm_med = statistics.median(sgbm)
+    if as_json:
+        typer.echo(json.dumps({"median_ms": round(median, 3), "stages": stage_med, "sgbm_median_ms": round(sgbm_med, 3),
+                               "runs": runs, "variant": loc.variant,
+                               "features": len(res.features), "branches": len(res.branches)}))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    w, h = cal.image_size
+    table = Table(title=f"localize ({loc.variant}) at {w}x{h}, one core, median of {runs} runs")
+    table.add_column("stage")
+    table.add_column("ms", justify="right")
+    for k, v in stage_med.items():
+        table.add_row(k, f"{v:.2f}")
+    table.add_row("[b]total[/b]", f"[b]{median:.2f}[/b]")
+    table.add_row(f"OpenCV SGBM_3WAY (median of {sgbm_runs})", f"{sgbm_med:.1f}")
+    table.add_row("speed-up vs SGBM", f"{sgbm_med / median:.1f}x")
+    Console().print(table)

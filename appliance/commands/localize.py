@@ -1,10 +1,85 @@
-"""`appliance localize`."""
+"""`appliance localize`: branches of one stereo pair in 3D, as JSON (and an overlay picture)."""
 
 from __future__ import annotations
 
-from appliance.commands.common import ConfigOption, not_implemented
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from appliance.commands.common import ConfigOption, effective_config
 
 
-def command(config: ConfigOption = None) -> None:
-    """Not implemented yet."""
-    not_implemented("localize")
+def read_image(path: Path, what: str, grey: bool = False):
+    """An image file as a numpy array; LocalizeError naming the file if it cannot be read."""
+    import cv2
+
+    from appliance.localize.errors import LocalizeError
+
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR) if path.is_file() else None
+    if img is None:
+        reason = "not found" if not path.exists() else "not a readable image"
+        raise LocalizeError(f"{path}: {what} {reason}")
+    return img
+
+
+def load_inputs(calib_path: Path, left: Path, right: Path, mask_left: Path | None, mask_right: Path | None):
+    """Calibration, images and optional masks, checked: sizes match the calibration."""
+    from appliance.calibrate.model import load_calibration
+    from appliance.localize.errors import LocalizeError
+
+    if (mask_left is None) != (mask_right is None):
+        raise typer.BadParameter("give both --mask-left and --mask-right, or neither")
+    calib = load_calibration(calib_path)
+    w, h = calib.image_size
+    images = [read_image(left, "left image"), read_image(right, "right image")]
+    masks = [read_image(p, "mask", grey=True) for p in (mask_left, mask_right) if p is not None]
+    for path, img in zip([left, right, mask_left, mask_right], images + masks):
+        if img.shape[:2] != (h, w):
+            raise LocalizeError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, the calibration {calib_path} "
+                                f"is for {w}x{h}")
+    for path, m in zip((mask_left, mask_right), masks):
+        if not m.any():
+            raise LocalizeError(f"{path}: mask is empty (no branch pixel)")
+    return calib, images, (masks or [None, None])
+
+
+def command(
+    left: Annotated[Path, typer.Argument(help="Left image (original, as captured).")],
+    right: Annotated[Path, typer.Argument(help="Right image.")],
+    calib: Annotated[Path, typer.Option("--calib", help="Stereo calibration (appliance calibrate).")],
+    json_out: Annotated[Path, typer.Option("--json", help="Result file to write (JSON).")],
+    overlay: Annotated[Optional[Path], typer.Option("--overlay", help="Also draw the result into this PNG.")] = None,
+    paper: Annotated[bool, typer.Option("--paper", help="Run the paper's method instead of the improved one.")] = False,
+    mask_left: Annotated[Optional[Path], typer.Option(
+        "--mask-left", help="Branch mask of the left image from an external segmenter (non-zero = branch).")] = None,
+    mask_right: Annotated[Optional[Path], typer.Option("--mask-right", help="Branch mask of the right image.")] = None,
+    config: ConfigOption = None,
+) -> None:
+    """Localize the branches of one stereo pair: tips and forks in 3D (mm, left camera frame), branches as
+    cylinders, safe depths. No branch found is an empty result, not an error."""
+    import cv2
+
+    from appliance.localize import Localizer
+    from appliance.localize.overlay import draw_overlay
+
+    cfg = effective_config(config)
+    cal, (img_l, img_r), (m_l, m_r) = load_inputs(calib, left, right, mask_left, mask_right)
+    variant = "paper" if paper else "improved"
+    result = Localizer(cal, cfg.localize, variant).localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
+    data = result.to_dict() | {"variant": variant}
+    json_out.parent.mkdir(parents=True, exist_ok=True)
+    json_out.write_text(json.dumps(data, indent=1) + "\n")
+    n_tip = sum(f.kind == "endpoint" for f in result.features)
+    typer.echo(f"{len(result.features)} features ({n_tip} tips, {len(result.features) - n_tip} forks), "
+               f"{len(result.branches)} branch pieces ({variant}, {result.timings_ms.get('total', 0.0):.0f} ms)")
+    typer.echo(f"wrote {json_out}")
+    if overlay is not None:
+        overlay.parent.mkdir(parents=True, exist_ok=True)
+        img = draw_overlay(img_l, img_r, result, cal, tuple(cfg.localize.working_range_mm))
+        if not cv2.imwrite(str(overlay), img):
+            from appliance.localize.errors import LocalizeError
+
+            raise LocalizeError(f"{overlay}: cannot write the overlay image")
+        typer.echo(f"wrote {overlay}")

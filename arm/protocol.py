@@ -333,7 +333,7 @@ class FrameDecoder:
 
     def __init__(self, max_payload: int = MAX_PAYLOAD):
         self._buf = bytearray()
-        self._limit = wire_size(max_payload)
+        self._limit = wire_size(max_payload) - 1  # without the 0x00
         self._overflow = False
 
     def feed(self, data: bytes) -> list[Frame | DecodeError]:
@@ -410,11 +410,14 @@ def budget_bytes(baud: int, frame_rate_hz: float) -> int:
 
 
 def max_segments(max_bytes: int) -> int:
-    """Most segments whose OBSTACLES frame stays within ``max_bytes`` on the wire (worst-case COBS)."""
+    """Most segments whose OBSTACLES frame stays within ``max_bytes`` on the wire (worst-case COBS).
+
+    Never more than fit a payload of ``MAX_PAYLOAD`` (4096) bytes: 203.
+    """
     n = max(0, (max_bytes - wire_size(OBSTACLES_FIXED.size)) // SEGMENT.size + 1)
     while n > 0 and wire_size(OBSTACLES_FIXED.size + n * SEGMENT.size) > max_bytes:
         n -= 1
-    return min(n, 0xFFFF)
+    return min(n, (MAX_PAYLOAD - OBSTACLES_FIXED.size) // SEGMENT.size)
 
 
 def simplify_polyline(points_mm: np.ndarray, tolerance_mm: float) -> np.ndarray:

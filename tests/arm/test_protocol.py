@@ -183,3 +183,15 @@ def test_simplify_keeps_points_within_tolerance():
     assert 3 <= len(simple) < 40
     d = np.min([P._point_segment_distance(pts, a, b) for a, b in zip(simple[:-1], simple[1:])], axis=0)
     assert d.max() <= 1.0 + 1e-9
+
+
+def test_protocol_document_bandwidth_table_matches_the_code():
+    doc = (make_test_vectors.PATH.parent / "PROTOCOL.md").read_text()
+    table = doc[doc.index("| baud | 10 Hz |"):].split("\n\n")[0].splitlines()[2:]
+    rows = [line.split("|")[1:-1] for line in table]
+    assert len(rows) == 5
+    for row in rows:
+        baud, *counts = (int(c) for c in row)
+        assert counts == [P.max_segments(P.budget_bytes(baud, hz)) for hz in (10, 15, 30)], baud
+    assert P.wire_size(P.HEARTBEAT_FIXED.size) == 26 and "358 byte" in doc
+    assert P.wire_size(P.MAX_PAYLOAD) - 1 == 4121 and "4121 bytes before its 0x00" in doc

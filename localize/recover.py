@@ -1,7 +1,8 @@
 """Recovery of branches cut by leaves and apples: bridges between segment ends.
 
 ``hough`` (paper): straight lines of the skeleton found by the probabilistic Hough
-transform, cut back to the gap between two skeleton ends lying on one line.
+transform and extended through the image, cut back to the gap between two skeleton ends
+lying on one line.
 ``collinear`` (improved): two ends are bridged when each points at the other within
 ``max_angle_deg``, their radii are similar and the gap is short, or (for a gap longer than
 four radii) at least half covered by an occluder.
@@ -134,7 +135,7 @@ def recover_hough(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarr
         rel = ends.xy_px - a
         t = rel @ u
         off = np.abs(rel @ np.array([-u[1], u[0]]))
-        on = np.flatnonzero((off <= 2.0 * s) & (t >= -2.0 * s) & (t <= length + 2.0 * s))
+        on = np.flatnonzero(off <= 2.0 * s + 1)   # the line runs through the whole image (paper)
         on = on[np.argsort(t[on])]
         for i, j in zip(on[:-1], on[1:]):
             gap = t[j] - t[i]

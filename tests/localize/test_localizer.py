@@ -1,0 +1,98 @@
+import cv2
+import numpy as np
+import pytest
+
+from appliance.config import load_config
+from appliance.localize import LocalizeError, Localizer
+from appliance.localize.triangulate import triangulate
+
+from .shapes import branch_pair, ideal_rig
+
+CFG = load_config().localize
+
+
+@pytest.mark.parametrize("depth_mm", [600.0, 1000.0, 1400.0])
+def test_dense_matching_gives_the_depth_of_a_drawn_branch(depth_mm):
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, depth_mm)
+    res = Localizer(calib, CFG, "improved").localize(left, right, mask_left=ml, mask_right=mr)
+    assert len(res.branches) == 1
+    z = res.branches[0].polyline_mm[:, 2]
+    dz_per_px = depth_mm / d
+    assert np.abs(z - depth_mm).max() < 0.1 * dz_per_px          # a tenth of a pixel of disparity
+    assert res.branches[0].radius_mm == pytest.approx(6.0 * depth_mm / calib.f_px, rel=0.1)
+    tips = [f for f in res.features if f.kind == "endpoint"]
+    assert len(tips) == 2
+    for f in tips:
+        assert abs(f.xyz_mm[2] - depth_mm) < 0.2 * dz_per_px
+        assert f.safe_depth_mm == pytest.approx(f.xyz_mm[2] - CFG.safety_factor_k * f.radius_mm)
+        assert min(np.hypot(f.left_px[0] - x, f.left_px[1] - y) for x, y in [(300, 60), (260, 420)]) < 8
+        assert f.right_px[0] == pytest.approx(f.left_px[0] - d, abs=1.0)
+
+
+def test_paper_variant_matches_the_drawn_tips():
+    calib = ideal_rig()
+    depth_mm = 900.0
+    left, right, ml, mr, d = branch_pair(calib, depth_mm)
+    res = Localizer(calib, CFG, "paper").localize(left, right, mask_left=ml, mask_right=mr)
+    assert {f.kind for f in res.features} == {"endpoint"} and len(res.features) == 2
+    for f in res.features:
+        assert abs(f.xyz_mm[2] - depth_mm) < 2 * depth_mm / d      # whole-pixel features
+    assert len(res.branches) == 1 and res.branches[0].feature_ids == (0, 1) or \
+        sorted(res.branches[0].feature_ids) == [0, 1]
+
+
+def test_colour_recogniser_finds_a_bark_coloured_branch():
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=8.0)
+    green = np.array([40, 140, 60], np.uint8)
+    bark = np.array([45, 70, 95], np.uint8)
+    imgs = []
+    for m in (ml, mr):
+        img = np.where(m[..., None] > 0, bark, green).astype(np.uint8)
+        imgs.append(cv2.GaussianBlur(img, (3, 3), 0))
+    res = Localizer(calib, CFG, "improved").localize(*imgs)
+    assert len(res.branches) == 1
+    assert np.abs(res.branches[0].polyline_mm[:, 2] - 1000.0).max() < 1000.0 / d
+
+
+def test_triangulation_returns_the_unrectified_left_frame():
+    from appliance.synth.rig import default_rig
+
+    rig = default_rig()
+    calib = rig.calibration()
+    X = np.array([[100.0, -50.0, 900.0], [-200.0, 80.0, 1300.0]])
+    Xr = X @ calib.R1.T
+    u = calib.P1[0, 0] * Xr[:, 0] / Xr[:, 2] + calib.P1[0, 2]
+    v = calib.P1[1, 1] * Xr[:, 1] / Xr[:, 2] + calib.P1[1, 2]
+    d = calib.f_px * calib.baseline_mm / Xr[:, 2] + calib.P1[0, 2] - calib.P2[0, 2]
+    assert np.allclose(triangulate(u, v, d, calib), X, atol=1e-6)
+
+
+def test_nothing_in_view_is_an_empty_result():
+    calib = ideal_rig()
+    grey = np.full((480, 640, 3), 128, np.uint8)
+    res = Localizer(calib, CFG).localize(grey, grey, stamp_ns=42)
+    assert res.features == () and res.branches == () and res.stamp_ns == 42
+    assert "segment" in res.timings_ms
+
+
+def test_bad_input_is_a_clear_error():
+    calib = ideal_rig()
+    loc = Localizer(calib, CFG)
+    small = np.zeros((240, 320, 3), np.uint8)
+    with pytest.raises(LocalizeError, match="320x240.*640x480"):
+        loc.localize(small, small)
+    img = np.zeros((480, 640, 3), np.uint8)
+    with pytest.raises(LocalizeError, match="empty"):
+        loc.localize(img, img, mask_left=np.zeros((480, 640)), mask_right=np.ones((480, 640)))
+
+
+def test_same_input_same_result():
+    calib = ideal_rig()
+    left, right, ml, mr, _ = branch_pair(calib, 800.0)
+    loc = Localizer(calib, CFG)
+    a = loc.localize(left, right, mask_left=ml, mask_right=mr).to_dict()
+    b = loc.localize(left, right, mask_left=ml, mask_right=mr).to_dict()
+    a.pop("timings_ms"), b.pop("timings_ms")
+    assert a == b

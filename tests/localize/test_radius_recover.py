@@ -1,0 +1,62 @@
+import cv2
+import numpy as np
+import pytest
+
+from appliance.config import load_config
+from appliance.localize.graph import JOINT, build_graph
+from appliance.localize.prune import prune
+from appliance.localize.radius import radius_at, ridge_radius_map, segment_radius
+from appliance.localize.recover import recover
+from appliance.localize.skeleton import skeletonize
+
+
+@pytest.mark.parametrize("radius_px", [3.0, 6.0, 11.5])
+def test_cylinder_radius_from_distance_transform_within_half_a_pixel(radius_px):
+    ss = 8  # supersampled disc-swept line, half-covered pixels are branch
+    big = np.zeros((200 * ss, 300 * ss), np.uint8)
+    cv2.line(big, (30 * ss, 40 * ss), (270 * ss, 160 * ss), 255, int(2 * radius_px * ss))
+    mask = (cv2.resize(big, (300, 200), interpolation=cv2.INTER_AREA) >= 128).astype(np.uint8)
+    g = build_graph(skeletonize(mask))
+    rmap = ridge_radius_map(mask)
+    longest = int(np.argmax(g.seg_length_px))
+    pts = g.to_full(g.seg_yx[longest])
+    assert abs(segment_radius(rmap, pts) - radius_px) <= 0.5
+    assert np.all(np.abs(radius_at(rmap, pts[len(pts) // 4: -len(pts) // 4]) - radius_px) <= 0.75)
+
+
+def _cut_line():
+    mask = np.zeros((200, 400), np.uint8)
+    cv2.line(mask, (20, 120), (380, 80), 255, 9)
+    cv2.circle(mask, (200, 100), 30, 0, -1)        # an apple in front of it
+    return mask
+
+
+@pytest.mark.parametrize("method", ["collinear", "hough"])
+def test_a_line_cut_by_a_disc_is_bridged_and_flagged(method):
+    cfg = load_config(overrides={"localize": {"recover": {"method": method}}}).localize.recover
+    mask = _cut_line()
+    rmap = ridge_radius_map(mask)
+    _, g = prune(skeletonize(mask), 5.0)
+    assert len(g.seg_nodes) == 2 and not g.seg_recovered.any()
+    g2 = recover(g, cfg, rmap)
+    assert g2.seg_recovered.sum() == 1
+    bridge = int(np.flatnonzero(g2.seg_recovered)[0])
+    a, b = g2.seg_nodes[bridge]
+    assert g2.node_kind[a] == JOINT and g2.node_kind[b] == JOINT
+    assert 50 <= g2.seg_length_px[bridge] <= 75        # the gap: the disc's diameter less the line's half width
+
+
+def test_ends_that_do_not_point_at_each_other_are_not_bridged():
+    mask = np.zeros((200, 400), np.uint8)
+    cv2.line(mask, (20, 100), (170, 100), 255, 9)
+    cv2.line(mask, (230, 40), (380, 190), 255, 9)  # 45 degrees off
+    cfg = load_config().localize.recover
+    _, g = prune(skeletonize(mask), 5.0)
+    assert not recover(g, cfg, ridge_radius_map(mask)).seg_recovered.any()
+
+
+def test_no_recovery_when_disabled():
+    cfg = load_config(overrides={"localize": {"recover": {"method": "none"}}}).localize.recover
+    mask = _cut_line()
+    _, g = prune(skeletonize(mask), 5.0)
+    assert not recover(g, cfg, ridge_radius_map(mask)).seg_recovered.any()

@@ -73,6 +73,9 @@ class LogWriter:
         Every file started, in order; ``path`` is the current (last) one.
     frames_written, frames_dropped, results_written, results_dropped, diagnostics_written,
     diagnostics_dropped : int
+        Messages handed to the file, and messages dropped (logging stopped, bad input). When a
+        write fails (disk full) the chunk in progress is lost too: at most ``chunk_size_bytes``
+        or ``flush_interval_s`` of messages counted as written.
     stop_reason : str or None
         Why logging stopped early (low disk, write error), else None.
     """
@@ -178,6 +181,11 @@ class LogWriter:
             self.diagnostics_dropped += 1
         return ok
 
+    def flush(self) -> bool:
+        """Hand everything logged so far to the OS now (e.g. when the camera is lost: the
+        interval flush only happens on writes). Returns False when logging has stopped."""
+        return self._writer is not None and self._guarded(self._flush)
+
     def close(self) -> None:
         """Finish the current file with its index. Safe to call twice; never raises."""
         self._finish()
@@ -258,7 +266,7 @@ class LogWriter:
         """Run a write; an OS error stops logging, anything else drops this message only."""
         try:
             write(*args)
-            if time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
+            if self._writer is not None and time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
                 self._flush()
         except OSError as exc:
             self._stop(f"{self.path}: write failed ({exc.strerror or exc})")

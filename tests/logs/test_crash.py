@@ -85,3 +85,20 @@ def test_recover_names_its_output_and_keeps_an_existing_one(tmp_path):
     r = cli("logs", "recover", str(log))
     assert r.returncode == 1 and "exists" in r.stderr and "--force" in r.stderr
     assert cli("logs", "recover", str(log), "--force").returncode == 0
+
+
+def test_flush_hands_a_quiet_log_to_the_os(tmp_path, calib):
+    """After flush() the pairs so far are readable from the unfinished file (as after a kill)."""
+    from appliance.logs import LogWriter, iter_stereo_frames
+
+    from .conftest import logging_cfg, make_frame
+
+    writer = LogWriter(tmp_path / "quiet.mcap", logging_cfg(flush_interval_s=3600), calibration=calib)
+    for seq in range(3):
+        writer.write_frame(make_frame(seq))
+    assert [f.seq for f in iter_stereo_frames(writer.path)] == []
+    assert writer.flush()
+    assert [f.seq for f in iter_stereo_frames(writer.path)] == [0, 1, 2]
+    assert not check_log(writer.path).intact
+    writer.close()
+    assert check_log(writer.path).intact

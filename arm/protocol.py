@@ -115,9 +115,12 @@ def _q(value_mm: float) -> int:
     return q
 
 
-def _uq(value_mm: float) -> int:
-    """A non-negative length in mm as unsigned wire units (0.25 mm), at most 16383.75 mm."""
-    q = round(float(value_mm) / LSB_MM)
+def _uq(value_mm: float, up: bool = False) -> int:
+    """A non-negative length in mm as unsigned wire units (0.25 mm), at most 16383.75 mm.
+
+    ``up``: round up (a clearance is never made smaller by the quantisation).
+    """
+    q = math.ceil(float(value_mm) / LSB_MM - 1e-9) if up else round(float(value_mm) / LSB_MM)
     if not 0 <= q <= 0xFFFF:
         raise ProtocolError(f"length {value_mm} mm is outside the wire range 0..{0xFFFF * LSB_MM} mm")
     return q
@@ -160,7 +163,7 @@ class Segment:
 
     def pack(self) -> bytes:
         return SEGMENT.pack(*(_q(v) for v in (*self.p0_mm, *self.p1_mm)), _uq(self.radius_mm),
-                            _uq(self.clearance_mm), self.branch_id & 0xFFFF,
+                            _uq(self.clearance_mm, up=True), self.branch_id & 0xFFFF,
                             SEG_RECOVERED if self.recovered else 0, 0)
 
     @classmethod

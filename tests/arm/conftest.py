@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from ptybridge import PtyBridge  # noqa: E402
 
 APPLIANCE = Path(sys.executable).with_name("appliance")
+REPO_FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 
 
 @pytest.fixture

@@ -195,3 +195,11 @@ def test_protocol_document_bandwidth_table_matches_the_code():
         assert counts == [P.max_segments(P.budget_bytes(baud, hz)) for hz in (10, 15, 30)], baud
     assert P.wire_size(P.HEARTBEAT_FIXED.size) == 26 and "358 byte" in doc
     assert P.wire_size(P.MAX_PAYLOAD) - 1 == 4121 and "4121 bytes before its 0x00" in doc
+
+
+def test_quantisation_rounds_lengths_and_never_shrinks_clearance():
+    seg = P.Segment((1.1, -2.2, 1000.13), (0.0, 0.0, 0.0), 2.61, 2.7405)
+    (frame,) = P.FrameDecoder().feed(P.encode(P.Obstacles(0, 0, (seg,), 1), 0))
+    (back,) = P.parse(frame).segments
+    assert np.allclose(back.p0_mm, seg.p0_mm, atol=P.LSB_MM / 2) and abs(back.radius_mm - 2.61) <= 0.125
+    assert seg.clearance_mm <= back.clearance_mm < seg.clearance_mm + P.LSB_MM

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections import Counter
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -118,7 +119,7 @@ def check_log(path: str | Path) -> LogSummary:
     schemas: dict[int, str] = {}
     channels: dict[int, TopicSummary] = {}
     metadata: list[str] = []
-    frame_seqs: dict[str, dict[int, int]] = {m.LEFT_IMAGE: {}, m.RIGHT_IMAGE: {}}
+    images: dict[str, list[tuple[int, int]]] = {m.LEFT_IMAGE: [], m.RIGHT_IMAGE: []}  # (seq, stamp)
     for record in iter_records(path, status):
         if isinstance(record, Schema):
             schemas[record.id] = record.name
@@ -129,36 +130,36 @@ def check_log(path: str | Path) -> LogSummary:
             t.count += 1
             t.first_ns = record.log_time if t.first_ns is None else min(t.first_ns, record.log_time)
             t.last_ns = record.log_time if t.last_ns is None else max(t.last_ns, record.log_time)
-            if t.topic in frame_seqs:
-                frame_seqs[t.topic][record.sequence] = record.log_time
+            if t.topic in images:
+                images[t.topic].append((record.sequence, record.log_time))
         elif isinstance(record, Metadata):
             metadata.append(record.name)
     topics = {t.topic: t for t in channels.values()}
     spans = [(t.first_ns, t.last_ns) for t in topics.values() if t.count]
-    left, right = frame_seqs.values()
-    paired = {s: left[s] for s in left.keys() & right.keys()}
+    left, right = (Counter(seq for seq, _ in images[t]) for t in (m.LEFT_IMAGE, m.RIGHT_IMAGE))
+    pairs = sum(min(n, right[seq]) for seq, n in left.items())
     return LogSummary(
         Path(path), status.intact, status.problem, status.size_bytes, status.readable_bytes,
-        topics, metadata, len(paired), find_gaps(paired),
+        topics, metadata, pairs, find_gaps(images[m.LEFT_IMAGE]),
         min(s[0] for s in spans) if spans else None, max(s[1] for s in spans) if spans else None,
     )
 
 
-def find_gaps(stamps_by_seq: dict[int, int]) -> list[Gap]:
-    """Gaps in a run of frames: a seq that jumps, or a step over GAP_FACTOR x the median period.
+def find_gaps(frames: list[tuple[int, int]]) -> list[Gap]:
+    """Gaps in a run of frames: seq not following on, or a step over GAP_FACTOR x the median period.
 
     Parameters
     ----------
-    stamps_by_seq : dict of int -> int
-        Frame seq -> stamp, ns.
+    frames : list of (seq, stamp_ns)
+        In recorded order (a seq that starts again, e.g. after a reconnect, is a gap too).
     """
-    if len(stamps_by_seq) < 2:
+    if len(frames) < 2:
         return []
-    seq = np.array(sorted(stamps_by_seq), np.int64)
-    stamp = np.array([stamps_by_seq[s] for s in seq], np.int64)
-    dt = np.diff(stamp)
-    period = np.median(dt / np.diff(seq))
-    jump = (np.diff(seq) > 1) | (dt > GAP_FACTOR * max(period, 1))
+    seq, stamp = np.array(frames, np.int64).T
+    step, dt = np.diff(seq), np.diff(stamp)
+    steady = step == 1
+    period = np.median(dt[steady]) if steady.any() else np.median(dt)
+    jump = ~steady | (dt > GAP_FACTOR * max(period, 1))
     return [Gap(int(seq[i]), int(seq[i + 1]), int(stamp[i]), int(stamp[i + 1])) for i in np.flatnonzero(jump)]
 
 

@@ -22,15 +22,16 @@ def test_check_an_intact_log_prints_the_table_and_exits_0(tmp_path, calib):
 
 
 def test_check_reports_gaps_in_the_frames(tmp_path, calib):
-    kept = [0, 1, 2, 5, 6, 7, 8, 20, 21]  # 2 pairs missing after 2, 11 after 8
+    kept = [0, 1, 2, 5, 6, 7, 8, 20, 21, 0, 1]  # 2 pairs missing after 2, 11 after 8; seq restarts after 21
     with LogWriter(tmp_path / "gaps.mcap", logging_cfg(), calibration=calib) as writer:
         for seq in kept:
             writer.write_frame(make_frame(seq))
     summary = check_log(writer.path)
-    assert [(g.after_seq, g.before_seq, g.missing) for g in summary.gaps] == [(2, 5, 2), (8, 20, 11)]
+    assert [(g.after_seq, g.before_seq, g.missing) for g in summary.gaps] == [(2, 5, 2), (8, 20, 11), (21, 0, 0)]
+    assert summary.frames == len(kept)
     r = cli("logs", "check", str(writer.path))
     assert r.returncode == 0
-    assert "2 gap(s)" in r.stdout and "11 pair(s) missing" in r.stdout
+    assert "3 gap(s)" in r.stdout and "11 pair(s) missing" in r.stdout
 
 
 def test_check_errors_name_the_file(tmp_path):

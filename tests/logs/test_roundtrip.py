@@ -153,3 +153,19 @@ def test_cylinders_lie_on_the_branch_axis(tmp_path, calib):
         x, y, z, w = q.x, q.y, q.z, q.w
         axis = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])  # R @ e_z
         assert np.allclose(axis * c.size.z, b - a, atol=1e-9)
+
+
+def test_quaternions_rebuild_their_rotations():
+    import cv2
+
+    rng = np.random.default_rng(3)
+    rotations = [cv2.Rodrigues(rng.normal(size=3) * s)[0] for s in (0.01, 1.0, 3.0) for _ in range(20)]
+    rotations += [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])]
+    for rot in rotations:
+        x, y, z, w = quaternion_from_matrix(rot)
+        assert w >= 0 and np.isclose(x * x + y * y + z * z + w * w, 1.0)
+        rebuilt = np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        assert np.allclose(rebuilt, rot, atol=1e-12)

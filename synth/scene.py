@@ -441,26 +441,40 @@ def _features(scene: Scene, rig: Rig, seg: _Segments, hits: dict, ss: int) -> Tr
         owner = seg.branch
         ids = hits[side].ids
 
-        def shows(points_px, allowed):
-            """Whether the pixel's supersamples mostly see one of the ``allowed`` branches."""
+        def shows(points_px, points_mm, allowed, reach_mm):
+            """Whether most supersamples of each point's pixel hit one of the ``allowed`` branches no more than
+            ``reach_mm`` before the point (so neither something else nor the branch itself hides it)."""
             out = np.zeros(len(points_px), bool)
             for j, (u, v) in enumerate(points_px):
                 ui, vi = int(round(u)), int(round(v))
                 if not (1 <= ui < rig.width_px - 1 and 1 <= vi < rig.height_px - 1):
                     continue
-                block = ids[vi * ss:(vi + 1) * ss, ui * ss:(ui + 1) * ss].ravel()
-                block = block[(block >= 0) & (block < len(owner))]
-                out[j] = np.isin(owner[block], allowed[j]).sum() * 2 > ss * ss
+                block = (slice(vi * ss, (vi + 1) * ss), slice(ui * ss, (ui + 1) * ss))
+                k, t = ids[block].ravel(), hits[side].t[block].ravel()
+                dist = np.linalg.norm(points_mm[j] - hits[side].origin)
+                own = (k >= 0) & (k < len(owner)) & np.isin(owner[np.clip(k, 0, len(owner) - 1)], allowed[j])
+                out[j] = (own & (t >= dist - reach_mm[j])).sum() * 2 > ss * ss
             return out
 
         allowed = [[branch[j], parent[j]] if parent[j] >= 0 else [branch[j]] for j in range(len(kind))]
-        v = shows(px[side], allowed)
+        def reach(b, v0, point):
+            """How far before ``point`` (at vertex ``v0`` of branch ``b``) the tube's surface may be along the
+            ray: r / sin(ray, axis), the sine bounded below (a tube seen end-on hides its own tip)."""
+            a = _unit(b.axis_mm[min(v0 + 1, len(b.axis_mm) - 1)] - b.axis_mm[max(v0 - 1, 0)])
+            sin = np.sqrt(max(1 - float(a @ _unit(point - hits[side].origin)) ** 2, 0.0))
+            return 1.1 * b.radius_mm[v0] / max(sin, 0.3) + 1.0
+
+        reaches = [reach(scene.branches[branch[j]], len(scene.branches[branch[j]].axis_mm) - 1, xyz[j])
+                   if parent[j] < 0 else
+                   reach(scene.branches[parent[j]], scene.branches[branch[j]].parent_vertex, xyz[j])
+                   for j in range(len(kind))]
+        v = shows(px[side], xyz, allowed, reaches)
         # a fork counts only where its child is seen leaving the parent
         for j in np.nonzero((kind == "bifurcation") & v)[0]:
             b = scene.branches[branch[j]]
             pr = scene.branches[parent[j]].radius_mm[b.parent_vertex]
-            p = _point_along(b.axis_mm, pr + 2 * b.radius_mm[0])
-            v[j] = shows(rig.project(p[None], side), [[branch[j]]])[0]
+            p = _point_along(b.axis_mm, pr + 2 * b.radius_mm[0])[None]
+            v[j] = shows(rig.project(p, side), p, [[branch[j]]], [reach(b, 0, p[0])])[0]
         vis[side] = v
     return TrueFeatures(kind, xyz, px["left"], px["right"], vis["left"], vis["right"], branch, parent, radius)
 

@@ -36,6 +36,8 @@ class StereoMasks:
     Attributes
     ----------
     left_mask, right_mask : ndarray (H, W) uint8
+        Branch coverage 0-255 (binary masks remapped with linear interpolation); branch
+        where >= 128.
     left_gray, right_gray : ndarray (H, W) float32
     radius_map : ndarray (H, W) float32
         Left mask's ridge radius map (:func:`radius.ridge_radius_map`), px.
@@ -222,7 +224,7 @@ class _Builder:
         h, w = self.sm.left_mask.shape
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < w) & (uv[:, 1] >= 0) & (uv[:, 1] < h)
         on = np.zeros(len(t), bool)
-        on[inside] = self.sm.left_mask[uv[inside, 1], uv[inside, 0]] > 0
+        on[inside] = self.sm.left_mask[uv[inside, 1], uv[inside, 0]] >= 128
         off = np.flatnonzero(~on)
         last = (off[0] - 1) if len(off) else len(t) - 1
         return float(t[max(last, 0)] + sign * 0.5)
@@ -291,7 +293,7 @@ def _flat_tip(b: _Builder, node: int, t: np.ndarray, v_poly, runs_r: Runs, known
     sign = 1.0 if abs(p[0] - t.max()) <= abs(p[0] - t.min()) else -1.0
     u_end = t.max() if sign > 0 else t.min()
     row = int(np.rint(v_poly(u_end)))
-    runs_l = find_runs(sm.left_mask[row:row + 1], sm.left_gray[row:row + 1])
+    runs_l = find_runs(sm.left_mask[row:row + 1], None, soft=True)
     il = runs_l.find(np.zeros(1, int), np.array([u_end]))[0]
     if il < 0:
         return None
@@ -314,8 +316,8 @@ def _flat_tip(b: _Builder, node: int, t: np.ndarray, v_poly, runs_r: Runs, known
 
 def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
-    runs_l = find_runs(sm.left_mask, sm.left_gray)
-    runs_r = find_runs(sm.right_mask, sm.right_gray)
+    runs_l = find_runs(sm.left_mask, soft=True)
+    runs_r = find_runs(sm.right_mask, soft=True)
     curves, flat = {}, []
     for s, yx in enumerate(graph.seg_yx):
         if graph.seg_recovered[s] or graph.seg_length_px[s] < cfg.min_segment_px or len(yx) < 2:
@@ -335,7 +337,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:
-        runs_lt = find_runs(sm.left_mask.T, sm.left_gray.T)
+        runs_lt = find_runs(np.ascontiguousarray(sm.left_mask.T), None, soft=True)
         for s in flat:
             c = _flat_curve(b, s, runs_lt, runs_r)
             if c is not None:

@@ -85,9 +85,28 @@ def _refine(gray: np.ndarray, row: np.ndarray, boundary: np.ndarray) -> np.ndarr
     return boundary + np.clip(off, -0.5, 0.5)
 
 
-def find_runs(mask: np.ndarray, gray: np.ndarray | None = None) -> Runs:
-    """Runs of ``mask`` (H, W), boundaries refined on ``gray`` (H, W float) when given."""
-    m = (np.asarray(mask) > 0).astype(np.int8)
+def _soft_crossing(soft: np.ndarray, row: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """Where the soft mask crosses half way between an outside and an inside pixel of a row."""
+    a = soft[row, outside].astype(np.float32)
+    b = soft[row, inside].astype(np.float32)
+    frac = np.clip((127.5 - a) / np.maximum(b - a, 1.0), 0.0, 1.0)
+    return outside + frac * (inside - outside)
+
+
+def find_runs(mask: np.ndarray, gray: np.ndarray | None = None, soft: bool = False) -> Runs:
+    """Runs of ``mask`` (H, W).
+
+    Parameters
+    ----------
+    mask : ndarray (H, W)
+        Branch mask; with ``soft`` a uint8 coverage 0-255 (e.g. a binary mask remapped with
+        linear interpolation): branch where >= 128, and each boundary is placed where the
+        coverage crosses 127.5 between its outside and inside pixel.
+    gray : ndarray (H, W), optional
+        Grey image: boundaries are moved to the gradient peak (+-0.5 px).
+    """
+    mask = np.asarray(mask)
+    m = ((mask >= 128) if soft else (mask > 0)).astype(np.int8)
     h, w = m.shape
     pad = np.zeros((h, w + 2), np.int8)
     pad[:, 1:-1] = m
@@ -96,6 +115,9 @@ def find_runs(mask: np.ndarray, gray: np.ndarray | None = None) -> Runs:
     er, ec = np.nonzero(d == -1)     # run ends after column ec - 1
     x0, x1 = sc, ec - 1
     left, right = x0 - 0.5, x1 + 0.5
+    if soft and len(sr):
+        left = np.where(x0 > 0, _soft_crossing(mask, sr, np.maximum(x0 - 1, 0), x0), left)
+        right = np.where(x1 < w - 1, _soft_crossing(mask, sr, np.minimum(x1 + 1, w - 1), x1), right)
     if gray is not None and len(sr):
         g = np.asarray(gray, np.float32)
         left, right = _refine(g, sr, left), _refine(g, sr, right)

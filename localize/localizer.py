@@ -89,7 +89,7 @@ class Localizer:
             mr, _ = segment_color(right, seg)
         clock.lap("segment")
         r = self.rectifier
-        ml, mr = r.rectify(ml, 0, nearest=True), r.rectify(mr, 1, nearest=True)
+        ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries
         if occluder is not None and self.cfg.recover.method == "collinear":
             occluder = r.rectify(occluder, 0, nearest=True)
         return ml, mr, occluder
@@ -128,18 +128,19 @@ class Localizer:
         r.check_size(right, "right image")
         clock = _Clock()
         ml, mr, occluder = self._masks(left, right, mask_left, mask_right, clock)
+        bl, br = ((m >= 128).astype(np.uint8) * 255 for m in (ml, mr))
         clock.lap("rectify")
-        if not ml.any() or not mr.any():
+        if not bl.any() or not br.any():
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
         c = self.cfg
         window = 2 * c.skeleton.downscale + 1 if c.skeleton.method == "fast" else 1
-        radius_l = ridge_radius_map(ml, window)
+        radius_l = ridge_radius_map(bl, window)
         clock.lap("radius")
-        graph_l = self._graph(ml, radius_l, occluder, clock)
+        graph_l = self._graph(bl, radius_l, occluder, clock)
         if c.match.method == "features":
-            radius_r = ridge_radius_map(mr, window)
+            radius_r = ridge_radius_map(br, window)
             clock.lap("radius")
-            graph_r = self._graph(mr, radius_r, None, clock)
+            graph_r = self._graph(br, radius_r, None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
             gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY) if left.ndim == 3 else left

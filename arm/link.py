@@ -121,7 +121,14 @@ class ArmLink:
             self._status = P.Heartbeat(0, bool(camera_ok), bool(calibrated), float(rate_hz), self.cfg.ack_mode)
 
     def stats(self) -> dict:
-        """Counters since ``open`` plus ``connected``, ``queued``, ``last_error``, ``max_segments``."""
+        """Counters since ``open`` plus ``connected``, ``queued``, ``last_error``, ``max_segments``.
+
+        Counters: ``submitted``, ``dropped`` (pushed out of the queue by newer results),
+        ``sent`` (OBSTACLES written), ``bytes_sent``, ``truncated``, ``heartbeats``, ``acked``,
+        ``nacked``, ``retransmits``, ``superseded`` (unacknowledged set replaced by a newer
+        one), ``gave_up`` (retries exhausted), ``write_timeouts``, ``rx_errors`` (bad frames
+        from the controller), ``connects``, ``disconnects``.
+        """
         with self._lock:
             out = dict(self._counts)
             out["queued"] = len(self._queue)
@@ -268,6 +275,9 @@ class ArmLink:
         except serial.SerialTimeoutException:
             self._counts["write_timeouts"] += 1
             self._resync = True
+        except (serial.SerialException, OSError) as exc:
+            self._disconnect()
+            raise serial.SerialException(port_error(exc)) from None
 
     def _disconnect(self, count: bool = True) -> None:
         port, self._port = self._port, None

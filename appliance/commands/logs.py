@@ -89,6 +89,6 @@ def recover(
     summary = recover_log(file, out)
     console = _console()
     print_summary(summary, console)
-    kept = sum(summary.counts.values())
-    total_note = "" if before.intact else f" ({before.problem})"
-    console.print(f"recovered {kept} messages, {summary.frames} stereo pairs into {out}{total_note}")
+    state = "intact" if before.intact else f"not intact: {before.problem}"
+    console.print(f"{file} ({state}): {sum(summary.counts.values())} messages, {summary.frames} stereo pairs "
+                  f"copied into {out}")

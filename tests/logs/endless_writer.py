@@ -7,6 +7,7 @@ writes as fast as possible. Prints "seq stamp_left_ns stop_reason" after each pa
 to the writer and, when ``frames`` are done, "done <stats as JSON>".
 """
 
+import dataclasses
 import json
 import sys
 import time
@@ -31,7 +32,7 @@ with LogWriter(sys.argv[1], cfg.logging, calibration=make_calibration(), device=
         left, right = frame_images(seq % 50)
         stamp = time.time_ns()
         writer.write_frame(StereoFrame(left, right, seq, stamp, stamp))
-        writer.write_result(make_result(seq), seq, CAMERA_TO_BASE)
+        writer.write_result(dataclasses.replace(make_result(seq), stamp_ns=stamp), seq, CAMERA_TO_BASE)
         print(seq, stamp, writer.stop_reason or "", flush=True)
         seq += 1
         if rate_hz > 0:

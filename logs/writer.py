@@ -10,8 +10,9 @@ error (ENOSPC, EIO, ...) stops logging with one message on the ``appliance.logs`
 file is finished if it can be. From then on the write methods return False and count what
 they drop: they never raise into the caller once the writer is open.
 
-Not thread-safe: one thread writes. :func:`~appliance.logs.images.encode_frame` may run in
-another thread and its result be passed to :meth:`LogWriter.write_frame`.
+Thread-safe: writes are serialised by a lock; a StereoFrame is compressed before taking it, so
+threads can compress while another writes (or call :func:`~appliance.logs.images.encode_frame`
+anywhere and pass the EncodedFrame).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import json
 import logging
 import os
 import shutil
+import threading
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -103,6 +105,7 @@ class LogWriter:
         self._writer = self._file = None
         self._counter = 0
         self._warned: set[str] = set()
+        self._lock = threading.RLock()
         try:
             self.folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -137,22 +140,14 @@ class LogWriter:
         bool
             False when the pair was dropped (logging stopped, or the images cannot be encoded).
         """
-        if self._writer is None:
-            self.frames_dropped += 1
-            return False
-        try:
-            enc = frame if isinstance(frame, EncodedFrame) else encode_frame(
-                frame, self.cfg.image_encoding, self.cfg.jpeg_quality)
-        except Exception as exc:  # noqa: BLE001 - a bad frame is dropped, never raised
-            self._warn_once("frame", f"logging: frame {getattr(frame, 'seq', '?')} not logged: {exc}")
-            self.frames_dropped += 1
-            return False
-        ok = self._guarded(self._write_frame, enc)
-        if ok:
-            self.frames_written += 1
-        else:
-            self.frames_dropped += 1
-        return ok
+        enc = frame
+        if not isinstance(frame, EncodedFrame) and self._writer is not None:
+            try:  # outside the lock: another thread may write meanwhile
+                enc = encode_frame(frame, self.cfg.image_encoding, self.cfg.jpeg_quality)
+            except Exception as exc:  # noqa: BLE001 - a bad frame is dropped, never raised
+                self._warn_once("frame", f"logging: frame {getattr(frame, 'seq', '?')} not logged: {exc}")
+                enc = None
+        return self._guarded("frames", self._write_frame, enc)
 
     def write_result(self, result, seq: int, camera_to_base=None) -> bool:
         """Log a LocalizationResult: its JSON, its branches as cylinders, and ``/tf``.
@@ -165,30 +160,21 @@ class LogWriter:
         camera_to_base : array_like, shape (4, 4), optional
             Camera frame -> arm base, mm. None: no ``/tf`` message.
         """
-        ok = self._writer is not None and self._guarded(self._write_result, result, seq, camera_to_base)
-        if ok:
-            self.results_written += 1
-        else:
-            self.results_dropped += 1
-        return ok
+        return self._guarded("results", self._write_result, result, seq, camera_to_base)
 
     def write_diagnostics(self, diagnostics: dict, stamp_ns: int | None = None) -> bool:
         """Log a JSON mapping on ``/diagnostics`` (rates Hz, latencies ms, drops, temperatures)."""
-        ok = self._writer is not None and self._guarded(self._write_diagnostics, diagnostics, stamp_ns)
-        if ok:
-            self.diagnostics_written += 1
-        else:
-            self.diagnostics_dropped += 1
-        return ok
+        return self._guarded("diagnostics", self._write_diagnostics, diagnostics, stamp_ns)
 
     def flush(self) -> bool:
         """Hand everything logged so far to the OS now (e.g. when the camera is lost: the
         interval flush only happens on writes). Returns False when logging has stopped."""
-        return self._writer is not None and self._guarded(self._flush)
+        return self._guarded(None, self._flush)
 
     def close(self) -> None:
         """Finish the current file with its index. Safe to call twice; never raises."""
-        self._finish()
+        with self._lock:
+            self._finish()
 
     def __enter__(self) -> LogWriter:
         return self
@@ -262,20 +248,30 @@ class LogWriter:
                     and stamp_ns - self._file_first_ns >= duration * 1e9)
 
     # -- writing ------------------------------------------------------------------------
-    def _guarded(self, write, *args) -> bool:
-        """Run a write; an OS error stops logging, anything else drops this message only."""
-        try:
-            write(*args)
-            if self._writer is not None and time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
-                self._flush()
-        except OSError as exc:
-            self._stop(f"{self.path}: write failed ({exc.strerror or exc})")
-            self._finish()
-            return False
-        except Exception as exc:  # noqa: BLE001 - never raise into the run loop
-            self._warn_once(write.__name__, f"logging: message not logged ({type(exc).__name__}: {exc})")
-            return False
-        return True
+    def _guarded(self, kind: str | None, write, *args) -> bool:
+        """Run a write under the lock and count it as ``<kind>_written`` or ``<kind>_dropped``.
+
+        An OS error stops logging; anything else drops this message only. None in ``args``
+        (a frame that could not be encoded) is a drop.
+        """
+        with self._lock:
+            ok = self._writer is not None and not (args and args[0] is None)
+            if ok:
+                try:
+                    write(*args)
+                    if self._writer is not None and time.monotonic() - self._last_flush >= self.cfg.flush_interval_s:
+                        self._flush()
+                except OSError as exc:
+                    self._stop(f"{self.path}: write failed ({exc.strerror or exc})")
+                    self._finish()
+                    ok = False
+                except Exception as exc:  # noqa: BLE001 - never raise into the run loop
+                    self._warn_once(write.__name__, f"logging: message not logged ({type(exc).__name__}: {exc})")
+                    ok = False
+            if kind is not None:
+                name = f"{kind}_{'written' if ok else 'dropped'}"
+                setattr(self, name, getattr(self, name) + 1)
+            return ok
 
     def _add(self, topic: str, data: bytes, log_time_ns: int, sequence: int = 0) -> None:
         self._file_bytes += len(data) + RECORD_OVERHEAD_BYTES

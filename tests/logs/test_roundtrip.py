@@ -169,3 +169,25 @@ def test_quaternions_rebuild_their_rotations():
             [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
         assert np.allclose(rebuilt, rot, atol=1e-12)
+
+
+def test_threads_may_write_at_once(tmp_path, calib):
+    """Frames from one thread, results and diagnostics from another: all logged, the file whole."""
+    import threading
+
+    with LogWriter(tmp_path / "threads.mcap", logging_cfg(flush_interval_s=0.01), calibration=calib) as writer:
+        def results():
+            for seq in range(40):
+                writer.write_result(make_result(seq), seq, CAMERA_TO_BASE)
+                writer.write_diagnostics({"seq": seq})
+
+        other = threading.Thread(target=results)
+        other.start()
+        for seq in range(40):
+            writer.write_frame(make_frame(seq))
+        other.join()
+    summary = check_log(writer.path)
+    assert summary.intact and summary.frames == 40
+    assert summary.counts["/localize/result"] == summary.counts["/diagnostics"] == 40
+    assert (writer.frames_written, writer.results_written, writer.diagnostics_written) == (40, 40, 40)
+    assert [f.seq for f in iter_stereo_frames(writer.path)] == list(range(40))

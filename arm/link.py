@@ -118,7 +118,8 @@ class ArmLink:
     def set_status(self, camera_ok: bool, calibrated: bool, rate_hz: float) -> None:
         """Status flags and result rate (Hz) sent in the next HEARTBEATs."""
         with self._lock:
-            self._status = P.Heartbeat(0, bool(camera_ok), bool(calibrated), float(rate_hz), self.cfg.ack_mode)
+            self._status = P.Heartbeat(0, bool(camera_ok), bool(calibrated), float(rate_hz),
+                                       self.cfg.ack_mode)
 
     def stats(self) -> dict:
         """Counters since ``open`` plus ``connected``, ``queued``, ``last_error``, ``max_segments``.

@@ -65,7 +65,14 @@ NACK_FIXED = struct.Struct("<HB")  # rejected seq, reason
 
 
 class ProtocolError(ApplianceError):
-    """A message cannot be encoded (value out of range) or a payload does not parse."""
+    """A message cannot be encoded (value out of range) or a payload does not parse.
+
+    ``reason`` is the NACK reason code a receiver answers with.
+    """
+
+    def __init__(self, message: str, reason: int = NACK_BAD_LENGTH):
+        super().__init__(message)
+        self.reason = reason
 
 
 def crc16(data: bytes) -> int:
@@ -386,18 +393,19 @@ def parse(frame: Frame) -> Message:
     """The message in a frame; ProtocolError for an unknown type or a payload that does not parse."""
     cls = _PARSERS.get(frame.type)
     if cls is None:
-        raise ProtocolError(f"unknown message type 0x{frame.type:02x}")
+        raise ProtocolError(f"unknown message type 0x{frame.type:02x}", NACK_UNKNOWN_TYPE)
     try:
         return cls.from_payload(frame.payload)
     except struct.error as exc:
-        raise ProtocolError(f"{TYPE_NAMES[frame.type]} payload of {len(frame.payload)} bytes: {exc}") from None
+        name = TYPE_NAMES[frame.type]
+        raise ProtocolError(f"{name} payload of {len(frame.payload)} bytes: {exc}") from None
 
 
 def nack_reason(error: DecodeError | ProtocolError) -> int:
     """NACK reason code for a decode error or a parse error."""
     if isinstance(error, DecodeError):
         return {v: k for k, v in NACK_REASONS.items()}[error.reason]
-    return NACK_UNKNOWN_TYPE if "unknown message type" in str(error) else NACK_BAD_LENGTH
+    return error.reason
 
 
 # ---------------------------------------------------------------- results -> obstacles

@@ -158,18 +158,21 @@ def test_obstacles_from_result_transforms_sorts_and_truncates():
     # the straight far polyline simplifies to one segment; the near one keeps its corner
     assert [s.branch_id for s in obs.segments] == [2, 2, 1]
     assert obs.segments[0].recovered and not obs.segments[2].recovered
-    assert np.allclose(obs.segments[2].p0_mm, (100, 0, 1400)) and np.allclose(obs.segments[2].p1_mm, (100, 200, 1400))
+    assert np.allclose(obs.segments[2].p0_mm, (100, 0, 1400))
+    assert np.allclose(obs.segments[2].p1_mm, (100, 200, 1400))
     assert np.isclose(obs.segments[0].clearance_mm, 1.05 * 4.0)
     d = [np.linalg.norm(s.p0_mm) for s in obs.segments]
     assert d[0] < d[2]
-    small = P.obstacles_from_result(result, T, P.wire_size(P.OBSTACLES_FIXED.size + P.SEGMENT.size), frame_seq=9)
+    one = P.wire_size(P.OBSTACLES_FIXED.size + P.SEGMENT.size)
+    small = P.obstacles_from_result(result, T, one, frame_seq=9)
     assert small.truncated and small.total == 3 and small.segments == obs.segments[:1]
     wire = P.encode(small, 0)
-    assert len(wire) <= P.wire_size(P.OBSTACLES_FIXED.size + P.SEGMENT.size)
+    assert len(wire) <= one
 
 
 def test_obstacles_out_of_wire_range_are_left_out():
-    result = LocalizationResult((), (_branch(1, [[0, 0, 9000], [0, 10, 9000]]), _branch(2, [[0, 0, 800], [0, 9, 800]])))
+    far, near = _branch(1, [[0, 0, 9000], [0, 10, 9000]]), _branch(2, [[0, 0, 800], [0, 9, 800]])
+    result = LocalizationResult((), (far, near))
     obs = P.obstacles_from_result(result, np.eye(4), 10_000)
     assert obs.out_of_range and obs.total == 1 and [s.branch_id for s in obs.segments] == [2]
     assert P.parse(P.FrameDecoder().feed(P.encode(obs, 1))[0]).out_of_range

@@ -21,7 +21,8 @@ def decoder(tmp_path_factory):
     if cc is None:
         pytest.skip("no C compiler")
     exe = tmp_path_factory.mktemp("c") / "arm_decode"
-    subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe), str(SOURCE)], check=True)
+    subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe), str(SOURCE)],
+                   check=True)
     return lambda data: subprocess.run([str(exe)], input=data.hex(), capture_output=True, text=True,
                                        check=True).stdout.splitlines()
 
@@ -51,8 +52,8 @@ def python_lines(data: bytes) -> list[str]:
             line = (head + f"OBSTACLES stamp_ns={m.stamp_ns} frame_seq={m.frame_seq} flags={flags} "
                     f"count={len(m.segments)} total={m.total}")
             for s in m.segments:
-                line += (f" [p0={_mm3(s.p0_mm)} p1={_mm3(s.p1_mm)} r={s.radius_mm:.2f} c={s.clearance_mm:.2f} "
-                         f"id={s.branch_id} f={int(s.recovered)}]")
+                line += (f" [p0={_mm3(s.p0_mm)} p1={_mm3(s.p1_mm)} r={s.radius_mm:.2f} "
+                         f"c={s.clearance_mm:.2f} id={s.branch_id} f={int(s.recovered)}]")
             out.append(line)
         elif isinstance(m, P.Heartbeat):
             flags = m.camera_ok * P.HB_CAMERA_OK | m.calibrated * P.HB_CALIBRATED | m.ack_mode * P.HB_ACK_MODE

@@ -85,9 +85,10 @@ def test_sim_restart_loses_only_what_was_sent_while_it_was_down(bridge, tmp_path
 
 
 def test_sim_missing_port_and_bad_fault_are_one_line_errors(tmp_path):
-    for args, words in ((["arm-sim", str(tmp_path / "ttyNONE")], [str(tmp_path / "ttyNONE"), "No such file"]),
-                        (["arm-sim", str(tmp_path / "x"), "--fault", "drop=2"], ["--fault drop=2", "out of range"]),
-                        (["arm-sim", str(tmp_path / "x"), "--fault", "melt"], ["--fault melt", "unknown fault"])):
+    missing = str(tmp_path / "ttyNONE")
+    for args, words in ((["arm-sim", missing], [missing, "No such file"]),
+                        (["arm-sim", missing, "--fault", "drop=2"], ["--fault drop=2", "out of range"]),
+                        (["arm-sim", missing, "--fault", "melt"], ["--fault melt", "unknown fault"])):
         proc = subprocess.run([str(APPLIANCE), *args], capture_output=True, text=True, timeout=30)
         assert proc.returncode == 1
         lines = proc.stderr.strip().splitlines()

@@ -58,19 +58,24 @@ class BranchCurve:
     d_poly: Polynomial
     radius_px: float
     n_samples: int
+    d_end_slopes: tuple[float, float] | None = None
 
-    def _eval(self, poly: Polynomial, t) -> np.ndarray:
+    def _eval(self, poly: Polynomial, t, slopes=None) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
         tc = np.clip(t, lo, hi)
-        slope = poly.deriv()(tc)
+        if slopes is None:
+            slope = poly.deriv()(tc)
+        else:
+            slope = np.where(t < lo, slopes[0], slopes[1])
         return poly(tc) + slope * (t - tc)
 
     def s_at(self, t) -> np.ndarray:
         return self._eval(self.s_poly, t)
 
     def d_at(self, t) -> np.ndarray:
-        return self._eval(self.d_poly, t)
+        """Disparity; beyond the fitted span along the straight line fitted to the last samples."""
+        return self._eval(self.d_poly, t, self.d_end_slopes)
 
     def uv_at(self, t) -> np.ndarray:
         """(N, 2) rectified left (u, v) at parameters ``t``."""
@@ -88,3 +93,14 @@ class BranchCurve:
         lo, hi = self.t_range
         t = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
         return np.column_stack([self.uv_at(t), self.d_at(t)])
+
+
+def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float, float]:
+    """Slopes dy/dt of straight lines fitted to the samples within ``reach`` of each end of t."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    out = []
+    for near in (t <= t.min() + reach, t >= t.max() - reach):
+        if near.sum() < 5 or np.ptp(t[near]) < 5:
+            near = np.ones(len(t), bool)
+        out.append(float(np.polyfit(t[near], y[near], 1)[0]) if np.ptp(t[near]) > 0 else 0.0)
+    return out[0], out[1]

@@ -21,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, degree_for, robust_fit
+from appliance.localize.curves import BranchCurve, degree_for, end_slopes, robust_fit
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD
 from appliance.localize.radius import radius_at
+from appliance.localize.texture import nearer_in_front, surface_disparity, surface_to_axis
 from numpy.polynomial import Polynomial
 
 
@@ -43,6 +44,8 @@ class StereoMasks:
         Left mask's ridge radius map (:func:`radius.ridge_radius_map`), px.
     d_range_px : (float, float)
         Disparities of the working range.
+    f_px, offset_px : float
+        Rectified focal length and principal-point difference ``cx_left - cx_right``.
     """
 
     left_mask: np.ndarray
@@ -51,6 +54,8 @@ class StereoMasks:
     right_gray: np.ndarray
     radius_map: np.ndarray
     d_range_px: tuple[float, float]
+    f_px: float
+    offset_px: float = 0.0
 
 
 def _angle_deg(pts: np.ndarray) -> float:
@@ -137,10 +142,11 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
     u_poly, _ = robust_fit(tf, cf, degree)
-    d_poly, _ = robust_fit(tf, df, degree)
+    d_poly, inl = robust_fit(tf, df, degree)
     slope = u_poly.deriv()(tf)
     radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
-    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, d_poly, radius, len(tf))
+    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, d_poly, radius, len(tf),
+                       end_slopes(tf[inl], df[inl]))
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -170,6 +176,7 @@ class _Builder:
                     self.incident[node].append(s)
         self.uvd: dict[int, np.ndarray] = {}
         self.radius: dict[int, float] = {}
+        self.hidden: set[int] = set()
 
     def seg_points(self, s: int) -> np.ndarray:
         c = self.curves.get(s)
@@ -213,8 +220,8 @@ class _Builder:
         radii = [self.curves[s].radius_px for s in children if s in self.curves]
         self.radius[node] = float(np.mean(radii)) if radii else float(r)
 
-    def _walk_out(self, c: BranchCurve, node: int) -> float:
-        """Parameter of the tip: the fitted centre line followed outwards to the mask's end."""
+    def _walk_out(self, c: BranchCurve, node: int) -> tuple[float, float]:
+        """Parameter where the fitted centre line, followed outwards, leaves the mask; and the direction (+-1) of t."""
         lo, hi = c.t_range
         t_node = c.t_of(self.node_xy[node])[0]
         start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
@@ -227,17 +234,32 @@ class _Builder:
         on[inside] = self.sm.left_mask[uv[inside, 1], uv[inside, 0]] >= 128
         off = np.flatnonzero(~on)
         last = (off[0] - 1) if len(off) else len(t) - 1
-        return float(t[max(last, 0)] + sign * 0.5)
+        return float(t[max(last, 0)] + sign * 0.5), sign
 
     def tip(self, node: int) -> None:
-        segs = [s for s in self.incident[node] if s in self.curves and self.curves[s].by_row]
+        """A tip: the end of the mask along the centre line, less the round cap (one radius).
+
+        An end with something nearer just beyond it is hidden, not a tip: it is kept
+        as the piece's end but flagged (``self.hidden``).
+        """
+        segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
             return
         c = self.curves[segs[0]]
-        t = self._walk_out(c, node)
-        u, v = c.uv_at(t)[0]
-        self.uvd[node] = np.array([u, v, c.d_at(t)[0]])
+        t_edge, sign = self._walk_out(c, node)
+        uv_edge = c.uv_at(t_edge)[0]
+        step = c.uv_at(t_edge + sign)[0] - uv_edge
+        out = step / max(np.hypot(*step), 1e-9)
+        r = max(c.radius_px, 1.0)
+        uv = uv_edge - out * r
+        t = c.t_of(uv)
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
+        half = max(4, int(round(r)))
+        probe = uv_edge + out * (half + 2)
+        if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
+                           np.array([half]), self.sm.d_range_px[1]):
+            self.hidden.add(int(node))
 
     def joint(self, node: int) -> None:
         segs = [s for s in self.incident[node] if s in self.curves]
@@ -248,8 +270,9 @@ class _Builder:
             self.radius[node] = c.radius_px
 
 
-def _flat_curve(b: _Builder, s: int, runs_lt: Runs, runs_r: Runs) -> BranchCurve | None:
-    """A flat piece: centre line v(u) from the columns; disparity from its anchored ends."""
+def _flat_curve(b: _Builder, s: int, runs_lt: Runs) -> BranchCurve | None:
+    """A flat piece: centre line v(u) from the columns; disparity from the bark texture, or
+    else from the forks/joints at its ends."""
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = _centre_guess(pts, 0, g.scale)
@@ -266,52 +289,22 @@ def _flat_curve(b: _Builder, s: int, runs_lt: Runs, runs_r: Runs) -> BranchCurve
     v_poly, inl = robust_fit(t, vc, degree)
     slope = v_poly.deriv()(t[inl])
     radius = float(np.median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
-    ends = []
-    for node in g.seg_nodes[s]:
-        if node < 0:
-            continue
-        if node in b.uvd:
-            ends.append(b.uvd[node][[0, 2]])
-        elif g.node_kind[node] == ENDPOINT:
-            e = _flat_tip(b, node, t, v_poly, runs_r, [b.uvd[n][2] for n in g.seg_nodes[s] if n in b.uvd])
-            if e is not None:
-                b.uvd[node] = e
-                b.radius[node] = radius
-                ends.append(e[[0, 2]])
-    if not ends:
+    lo, hi = float(t[inl].min()), float(t[inl].max())
+    u = np.arange(lo, hi + 1, 4.0)
+    uv = np.column_stack([u, v_poly(u)])
+    d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, np.full(len(u), max(1, int(0.5 * radius))),
+                                      sm.d_range_px)
+    good = np.isfinite(d_surf) & (score >= 0.6)
+    if good.sum() >= 3:
+        d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px)
+        d_poly, inl_d = robust_fit(u[good], d_axis, 1 if hi - lo < 160 else 2)
+        return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
+    ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
+    if len(ends) == 0:
         return None
-    ends = np.array(ends)
     d_poly = Polynomial.fit(ends[:, 0], ends[:, 1], 1) if len(ends) == 2 and abs(ends[1, 0] - ends[0, 0]) > 1 \
         else Polynomial([ends[:, 1].mean()])
-    return BranchCurve(s, False, (float(t[inl].min()), float(t[inl].max())), v_poly, d_poly, radius, int(inl.sum()))
-
-
-def _flat_tip(b: _Builder, node: int, t: np.ndarray, v_poly, runs_r: Runs, known_d: list) -> np.ndarray | None:
-    """Tip of a flat piece: where its row run ends, and the same end in the right image."""
-    g, sm = b.g, b.sm
-    p = b.node_xy[node]
-    sign = 1.0 if abs(p[0] - t.max()) <= abs(p[0] - t.min()) else -1.0
-    u_end = t.max() if sign > 0 else t.min()
-    row = int(np.rint(v_poly(u_end)))
-    runs_l = find_runs(sm.left_mask[row:row + 1], None, soft=True)
-    il = runs_l.find(np.zeros(1, int), np.array([u_end]))[0]
-    if il < 0:
-        return None
-    edge_l = runs_l.right_px[il] if sign > 0 else runs_l.left_px[il]
-    dmin, dmax = sm.d_range_px
-    rr = np.flatnonzero(runs_r.row == row)
-    edge_r = runs_r.right_px[rr] if sign > 0 else runs_r.left_px[rr]
-    d = edge_l - edge_r
-    d = d[(d >= dmin) & (d <= dmax)]
-    if len(d) == 0:
-        return None
-    if known_d:
-        d = d[np.argmin(np.abs(d - np.mean(known_d)))]
-    elif len(d) == 1:
-        d = d[0]
-    else:
-        return None
-    return np.array([edge_l, row, float(d)])
+    return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, 0)
 
 
 def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
@@ -339,12 +332,15 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     if flat:
         runs_lt = find_runs(np.ascontiguousarray(sm.left_mask.T), None, soft=True)
         for s in flat:
-            c = _flat_curve(b, s, runs_lt, runs_r)
+            c = _flat_curve(b, s, runs_lt)
             if c is not None:
                 curves[s] = c
         for node in np.flatnonzero(kinds == JUNCTION):
             if node not in b.uvd:
                 b.fork(node)
+        for node in np.flatnonzero(kinds == ENDPOINT):
+            if node not in b.uvd:
+                b.tip(node)
         for node in np.flatnonzero(kinds == JOINT):
             if node not in b.uvd:
                 b.joint(node)
@@ -354,7 +350,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     features = []
     for node, (u, v, d) in sorted(b.uvd.items()):
         kind = {ENDPOINT: "endpoint", JUNCTION: "bifurcation"}.get(int(kinds[node]))
-        if kind is None or not (0.95 * dmin <= d <= 1.05 * dmax):
+        if kind is None or node in b.hidden or not (0.95 * dmin <= d <= 1.05 * dmax):
             continue
         if kind == "endpoint" and min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
             continue
@@ -378,5 +374,6 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         if a in b.uvd and z in b.uvd:
             r = np.mean([b.radius.get(a, np.nan), b.radius.get(z, np.nan)])
             pieces.append(PieceUVD(int(s), np.vstack([b.uvd[a], b.uvd[z]]), float(r), True, (int(a), int(z))))
-    stats = {"segments": len(graph.seg_yx), "matched_segments": len(curves), "flat_segments": len(flat)}
+    stats = {"segments": len(graph.seg_yx), "matched_segments": len(curves), "flat_segments": len(flat),
+             "hidden_ends": len(b.hidden)}
     return Matching(features, pieces, stats)

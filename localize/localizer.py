@@ -148,7 +148,8 @@ class Localizer:
             gl = r.rectify(gl.astype(np.float32), 0)
             gr = r.rectify(gr.astype(np.float32), 1)
             clock.lap("rectify")
-            sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px)
+            sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
+                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]))
             matching = match_dense(graph_l, sm, c.match)
         clock.lap("match")
         result = self._assemble(matching, stamp_ns)

@@ -63,6 +63,8 @@ def iter_records(path: str | Path, status: ReadStatus | None = None, *,
     """
     path = Path(path)
     status = status if status is not None else ReadStatus()
+    if path.is_dir():
+        raise LogError(f"{path}: is a folder; give one .mcap file")
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
     status.size_bytes = path.stat().st_size

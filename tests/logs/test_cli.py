@@ -41,3 +41,5 @@ def test_check_errors_name_the_file(tmp_path):
     assert r.returncode == 1 and r.stderr.strip() == f"error: {junk}: not an MCAP file (or an empty one)"
     r = cli("logs", "check", str(tmp_path / "missing.mcap"))
     assert r.returncode == 1 and "missing.mcap: no such log file" in r.stderr
+    r = cli("logs", "check", str(tmp_path))
+    assert r.returncode == 1 and "is a folder" in r.stderr

@@ -1,0 +1,168 @@
+"""Localization accuracy on rendered scenes with exact truth: improved vs the paper vs OpenCV SGBM.
+
+    python benchmarks/localize_accuracy.py [--extra N] [--masks true|colour|both] [--json OUT]
+
+Scenes: fixtures/scenes (4) plus ``--extra`` more rendered with seeds 100.. (cached in
+out/localize_scenes). Rig f ~1450 px, b ~120 mm, 1280x960, branches 500-1500 mm away.
+Methods, each scored with :func:`appliance.synth.evaluate.score_result` (features matched in the
+left image within 5 px, same kind):
+
+- ``improved``: the default configuration (dense centre-line matching).
+- ``paper``: the paper's steps (thinning, 5 px pruning, Hough recovery, feature matching).
+- ``sgbm``: OpenCV StereoSGBM (SGBM_3WAY) on the rectified pair, its disparity sampled at the
+  TRUE features' rectified positions (so its recall is the share of those it has a disparity for,
+  and its errors are only depth errors: an upper bound on how well a dense matcher does there).
+
+Masks: ``true`` gives every method the exact branch masks (segmentation not to blame), ``colour``
+the embedded colour recogniser. Prints the evaluator's table per method, p95 |dZ| per 250 mm band
+and the pooled figures; targets (issue 5): p95 |dZ| <= 1.5 mm at 1000 mm and <= 6.2 mm over
+500-1500 mm, >= 3x lower p95 than SGBM, recall >= 0.9, branch coverage >= 0.9, radius error
+median <= 1 mm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from appliance.calibrate.model import StereoCalibration, load_calibration
+from appliance.config import load_config
+from appliance.localize import Feature, LocalizationResult, Localizer
+from appliance.localize.sgbm import sgbm_disparity
+from appliance.localize.triangulate import triangulate
+from appliance.synth.evaluate import format_table, pool, score_result
+from appliance.synth.truth import SceneTruth, load_truth
+
+REPO = Path(__file__).resolve().parents[1]
+BANDS_MM = [(500, 750), (750, 1000), (1000, 1250), (1250, 1500)]
+
+
+def scenes(extra: int) -> list[tuple[str, Path, Path, Path]]:
+    """(name, left, right, truth json) of the fixture scenes and ``extra`` rendered ones."""
+    out = []
+    fx = REPO / "fixtures" / "scenes"
+    for t in sorted(fx.glob("truth_*.json")):
+        nn = t.stem.split("_")[1]
+        out.append((f"fixture {nn}", fx / f"left_{nn}.png", fx / f"right_{nn}.png", t))
+    if extra:
+        from appliance.synth.rig import default_rig
+        from appliance.synth.scene import make_scene, render
+        from appliance.synth.truth import save_truth
+
+        cache = REPO / "out" / "localize_scenes"
+        cache.mkdir(parents=True, exist_ok=True)
+        for seed in range(100, 100 + extra):
+            stem = cache / f"truth_{seed}"
+            left, right = cache / f"left_{seed}.png", cache / f"right_{seed}.png"
+            if not (stem.with_suffix(".json").exists() and left.exists() and right.exists()):
+                print(f"rendering scene {seed} ...", flush=True)
+                l_img, r_img, truth = render(make_scene(seed), default_rig(), seed=seed)
+                cv2.imwrite(str(left), l_img)
+                cv2.imwrite(str(right), r_img)
+                save_truth(truth, stem)
+            out.append((f"seed {seed}", left, right, stem.with_suffix(".json")))
+    return out
+
+
+def rectified_points(calib: StereoCalibration, px: np.ndarray, side: int) -> np.ndarray:
+    """Original (distorted) pixels -> rectified pixels of one camera, (N, 2)."""
+    K, D, R, P = (calib.K1, calib.D1, calib.R1, calib.P1) if side == 0 else (calib.K2, calib.D2, calib.R2, calib.P2)
+    return cv2.undistortPoints(np.asarray(px, float).reshape(-1, 1, 2), K, D, R=R, P=P).reshape(-1, 2)
+
+
+def sgbm_result(loc: Localizer, left: np.ndarray, right: np.ndarray, truth: SceneTruth) -> LocalizationResult:
+    """SGBM's disparity sampled (bilinear) at the true features seen in both views, as a result."""
+    calib = loc.calib
+    gl = loc.rectifier.rectify(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), 0)
+    gr = loc.rectifier.rectify(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), 1)
+    disp = sgbm_disparity(gl, gr, loc.d_range_px)
+    tf = truth.features
+    feats = []
+    for j in np.flatnonzero(tf.visible_left & tf.visible_right):
+        u, v = rectified_points(calib, tf.left_px[j], 0)[0]
+        x0, y0 = int(np.floor(u)), int(np.floor(v))
+        if not (0 <= x0 < disp.shape[1] - 1 and 0 <= y0 < disp.shape[0] - 1):
+            continue
+        patch = disp[y0:y0 + 2, x0:x0 + 2]
+        if not np.isfinite(patch).all():
+            continue
+        fx, fy = u - x0, v - y0
+        d = (patch[0, 0] * (1 - fx) * (1 - fy) + patch[0, 1] * fx * (1 - fy) + patch[1, 0] * (1 - fx) * fy
+             + patch[1, 1] * fx * fy)
+        xyz = triangulate([u], [v], [d], calib)[0]
+        feats.append(Feature(int(j), str(tf.kind[j]), tuple(tf.left_px[j]), tuple(tf.right_px[j]), tuple(xyz),
+                             float(tf.radius_mm[j]), float(xyz[2])))
+    return LocalizationResult(tuple(feats))
+
+
+def band_table(pooled: dict) -> str:
+    """p95 |dZ| (mm) of matched features per true-depth band, one row per method."""
+    head = f"{'method':<22}" + "".join(f"{f'{a}-{b} mm':>14}" for a, b in BANDS_MM) + f"{'all':>10}"
+    lines = [head, "-" * len(head)]
+    for name, score in pooled.items():
+        rows = [r for r in score.rows if r.truth_index >= 0 and r.result_id >= 0]
+        z = np.array([r.z_true_mm for r in rows])
+        dz = np.abs(np.array([r.dz_mm for r in rows]))
+        cells = []
+        for a, b in BANDS_MM:
+            sel = (z >= a) & (z < b)
+            cells.append(f"{np.percentile(dz[sel], 95):7.2f} (n={sel.sum():2d})" if sel.any() else f"{'-':>14}")
+        all_p95 = f"{np.percentile(dz, 95):10.2f}" if len(dz) else f"{'-':>10}"
+        lines.append(f"{name:<22}" + "".join(f"{c:>14}" for c in cells) + all_p95)
+    lines.append("cells: p95 of |Z - Z_true| of matched features whose true depth lies in the band (n = count)")
+    return "\n".join(lines)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--extra", type=int, default=0, help="render this many more scenes (seeds 100..)")
+    ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
+    ap.add_argument("--json", type=Path, help="write pooled scores here")
+    a = ap.parse_args()
+    cfg = load_config().localize
+    calib = load_calibration(REPO / "fixtures" / "rig.yaml")
+    locs = {v: Localizer(calib, cfg, v) for v in ("improved", "paper")}
+    mask_modes = ["true", "colour"] if a.masks == "both" else [a.masks]
+    per_method: dict[str, list] = {}
+    times: dict[str, list] = {}
+    for name, lp, rp, tp in scenes(a.extra):
+        left, right, truth = cv2.imread(str(lp)), cv2.imread(str(rp)), load_truth(tp)
+        for mode in mask_modes:
+            kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right) if mode == "true" else {}
+            for variant, loc in locs.items():
+                t0 = time.perf_counter()
+                res = loc.localize(left, right, **kw)
+                times.setdefault(f"{variant}, {mode} masks", []).append(time.perf_counter() - t0)
+                per_method.setdefault(f"{variant}, {mode} masks", []).append(
+                    score_result(res, truth, name=name))
+        per_method.setdefault("sgbm at true features", []).append(
+            score_result(sgbm_result(locs["improved"], left, right, truth), truth, name=name))
+        print(f"{name}: done", flush=True)
+    pooled = {}
+    for method, scores in per_method.items():
+        print(f"\n== {method}")
+        print(format_table(scores))
+        pooled[method] = pool(scores, name=method)
+    print("\n== p95 |dZ| per depth band")
+    print(band_table(pooled))
+    print("\n== pooled")
+    head = f"{'method':<22}{'recall':>7}{'prec':>6}{'p95 mm':>8}{'p95 px':>8}{'cover':>7}{'b.prec':>7}{'r err mm':>9}"
+    print(head)
+    print("-" * len(head))
+    for method, s in pooled.items():
+        print(f"{method:<22}{s.recall:>7.2f}{s.precision:>6.2f}{s.depth_err_mm['p95']:>8.2f}"
+              f"{s.depth_err_px['p95']:>8.3f}{s.branch_coverage:>7.2f}{s.branch_precision:>7.2f}"
+              f"{s.radius_err_mm['median']:>9.2f}")
+    if a.json:
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        a.json.write_text(json.dumps({m: s.to_dict() for m, s in pooled.items()}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

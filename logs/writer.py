@@ -96,7 +96,7 @@ class LogWriter:
                          "device": device_record(device)}
         if calibration is not None:
             self._records["calibration"] = calibration_record(calibration)
-        self._library = f"appliance {version or ''} (mcap {getattr(mcap, '__version__', '')})".strip()
+        self._library = f"appliance {version or '?'} (mcap {getattr(mcap, '__version__', '?')})"
         self.paths: list[Path] = []
         self.frames_written = self.frames_dropped = 0
         self.results_written = self.results_dropped = 0

@@ -469,12 +469,12 @@ def _features(scene: Scene, rig: Rig, seg: _Segments, hits: dict, ss: int) -> Tr
                    reach(scene.branches[parent[j]], scene.branches[branch[j]].parent_vertex, xyz[j])
                    for j in range(len(kind))]
         v = shows(px[side], xyz, allowed, reaches)
-        # a fork counts only where its child is seen leaving the parent
+        # a fork counts only where its child is seen leaving the parent (within a few child radii of it)
         for j in np.nonzero((kind == "bifurcation") & v)[0]:
             b = scene.branches[branch[j]]
             pr = scene.branches[parent[j]].radius_mm[b.parent_vertex]
-            p = _point_along(b.axis_mm, pr + 2 * b.radius_mm[0])[None]
-            v[j] = shows(rig.project(p, side), p, [[branch[j]]], [reach(b, 0, p[0])])[0]
+            p = np.array([_point_along(b.axis_mm, m * (pr + 2 * b.radius_mm[0])) for m in (1.0, 1.5, 2.0, 3.0)])
+            v[j] = shows(rig.project(p, side), p, [[branch[j]]] * len(p), [reach(b, 0, q) for q in p]).any()
         vis[side] = v
     return TrueFeatures(kind, xyz, px["left"], px["right"], vis["left"], vis["right"], branch, parent, radius)
 

@@ -78,7 +78,7 @@ def background_texture(kind: str, rng: np.random.Generator, size: int = 1024) ->
     elif kind == "grass":
         out = grass
     elif kind == "mixed":
-        horizon = 0.45 + 0.08 * big[:1, :]
+        horizon = 0.45 + 0.06 * fft_noise((1, size), rng, beta=4.0)
         w_sky = np.clip((horizon - rows) / 0.05, 0, 1)
         w_grass = np.clip((rows - 0.75 - 0.05 * mid) / 0.05, 0, 1)
         out = sky * w_sky[..., None] + foliage * (1 - w_sky[..., None])

@@ -197,7 +197,43 @@ def branches_message(result, stamp_ns: int) -> SceneUpdate:
 
 
 def result_json(result, seq: int) -> bytes:
-    """``/localize/result``: the result contract (``LocalizationResult.to_dict``) plus ``seq``."""
-    d = result.to_dict()
-    d["seq"] = int(seq)
-    return json.dumps(d, separators=(",", ":")).encode()
+    """``/localize/result``: the result contract (``LocalizationResult.to_dict``) plus ``seq``.
+
+    NaN and infinities become ``null`` (JSON has none; Foxglove would refuse the message);
+    :func:`result_from_json` turns them back into NaN.
+    """
+    return to_json({**result.to_dict(), "seq": int(seq)})
+
+
+def result_from_json(data: bytes) -> dict:
+    """The mapping written by :func:`result_json`, ``null`` numbers back as NaN."""
+    return _nulls_to_nan(json.loads(data))
+
+
+def to_json(value) -> bytes:
+    """Strict JSON of plain data and numpy values; non-finite floats as ``null``."""
+    return json.dumps(_finite(value), separators=(",", ":"), allow_nan=False).encode()
+
+
+def _finite(value):
+    if isinstance(value, dict):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _finite(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)
+
+
+def _nulls_to_nan(value):
+    if isinstance(value, dict):
+        return {k: _nulls_to_nan(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_nulls_to_nan(v) for v in value]
+    return float("nan") if value is None else value

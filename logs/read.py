@@ -92,7 +92,7 @@ def read_results(path: str | Path) -> list[tuple[int, int, LocalizationResult]]:
     """Every logged result as (seq, stamp_ns, LocalizationResult), in recorded order."""
     out = []
     for _, msg in iter_messages(path, (m.RESULT,)):
-        d = json.loads(msg.data)
+        d = m.result_from_json(msg.data)
         out.append((int(d.get("seq", msg.sequence)), int(d.get("stamp_ns") or msg.log_time),
                     LocalizationResult.from_dict(d)))
     return out

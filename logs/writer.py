@@ -308,7 +308,7 @@ class LogWriter:
     def _write_diagnostics(self, diagnostics: dict, stamp_ns: int | None) -> None:
         stamp = int(stamp_ns) if stamp_ns else time.time_ns()
         body = {"stamp_ns": stamp, **diagnostics, "log_writer": self.stats()}
-        self._add(m.DIAGNOSTICS, json.dumps(body, default=_jsonable).encode(), stamp)
+        self._add(m.DIAGNOSTICS, m.to_json(body), stamp)
 
     def _flush(self) -> None:
         """Close the chunk in progress and hand it to the OS; then check the free space."""
@@ -336,15 +336,6 @@ class LogWriter:
         if key not in self._warned:
             self._warned.add(key)
             log.warning(message)
-
-
-def _jsonable(value):
-    """JSON for numpy scalars/arrays and anything else (as text)."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return str(value)
 
 
 def _close_quietly(f) -> None:

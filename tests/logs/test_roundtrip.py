@@ -191,3 +191,29 @@ def test_threads_may_write_at_once(tmp_path, calib):
     assert summary.counts["/localize/result"] == summary.counts["/diagnostics"] == 40
     assert (writer.frames_written, writer.results_written, writer.diagnostics_written) == (40, 40, 40)
     assert [f.seq for f in iter_stereo_frames(writer.path)] == list(range(40))
+
+
+def test_non_finite_numbers_are_valid_json_and_read_back_as_nan(tmp_path, calib):
+    import dataclasses
+    import math
+
+    from appliance.logs import iter_messages
+
+    result = make_result(1, n_branches=1)
+    result = dataclasses.replace(result, features=(dataclasses.replace(result.features[0], radius_mm=math.nan,
+                                                                       safe_depth_mm=math.inf),))
+    with LogWriter(tmp_path / "nan.mcap", logging_cfg(), calibration=calib) as writer:
+        writer.write_result(result, 1)
+        writer.write_diagnostics({"temperature_c": float("nan"), "drops": np.int64(2)})
+    assert writer.results_written == writer.diagnostics_written == 1
+
+    def refuse(constant):
+        raise ValueError(f"non-standard JSON constant {constant}")
+
+    for _, message in iter_messages(writer.path, ("/localize/result", "/diagnostics")):
+        json.loads(message.data, parse_constant=refuse)  # what a browser's JSON.parse accepts
+    ((seq, _, logged),) = read_results(writer.path)
+    assert seq == 1 and math.isnan(logged.features[0].radius_mm) and math.isnan(logged.features[0].safe_depth_mm)
+    assert logged.branches[0].to_dict() == result.branches[0].to_dict()
+    (diag,) = read_diagnostics(writer.path)
+    assert diag["temperature_c"] is None and diag["drops"] == 2

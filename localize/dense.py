@@ -191,7 +191,19 @@ class _Builder:
         sel = pts[(dist >= 1.6 * r) & (dist <= 1.6 * r + max(40.0, 4 * r))]
         return sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
 
-    def fork(self, node: int) -> None:
+    def _seg_radius(self, s: int, pts: np.ndarray) -> float:
+        c = self.curves.get(s)
+        return c.radius_px if c is not None else float(np.median(radius_at(self.sm.radius_map, pts)))
+
+    def fork(self, node: int, final: bool = False) -> None:
+        """A fork: where the child's centre line meets the parent's, with the parent's disparity.
+
+        The parent is the pair of pieces that continue each other (most opposite directions;
+        the clearly thinnest piece is never a parent). The fork is reported only if the
+        child's own disparity there agrees with the parent's: otherwise the pieces merely
+        cross in the image (at different depths). Until ``final`` a fork waits for a fitted
+        parent.
+        """
         segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
         if len(segs) < 3:
             return
@@ -202,23 +214,40 @@ class _Builder:
         for s, pts in near.items():
             v = pts.mean(0) - p
             dirs[s] = v / max(np.hypot(*v), 1e-9)
-        pairs = [(np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:]]
-        _, pa, pb = min(pairs)
+        rad = {s: self._seg_radius(s, near[s]) for s in segs}
+        thin = min(segs, key=rad.get)
+        rest = [s for s in segs if s != thin]
+        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
+            pa, pb = rest
+        else:
+            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
         children = [s for s in segs if s not in (pa, pb)]
-        child = max(children, key=lambda s: self.curves[s].radius_px if s in self.curves else 0.0)
+        child = max(children, key=lambda s: (s in self.curves, rad[s]))
+        parents = [s for s in (pa, pb) if s in self.curves]
+        if not parents and not final:
+            return
         c1, e1 = _line(np.vstack([near[pa], near[pb]]))
         c2, e2 = _line(near[child])
+        p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
         xy = _intersect(c1, e1, c2, e2)
-        if xy is None or np.hypot(*(xy - p)) > 2.5 * r + 2 * self.g.scale:
-            xy = p
-        ds = [self.curves[s].d_at(self.curves[s].t_of(xy))[0] for s in (pa, pb) if s in self.curves]
-        if not ds:
-            ds = [self.curves[s].d_at(self.curves[s].t_of(xy))[0] for s in children if s in self.curves]
-        if not ds:
+        limit = 1.5 * max(rad[pa], rad[pb]) + 2 * self.g.scale
+        if xy is None:
+            xy = p0
+        else:
+            xy = p0 + np.clip(np.dot(xy - p0, e1), -limit, limit) * e1
+        at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]  # noqa: E731
+        if parents:
+            d = float(np.mean([at(s) for s in parents]))
+        elif child in self.curves:
+            d = float(at(child))
+        else:
             return
-        self.uvd[node] = np.array([xy[0], xy[1], float(np.mean(ds))])
-        radii = [self.curves[s].radius_px for s in children if s in self.curves]
-        self.radius[node] = float(np.mean(radii)) if radii else float(r)
+        self.uvd[node] = np.array([xy[0], xy[1], d])
+        self.radius[node] = rad[child]
+        if not parents or child not in self.curves or abs(at(child) - d) > max(1.5, 0.015 * d):
+            self.hidden.add(int(node))
+        else:
+            self.hidden.discard(int(node))
 
     def _walk_out(self, c: BranchCurve, node: int) -> tuple[float, float]:
         """Parameter where the fitted centre line, followed outwards, leaves the mask; and the direction (+-1) of t."""
@@ -323,10 +352,8 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
             curves[s] = c
     b = _Builder(graph, sm, curves, cfg)
     kinds = graph.node_kind
-    for node in np.flatnonzero(kinds == JUNCTION):
+    for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture
         b.fork(node)
-    for node in np.flatnonzero(kinds == ENDPOINT):
-        b.tip(node)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:
@@ -335,15 +362,12 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
             c = _flat_curve(b, s, runs_lt)
             if c is not None:
                 curves[s] = c
-        for node in np.flatnonzero(kinds == JUNCTION):
-            if node not in b.uvd:
-                b.fork(node)
-        for node in np.flatnonzero(kinds == ENDPOINT):
-            if node not in b.uvd:
-                b.tip(node)
-        for node in np.flatnonzero(kinds == JOINT):
-            if node not in b.uvd:
-                b.joint(node)
+    for node in np.flatnonzero(kinds == JUNCTION):
+        b.fork(node, final=True)
+    for node in np.flatnonzero(kinds == ENDPOINT):
+        b.tip(node)
+    for node in np.flatnonzero(kinds == JOINT):
+        b.joint(node)
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px

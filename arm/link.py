@@ -44,7 +44,7 @@ from appliance.errors import ApplianceError
 
 COUNTERS = ("submitted", "dropped", "sent", "bytes_sent", "truncated", "heartbeats", "acked", "nacked",
             "retransmits", "superseded", "gave_up", "write_timeouts", "rx_errors", "connects",
-            "disconnects")
+            "disconnects", "errors")
 
 
 class ArmLinkError(ApplianceError):
@@ -128,7 +128,8 @@ class ArmLink:
         ``sent`` (OBSTACLES written), ``bytes_sent``, ``truncated``, ``heartbeats``, ``acked``,
         ``nacked``, ``retransmits``, ``superseded`` (unacknowledged set replaced by a newer
         one), ``gave_up`` (retries exhausted), ``write_timeouts``, ``rx_errors`` (bad frames
-        from the controller), ``connects``, ``disconnects``.
+        from the controller), ``connects``, ``disconnects``, ``errors`` (anything else that
+        went wrong, e.g. a result that cannot be encoded; ``last_error`` says what).
         """
         with self._lock:
             out = dict(self._counts)
@@ -197,6 +198,10 @@ class ArmLink:
             except (serial.SerialException, OSError) as exc:
                 self._last_error = port_error(exc)
                 self._disconnect()
+            except Exception as exc:  # noqa: BLE001 - the link must outlive any one bad result
+                self._counts["errors"] += 1
+                self._last_error = f"{type(exc).__name__}: {exc}"
+                self._stop.wait(0.01)
 
     def _send_next(self) -> None:
         with self._lock:

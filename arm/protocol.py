@@ -236,7 +236,7 @@ class Heartbeat:
     def payload(self) -> bytes:
         flags = ((HB_CAMERA_OK if self.camera_ok else 0) | (HB_CALIBRATED if self.calibrated else 0)
                  | (HB_ACK_MODE if self.ack_mode else 0))
-        rate = min(max(round(self.rate_hz * 100), 0), 0xFFFF)
+        rate = min(max(round(self.rate_hz * 100), 0), 0xFFFF) if math.isfinite(self.rate_hz) else 0
         return HEARTBEAT_FIXED.pack(self.stamp_ns, flags, 0, rate, min(self.results_dropped, 0xFFFFFFFF))
 
     @classmethod
@@ -465,7 +465,7 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
 def safety_factor(result, default: float = 1.05) -> float:
     """The safety factor k the localizer used (Z - safe_depth = k * radius), median over features."""
     ks = [(f.xyz_mm[2] - f.safe_depth_mm) / f.radius_mm for f in result.features
-          if f.radius_mm > 0 and math.isfinite(f.safe_depth_mm)]
+          if f.radius_mm > 0 and math.isfinite(f.safe_depth_mm) and math.isfinite(f.xyz_mm[2])]
     return float(np.median(ks)) if ks else default
 
 
@@ -489,7 +489,9 @@ def obstacles_from_result(result, camera_to_base, max_bytes: int, *, frame_seq: 
         than this from its segment.
 
     Nearest means smallest distance from the arm base origin to the segment's
-    surface (distance to the axis segment minus the clearance, at least 0).
+    surface (distance to the axis segment minus the clearance, at least 0). Branches
+    beyond the wire range (+-8191.75 mm) or with non-finite values are left out and
+    ``out_of_range`` is set.
     """
     T = np.asarray(camera_to_base, float).reshape(4, 4)
     k = safety_factor(result)
@@ -502,8 +504,8 @@ def obstacles_from_result(result, camera_to_base, max_bytes: int, *, frame_seq: 
             poly = np.vstack([poly, poly])
         base = poly @ T[:3, :3].T + T[:3, 3]
         clearance = k * float(br.radius_mm)
-        if np.abs(base).max() > MAX_LENGTH_MM or clearance > 0xFFFF * LSB_MM:
-            out_of_range = True
+        if not (np.abs(base).max() <= MAX_LENGTH_MM and 0 <= clearance <= 0xFFFF * LSB_MM):
+            out_of_range = True  # also NaN / inf / negative radius: left out, flagged
             continue
         for a, b in zip(base[:-1], base[1:]):
             segs.append(Segment(tuple(a.tolist()), tuple(b.tolist()), float(br.radius_mm), clearance,

@@ -191,3 +191,30 @@ def test_write_timeout_when_nobody_reads_never_blocks_the_caller(tmp_path):
         os.close(master)
         os.close(slave)
     assert longest < 0.2 and stats["dropped"] > 0 and stats["connected"] is True
+
+
+def test_a_result_that_cannot_be_sent_does_not_stop_the_link():
+    master, slave = os.openpty()
+    link = ArmLink(serial_cfg(os.ttyname(slave)), np.eye(4)).open()
+    try:
+        link.submit(object(), 0)  # not a LocalizationResult
+        assert wait_until(lambda: link.stats()["errors"] == 1)
+        link.submit(make_result(1), 1)
+        dec, seqs = P.FrameDecoder(), []
+        os.set_blocking(master, False)
+
+        def got_it():
+            try:
+                frames = dec.feed(os.read(master, 1 << 16))
+            except BlockingIOError:
+                return False
+            seqs.extend(P.parse(f).frame_seq for f in frames if isinstance(f, P.Frame) and f.type == P.OBSTACLES)
+            return 1 in seqs
+
+        assert wait_until(got_it)
+        assert "AttributeError" in link.stats()["last_error"]
+    finally:
+        link.close()
+        os.close(master)
+        os.close(slave)
+    assert seqs == [1]

@@ -206,3 +206,13 @@ def test_quantisation_rounds_lengths_and_never_shrinks_clearance():
     (back,) = P.parse(frame).segments
     assert np.allclose(back.p0_mm, seg.p0_mm, atol=P.LSB_MM / 2) and abs(back.radius_mm - 2.61) <= 0.125
     assert seg.clearance_mm <= back.clearance_mm < seg.clearance_mm + P.LSB_MM
+
+
+def test_non_finite_branches_are_left_out_not_fatal():
+    bad = _branch(1, [[0, 0, np.nan], [0, 10, 900]])
+    inf_r = _branch(2, [[0, 0, 900], [0, 10, 900]], r=np.inf)
+    good = _branch(3, [[0, 0, 800], [0, 9, 800]])
+    obs = P.obstacles_from_result(LocalizationResult((), (bad, inf_r, good)), np.eye(4), 10_000)
+    assert obs.out_of_range and [s.branch_id for s in obs.segments] == [3]
+    hb = P.Heartbeat(0, True, True, float("nan"))
+    assert P.parse(P.FrameDecoder().feed(P.encode(hb, 0))[0]).rate_hz == 0.0

@@ -12,7 +12,8 @@ Faults (:class:`Faults`) play a bad line or a busy controller:
 - ``corrupt``: probability one byte of a received frame is flipped before decoding
   (the CRC then fails and the frame is NACKed);
 - ``delay_s``: every answer is sent this late;
-- ``disconnect_s``: every this many seconds the port is closed for ``disconnect_for_s``.
+- ``disconnect_s``: every this many seconds the port is closed for ``disconnect_for_s``
+  (``--fault disconnect=EVERY[/FOR]``, default 5 s / 1 s).
 """
 
 from __future__ import annotations
@@ -48,10 +49,16 @@ FAULT_DEFAULTS = {"drop": 0.1, "corrupt": 0.1, "delay": 0.2, "disconnect": 5.0}
 
 
 def parse_faults(specs: list[str], seed: int = 0) -> Faults:
-    """``["drop=0.2", "delay"]`` -> Faults; a bare name takes its default (FAULT_DEFAULTS)."""
-    values = {}
+    """``["drop=0.2", "delay", "disconnect=5/1"]`` -> Faults; a bare name takes its default."""
+    values, off_s = {}, 1.0
     for spec in specs:
         name, _, value = spec.partition("=")
+        if name == "disconnect" and "/" in value:
+            value, _, off = value.partition("/")
+            try:
+                off_s = float(off)
+            except ValueError:
+                raise ArmSimError(f"--fault {spec}: {off!r} is not a number") from None
         if name not in FAULT_DEFAULTS:
             raise ArmSimError(f"--fault {spec}: unknown fault, expected one of {', '.join(FAULT_DEFAULTS)}")
         try:
@@ -61,7 +68,7 @@ def parse_faults(specs: list[str], seed: int = 0) -> Faults:
         if values[name] < 0 or (name in ("drop", "corrupt") and values[name] > 1):
             raise ArmSimError(f"--fault {spec}: out of range (probabilities 0..1, times >= 0)")
     return Faults(values.get("drop", 0.0), values.get("corrupt", 0.0), values.get("delay", 0.0),
-                  values.get("disconnect", 0.0), seed=seed)
+                  values.get("disconnect", 0.0), off_s, seed)
 
 
 def open_port(port: str, baud: int) -> serial.Serial:

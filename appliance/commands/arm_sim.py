@@ -17,8 +17,8 @@ def command(
     port: Annotated[str, typer.Argument(help="Serial port to listen on, e.g. /dev/ttyUSB1 or a pty.")],
     fault: Annotated[Optional[list[str]], typer.Option(
         "--fault", help="Inject a fault, repeatable: drop[=P] corrupt[=P] (probability per frame, "
-                        "default 0.1), delay[=S] (answers late, default 0.2 s), disconnect[=S] "
-                        "(close the port for 1 s every S s, default 5).")] = None,
+                        "default 0.1), delay[=S] (answers late, default 0.2 s), disconnect[=S[/D]] "
+                        "(close the port for D s every S s, default 5/1).")] = None,
     seed: Annotated[int, typer.Option(help="Seed of the fault dice.")] = 0,
     json_out: Annotated[Optional[Path], typer.Option(
         "--json-out", help="Write every event as one JSON line (flushed as it happens).")] = None,

@@ -94,3 +94,24 @@ def test_sim_missing_port_and_bad_fault_are_one_line_errors(tmp_path):
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
         assert all(w in lines[0] for w in words), lines[0]
+
+
+def test_sim_disconnect_fault_loses_a_stretch_and_comes_back(bridge, tmp_path, start_sim):
+    sim = start_sim(bridge.sim_path, tmp_path / "sim.jsonl", "-q", "--fault", "disconnect=0.8/0.4")
+    link = ArmLink(serial_cfg(bridge.link_path), np.eye(4)).open()
+    for i in range(50):
+        link.submit(make_result(i), i)
+        time.sleep(0.04)
+    time.sleep(0.2)
+    stats = link.stats()
+    link.close()
+    sim.stop()
+    events = sim.events()
+    got = [e["frame_seq"] for e in events if e.get("type") == "OBSTACLES"]
+    assert sum(e["event"] == "disconnect" for e in events) >= 1
+    assert got == sorted(set(got)) and got[0] < 10
+    # a stretch of results went while the port was closed; results came again after it
+    gaps = [(b - a - 1, a) for a, b in zip(got, got[1:])]
+    missing, before = max(gaps)
+    assert missing >= 5 and got[-1] > before + missing
+    assert stats["sent"] == 50 and stats["disconnects"] == 0  # the sender did not notice

@@ -63,13 +63,19 @@ def print_summary(summary: LogSummary, console: Console) -> None:
 
 @app.command("check")
 def check(
-    file: Annotated[Path, typer.Argument(help="An MCAP log.", show_default=False)],
+    files: Annotated[list[Path], typer.Argument(help="MCAP logs (e.g. logs/*.mcap).", show_default=False)],
 ) -> None:
-    """Summarise a log (topics, counts, duration, gaps); exit 1 when it is not intact."""
-    summary = check_log(file)
-    print_summary(summary, _console())
-    if not summary.intact:
+    """Summarise logs (topics, counts, duration, gaps); exit 1 when one is not intact."""
+    console = _console()
+    broken = []
+    for file in files:
+        summary = check_log(file)
+        print_summary(summary, console)
+        if not summary.intact:
+            broken.append(file)
+    for file in broken:
         typer.echo(f"{file}: not intact; `appliance logs recover {file}` writes a readable copy", err=True)
+    if broken:
         raise typer.Exit(1)
 
 

@@ -43,3 +43,16 @@ def test_check_errors_name_the_file(tmp_path):
     assert r.returncode == 1 and "missing.mcap: no such log file" in r.stderr
     r = cli("logs", "check", str(tmp_path))
     assert r.returncode == 1 and "is a folder" in r.stderr
+
+
+def test_check_several_files_fails_when_one_is_not_intact(tmp_path, calib):
+    with LogWriter(tmp_path / "whole.mcap", logging_cfg(), calibration=calib) as writer:
+        for seq in range(3):
+            writer.write_frame(make_frame(seq))
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(writer.path.read_bytes()[:-100])
+    assert cli("logs", "check", str(writer.path)).returncode == 0
+    r = cli("logs", "check", str(writer.path), str(cut))
+    assert r.returncode == 1
+    assert r.stdout.count("3 stereo pairs") == 2 and r.stdout.count("NOT intact") == 1
+    assert "cut.mcap: not intact" in r.stderr and "whole.mcap" not in r.stderr

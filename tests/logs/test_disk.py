@@ -57,10 +57,11 @@ def run_on_small_tmpfs(tmp_path, size: str, *args: str) -> tuple[dict, list[str]
     """Run endless_writer.py on a tmpfs of ``size`` in a private mount namespace; copy the logs out."""
     if shutil.which("unshare") is None or subprocess.run(["unshare", "-m", "true"]).returncode != 0:
         pytest.skip("needs unshare -m (root) to mount a small tmpfs")
-    out = tmp_path / "copied"
+    small, out = tmp_path / "small", tmp_path / "copied"  # the tmpfs is seen only inside the namespace
+    small.mkdir()
     out.mkdir()
-    script = (f"mount -t tmpfs -o size={size} tmpfs /mnt && "
-              f"{PYTHON} {HERE / 'endless_writer.py'} /mnt/logs {' '.join(args)} && cp /mnt/logs/*.mcap {out}")
+    script = (f"mount -t tmpfs -o size={size} tmpfs {small} && "
+              f"{PYTHON} {HERE / 'endless_writer.py'} {small}/logs {' '.join(args)} && cp {small}/logs/*.mcap {out}")
     r = subprocess.run(["unshare", "-m", "sh", "-c", script], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()

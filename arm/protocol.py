@@ -456,10 +456,12 @@ def simplify_polyline(points_mm: np.ndarray, tolerance_mm: float) -> np.ndarray:
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distances (K,) of points ``p`` (K, 3) from the segment a-b (each (3,))."""
-    ab = b - a
+    ab, ap = b - a, p - a
     denom = float(ab @ ab)
-    t = np.zeros(len(p)) if denom == 0 else np.clip((p - a) @ ab / denom, 0, 1)
-    return np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
+    if denom > 0:
+        t = np.minimum(np.maximum(ap @ ab / denom, 0.0), 1.0)
+        ap = ap - t[:, None] * ab
+    return np.sqrt(np.einsum("ij,ij->i", ap, ap))
 
 
 def safety_factor(result, default: float = 1.05) -> float:
@@ -495,7 +497,7 @@ def obstacles_from_result(result, camera_to_base, max_bytes: int, *, frame_seq: 
     """
     T = np.asarray(camera_to_base, float).reshape(4, 4)
     k = safety_factor(result)
-    segs, dist, out_of_range = [], [], False
+    p0, p1, rows, out_of_range = [], [], [], False  # rows: (radius, clearance, branch id, recovered)
     for br in result.branches:
         poly = simplify_polyline(br.polyline_mm, tolerance_mm)
         if len(poly) == 0:
@@ -507,11 +509,17 @@ def obstacles_from_result(result, camera_to_base, max_bytes: int, *, frame_seq: 
         if not (np.abs(base).max() <= MAX_LENGTH_MM and 0 <= clearance <= 0xFFFF * LSB_MM):
             out_of_range = True  # also NaN / inf / negative radius: left out, flagged
             continue
-        for a, b in zip(base[:-1], base[1:]):
-            segs.append(Segment(tuple(a.tolist()), tuple(b.tolist()), float(br.radius_mm), clearance,
-                                int(br.id), bool(br.recovered)))
-            dist.append(max(0.0, float(_point_segment_distance(np.zeros((1, 3)), a, b)[0]) - clearance))
-    order = np.argsort(dist, kind="stable")
+        p0.append(base[:-1])
+        p1.append(base[1:])
+        rows += [(float(br.radius_mm), clearance, int(br.id), bool(br.recovered))] * (len(base) - 1)
+    if not rows:
+        return Obstacles(int(result.stamp_ns), int(frame_seq), (), 0, False, out_of_range)
+    a, b = np.concatenate(p0), np.concatenate(p1)
+    # distance of the origin from each segment a-b, less the clearance
+    ab = b - a
+    t = np.clip(-np.einsum("ij,ij->i", a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    dist = np.maximum(np.linalg.norm(a + t[:, None] * ab, axis=1) - [r[1] for r in rows], 0)
     n = max_segments(max_bytes)
-    chosen = tuple(segs[i] for i in order[:n])
-    return Obstacles(int(result.stamp_ns), int(frame_seq), chosen, len(segs), len(segs) > n, out_of_range)
+    chosen = tuple(Segment(tuple(a[i].tolist()), tuple(b[i].tolist()), *rows[i])
+                   for i in np.argsort(dist, kind="stable")[:n])
+    return Obstacles(int(result.stamp_ns), int(frame_seq), chosen, len(rows), len(rows) > n, out_of_range)

@@ -10,20 +10,51 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.polynomial import Polynomial
 
 
-def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Polynomial, np.ndarray]:
+@dataclass(frozen=True, eq=False)
+class Poly:
+    """A polynomial of a scaled parameter: ``p(t) = polyval(coef, (t - t0) / ts)`` (well conditioned)."""
+
+    coef: np.ndarray
+    t0: float = 0.0
+    ts: float = 1.0
+
+    def __call__(self, t) -> np.ndarray:
+        return np.polyval(self.coef, (np.asarray(t, float) - self.t0) / self.ts)
+
+    def deriv(self) -> Poly:
+        if len(self.coef) <= 1:
+            return Poly(np.zeros(1), self.t0, self.ts)
+        return Poly(np.polyder(self.coef) / self.ts, self.t0, self.ts)
+
+    @classmethod
+    def constant(cls, value: float) -> Poly:
+        return cls(np.array([float(value)]))
+
+    @classmethod
+    def fit(cls, t: np.ndarray, y: np.ndarray, degree: int) -> Poly:
+        """Least squares (``degree`` lowered to what the samples support)."""
+        t, y = np.asarray(t, float), np.asarray(y, float)
+        degree = int(min(degree, max(len(np.unique(t)) - 1, 0)))
+        t0 = float(t.mean()) if len(t) else 0.0
+        ts = float(max(np.abs(t - t0).max(), 1.0)) if len(t) else 1.0
+        x = (t - t0) / ts
+        a = np.vander(x, degree + 1)
+        coef = np.linalg.lstsq(a, y, rcond=None)[0]
+        return cls(coef, t0, ts)
+
+
+def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Poly, np.ndarray]:
     """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs.
 
     Returns
     -------
-    (Polynomial, inliers bool (N,))
+    (Poly, inliers bool (N,))
     """
     t, y = np.asarray(t, float), np.asarray(y, float)
-    degree = int(min(degree, max(len(t) - 1, 0)))
     keep = np.ones(len(t), bool)
-    poly = Polynomial.fit(t, y, degree)
+    poly = Poly.fit(t, y, degree)
     for _ in range(rounds):
         res = y - poly(t)
         mad = 1.4826 * np.median(np.abs(res[keep] - np.median(res[keep]))) + 1e-3
@@ -31,12 +62,12 @@ def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad
         if new.sum() <= degree + 1 or (new == keep).all():
             break
         keep = new
-        poly = Polynomial.fit(t[keep], y[keep], degree)
+        poly = Poly.fit(t[keep], y[keep], degree)
     return poly, keep
 
 
 def degree_for(n_samples: int, span_px: float) -> int:
-    """Polynomial degree for a branch piece: 1 when short, up to 3 when long."""
+    """Poly degree for a branch piece: 1 when short, up to 3 when long."""
     if n_samples < 12 or span_px < 40:
         return 1
     return 2 if span_px < 160 else 3
@@ -54,13 +85,13 @@ class BranchCurve:
     segment: int
     by_row: bool
     t_range: tuple[float, float]
-    s_poly: Polynomial
-    d_poly: Polynomial
+    s_poly: Poly
+    d_poly: Poly
     radius_px: float
     n_samples: int
     d_end_slopes: tuple[float, float] | None = None
 
-    def _eval(self, poly: Polynomial, t, slopes=None) -> np.ndarray:
+    def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
         tc = np.clip(t, lo, hi)

@@ -21,13 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, degree_for, end_slopes, robust_fit
+from appliance.localize.curves import BranchCurve, Poly, degree_for, end_slopes, robust_fit
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.texture import nearer_in_front, surface_disparity, surface_to_axis
-from numpy.polynomial import Polynomial
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,9 +38,10 @@ class StereoMasks:
     left_mask, right_mask : ndarray (H, W) uint8
         Branch coverage 0-255 (binary masks remapped with linear interpolation); branch
         where >= 128.
-    left_gray, right_gray : ndarray (H, W) float32
-    radius_map : ndarray (H, W) float32
-        Left mask's ridge radius map (:func:`radius.ridge_radius_map`), px.
+    left_gray, right_gray : ndarray (H, W) uint8
+        Rectified grey images.
+    radius_map : RadiusMap
+        Left mask's radius map (:func:`radius.ridge_radius_map`).
     d_range_px : (float, float)
         Disparities of the working range.
     f_px, offset_px : float
@@ -52,7 +52,7 @@ class StereoMasks:
     right_mask: np.ndarray
     left_gray: np.ndarray
     right_gray: np.ndarray
-    radius_map: np.ndarray
+    radius_map: RadiusMap
     d_range_px: tuple[float, float]
     f_px: float
     offset_px: float = 0.0
@@ -129,7 +129,7 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     else:
         hist, edges = np.histogram(cd, bins=np.arange(dmin - 1, dmax + 2, 1.0))
         hist = np.convolve(hist, [1, 2, 1], "same")
-        model = Polynomial([edges[np.argmax(hist)] + 0.5])
+        model = Poly.constant(edges[np.argmax(hist)] + 0.5)
     for tol in (3.0, 1.5, 0.75):
         res = np.abs(cd - model(t[q]))
         order = np.lexsort((res, q))
@@ -331,8 +331,8 @@ def _flat_curve(b: _Builder, s: int, runs_lt: Runs) -> BranchCurve | None:
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
     if len(ends) == 0:
         return None
-    d_poly = Polynomial.fit(ends[:, 0], ends[:, 1], 1) if len(ends) == 2 and abs(ends[1, 0] - ends[0, 0]) > 1 \
-        else Polynomial([ends[:, 1].mean()])
+    d_poly = Poly.fit(ends[:, 0], ends[:, 1], 1) if len(ends) == 2 and abs(ends[1, 0] - ends[0, 0]) > 1 \
+        else Poly.constant(ends[:, 1].mean())
     return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, 0)
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 
@@ -106,14 +107,18 @@ def find_runs(mask: np.ndarray, gray: np.ndarray | None = None, soft: bool = Fal
         Grey image: boundaries are moved to the gradient peak (+-0.5 px).
     """
     mask = np.asarray(mask)
-    m = ((mask >= 128) if soft else (mask > 0)).astype(np.int8)
-    h, w = m.shape
-    pad = np.zeros((h, w + 2), np.int8)
-    pad[:, 1:-1] = m
-    d = np.diff(pad, axis=1)
-    sr, sc = np.nonzero(d == 1)      # run starts at column sc
-    er, ec = np.nonzero(d == -1)     # run ends after column ec - 1
-    x0, x1 = sc, ec - 1
+    h, w = mask.shape
+    m = np.zeros((h, w + 2), np.uint8)
+    m[:, 1:-1] = (mask >= 128) if soft else (mask > 0)
+    change = cv2.bitwise_xor(m[:, 1:], m[:, :-1])          # 1 between padded columns c and c + 1
+    pts = cv2.findNonZero(change)
+    if pts is None:
+        e = np.zeros(0, int)
+        return Runs(w, e, e, e, e.astype(float), e.astype(float))
+    pts = pts.reshape(-1, 2)                                 # row-major: start, end, start, end, ...
+    sr = pts[0::2, 1].astype(np.int64)
+    x0 = pts[0::2, 0].astype(np.int64)
+    x1 = pts[1::2, 0].astype(np.int64) - 1
     left, right = x0 - 0.5, x1 + 0.5
     if soft and len(sr):
         left = np.where(x0 > 0, _soft_crossing(mask, sr, np.maximum(x0 - 1, 0), x0), left)

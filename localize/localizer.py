@@ -23,9 +23,9 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.match import match_features
 from appliance.localize.matching import Matching
 from appliance.localize.prune import prune
-from appliance.localize.radius import ridge_radius_map
+from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover
-from appliance.localize.rectify import Rectifier
+from appliance.localize.rectify import LazyRectified, Rectifier
 from appliance.localize.result import Branch, Feature, LocalizationResult
 from appliance.localize.segment import as_mask, segment_color
 from appliance.localize.skeleton import skeletonize
@@ -94,15 +94,18 @@ class Localizer:
             occluder = r.rectify(occluder, 0, nearest=True)
         return ml, mr, occluder
 
-    def _graph(self, mask: np.ndarray, radius_map: np.ndarray, occluder, clock) -> SkeletonGraph:
+    def _graph(self, mask: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
+        """Skeleton, radius map, pruning and recovery of one binary mask (uint8 0/255)."""
         c = self.cfg
         skel = skeletonize(mask, c.skeleton.method, c.skeleton.downscale)
         clock.lap("skeleton")
-        _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius_map)
+        radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
+        clock.lap("radius")
+        _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius)
         clock.lap("prune")
-        graph = recover(graph, c.recover, radius_map, occluder)
+        graph = recover(graph, c.recover, radius, occluder)
         clock.lap("recover")
-        return graph
+        return graph, radius
 
     def localize(self, left: np.ndarray, right: np.ndarray, stamp_ns: int = 0,
                  mask_left: np.ndarray | None = None, mask_right: np.ndarray | None = None) -> LocalizationResult:
@@ -133,20 +136,14 @@ class Localizer:
         if not bl.any() or not br.any():
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
         c = self.cfg
-        window = 2 * c.skeleton.downscale + 1 if c.skeleton.method == "fast" else 1
-        radius_l = ridge_radius_map(bl, window)
-        clock.lap("radius")
-        graph_l = self._graph(bl, radius_l, occluder, clock)
+        graph_l, radius_l = self._graph(bl, occluder, clock)
         if c.match.method == "features":
-            radius_r = ridge_radius_map(br, window)
-            clock.lap("radius")
-            graph_r = self._graph(br, radius_r, None, clock)
+            graph_r, radius_r = self._graph(br, None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
             gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY) if left.ndim == 3 else left
             gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY) if right.ndim == 3 else right
-            gl = r.rectify(gl.astype(np.float32), 0)
-            gr = r.rectify(gr.astype(np.float32), 1)
+            gl, gr = LazyRectified(r, gl, 0), LazyRectified(r, gr, 1)
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
                              float(self.calib.P1[0, 2] - self.calib.P2[0, 2]))

@@ -52,6 +52,6 @@ def prune(skel: Skeleton, min_length_px: float, radius_factor: float = 0.0,
                 if node >= 0 and graph.node_kind[node] == ENDPOINT:
                     p = graph.node_pixels[node]
                     img[p[:, 0], p[:, 1]] = 0
-        skel = Skeleton(remove_corners(img), skel.scale)
+        skel = Skeleton(remove_corners(img), skel.scale, skel.mask)
         graph = build_graph(skel)
     return skel, graph

@@ -2,33 +2,56 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
 
-def ridge_radius_map(mask: np.ndarray, window_px: int = 1) -> np.ndarray:
-    """Radius of the branch around each pixel, px, shape (H, W) float32.
+@dataclass(frozen=True, eq=False)
+class RadiusMap:
+    """Radius of the branch around each pixel of a (possibly downscaled) mask.
+
+    Attributes
+    ----------
+    image : ndarray (H/scale, W/scale) float32
+        Radius, full-resolution px.
+    scale : int
+        Full-resolution pixels per map pixel.
+    """
+
+    image: np.ndarray
+    scale: int = 1
+
+
+def ridge_radius_map(mask: np.ndarray, window_px: int = 1, scale: int = 1) -> RadiusMap:
+    """Radius of the branch around each pixel (full-resolution px).
 
     The distance transform (L2, precise) less half a pixel (the mask boundary is half
     way between a branch pixel and a background pixel), max-filtered over
     ``window_px`` so points a little off the ridge (a coarse skeleton) read the ridge.
+    ``mask`` may be a ``scale`` times smaller mask (then the radius is only good to
+    about ``scale / 2`` px).
     """
     dt = cv2.distanceTransform((mask > 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     if window_px > 1:
         dt = cv2.dilate(dt, np.ones((window_px, window_px), np.uint8))
-    return np.maximum(dt - 0.5, 0.0)
+    return RadiusMap(np.maximum(dt - 0.5, 0.0) * scale, scale)
 
 
-def radius_at(radius_map: np.ndarray, xy_px: np.ndarray) -> np.ndarray:
-    """Radius map sampled at the nearest pixels of ``xy_px`` (N, 2) (x, y); shape (N,)."""
-    xy = np.rint(np.asarray(xy_px, float).reshape(-1, 2)).astype(int)
-    h, w = radius_map.shape
+def radius_at(radius_map: RadiusMap | np.ndarray, xy_px: np.ndarray) -> np.ndarray:
+    """Radius at full-resolution points ``xy_px`` (N, 2) (x, y), nearest map pixel; shape (N,)."""
+    if not isinstance(radius_map, RadiusMap):
+        radius_map = RadiusMap(np.asarray(radius_map))
+    img, s = radius_map.image, radius_map.scale
+    xy = np.rint((np.asarray(xy_px, float).reshape(-1, 2) + 0.5) / s - 0.5).astype(int)
+    h, w = img.shape
     x = np.clip(xy[:, 0], 0, w - 1)
     y = np.clip(xy[:, 1], 0, h - 1)
-    return radius_map[y, x].astype(float)
+    return img[y, x].astype(float)
 
 
-def segment_radius(radius_map: np.ndarray, xy_px: np.ndarray) -> float:
+def segment_radius(radius_map: RadiusMap | np.ndarray, xy_px: np.ndarray) -> float:
     """The paper's segment radius: mean of the radius at its skeleton points, px (NaN if none)."""
     r = radius_at(radius_map, xy_px)
     return float(r.mean()) if len(r) else float("nan")

@@ -83,3 +83,34 @@ class Rectifier:
         rays = rays @ Rr  # rows: R^T @ ray, back into the camera's unrectified frame
         img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
         return img.reshape(-1, 2)
+
+
+class LazyRectified:
+    """A rectified image computed band by band when indexed (``img[y0:y1, x0:x1]``).
+
+    The matcher reads the grey images only in small patches; rectifying just the bands
+    of rows it touches saves most of a full remap.
+    """
+
+    def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, band_px: int = 32):
+        self.rectifier, self.image, self.side, self.band = rectifier, image, side, band_px
+        w, h = rectifier.calib.image_size
+        self.shape = (h, w)
+        self._bands: dict[int, np.ndarray] = {}
+
+    def _band(self, k: int) -> np.ndarray:
+        if k not in self._bands:
+            m1, m2 = self.rectifier.maps[self.side]
+            y0, y1 = k * self.band, min((k + 1) * self.band, self.shape[0])
+            self._bands[k] = cv2.remap(self.image, m1[y0:y1], m2[y0:y1], cv2.INTER_LINEAR,
+                                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        return self._bands[k]
+
+    def __getitem__(self, index):
+        ys, xs = index
+        y0, y1, _ = ys.indices(self.shape[0])
+        if y1 <= y0:
+            return np.zeros((0, self.shape[1]), self.image.dtype)[:, xs]
+        k0, k1 = y0 // self.band, (y1 - 1) // self.band
+        rows = np.vstack([self._band(k) for k in range(k0, k1 + 1)])
+        return rows[y0 - k0 * self.band:y1 - k0 * self.band, xs]

@@ -27,6 +27,8 @@ class Skeleton:
     Attributes
     ----------
     image : ndarray, shape (H/scale, W/scale), uint8 0/1
+    mask : ndarray, shape (H/scale, W/scale), uint8 0/255
+        The mask that was thinned.
     scale : int
         Full-resolution pixels per skeleton pixel; a skeleton pixel (x, y) is at
         ``(x + 0.5) * scale - 0.5`` in the full image.
@@ -34,6 +36,7 @@ class Skeleton:
 
     image: np.ndarray
     scale: int = 1
+    mask: np.ndarray | None = None
 
 
 def neighbour_code(img01: np.ndarray) -> np.ndarray:
@@ -122,4 +125,4 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) 
         m = (small >= 77).astype(np.uint8) * 255
         scale = downscale
     thin = cv2.ximgproc.thinning(m, thinningType=cv2.ximgproc.THINNING_ZHANGSUEN)
-    return Skeleton(remove_corners(thin > 0), scale)
+    return Skeleton(remove_corners(thin > 0), scale, m)

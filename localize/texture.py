@@ -18,7 +18,7 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
 
     Parameters
     ----------
-    left, right : ndarray (H, W) float32
+    left, right : ndarray (H, W) uint8 or float32
         Rectified grey images.
     uv_px : ndarray (N, 2)
         Patch centres in the left image.

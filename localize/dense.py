@@ -130,23 +130,22 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
         hist, edges = np.histogram(cd, bins=np.arange(dmin - 1, dmax + 2, 1.0))
         hist = np.convolve(hist, [1, 2, 1], "same")
         model = Poly.constant(edges[np.argmax(hist)] + 0.5)
-    for tol in (3.0, 1.5, 0.75):
+    for k, tol in enumerate((3.0, 1.5, 0.75)):      # per row, the candidate nearest the model
         res = np.abs(cd - model(t[q]))
         order = np.lexsort((res, q))
         first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
         chosen = first[res[first] <= tol]
         if len(chosen) < max(4, 0.25 * n):
             return None
-        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree)
+        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree, rounds=1 if k < 2 else 3)
     chosen = chosen[inl]
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    u_poly, _ = robust_fit(tf, cf, degree)
-    d_poly, inl = robust_fit(tf, df, degree)
+    u_poly, _ = robust_fit(tf, cf, degree, rounds=1)
     slope = u_poly.deriv()(tf)
     radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
-    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, d_poly, radius, len(tf),
-                       end_slopes(tf[inl], df[inl]))
+    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, model, radius, len(tf),
+                       end_slopes(tf, df))
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -90,9 +90,17 @@ class Localizer:
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries
-        if occluder is not None and self.cfg.recover.method == "collinear":
-            occluder = r.rectify(occluder, 0, nearest=True)
-        return ml, mr, occluder
+        occluded = None
+        if occluder is not None:
+            h, w = occluder.shape
+
+            def occluded(xy_rect: np.ndarray) -> np.ndarray:
+                p = np.rint(r.to_original(xy_rect, 0)).astype(int)
+                ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
+                out = np.zeros(len(p), bool)
+                out[ok] = occluder[p[ok, 1], p[ok, 0]] > 0
+                return out
+        return ml, mr, occluded
 
     def _graph(self, mask: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
         """Skeleton, radius map, pruning and recovery of one binary mask (uint8 0/255)."""

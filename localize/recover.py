@@ -12,6 +12,7 @@ Bridges become recovered segments of the graph; the ends they join become JOINT 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import cv2
 import numpy as np
@@ -71,21 +72,22 @@ def _bridge(graph: SkeletonGraph, ends: EndGeometry, pairs: list[tuple[int, int]
     return graph.with_segments(np.array(nodes), pixels, np.array(lengths), np.array(nodes).ravel())
 
 
-def _covered(occluder: np.ndarray | None, a: np.ndarray, b: np.ndarray) -> float:
-    """Fraction of the segment a-b (full-resolution px) over occluder pixels (1 if no mask)."""
-    if occluder is None:
+def _covered(occluded: Callable[[np.ndarray], np.ndarray] | None, a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of the segment a-b (full-resolution px) over occluder pixels (1 if unknown)."""
+    if occluded is None:
         return 1.0
     n = int(np.hypot(*(b - a))) + 2
     t = np.linspace(0, 1, n)[:, None]
-    p = np.rint(a + t * (b - a)).astype(int)
-    h, w = occluder.shape
-    ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
-    return float((occluder[p[ok, 1], p[ok, 0]] > 0).mean()) if ok.any() else 0.0
+    return float(np.mean(occluded(a + t * (b - a))))
 
 
 def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray,
-                      occluder: np.ndarray | None = None) -> SkeletonGraph:
-    """Bridge pairs of ends that point at each other (see module docstring); greedy, best pairs first."""
+                      occluded: Callable[[np.ndarray], np.ndarray] | None = None) -> SkeletonGraph:
+    """Bridge pairs of ends that point at each other (see module docstring); greedy, best pairs first.
+
+    ``occluded(xy)`` tells for full-resolution points (N, 2) whether an occluder (leaf,
+    apple) is seen there; without it every gap counts as covered.
+    """
     ends = end_geometry(graph, radius_map)
     if len(ends.node) < 2:
         return graph
@@ -107,7 +109,7 @@ def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.n
         if i in used or j in used:
             continue
         long_gap = dist[i, j] > 4 * (r[i] + r[j]) / 2
-        if long_gap and _covered(occluder, ends.xy_px[i], ends.xy_px[j]) < 0.5:
+        if long_gap and _covered(occluded, ends.xy_px[i], ends.xy_px[j]) < 0.5:
             continue
         used.update((i, j))
         pairs.append((int(i), int(j)))
@@ -148,10 +150,10 @@ def recover_hough(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarr
 
 
 def recover(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray,
-            occluder: np.ndarray | None = None) -> SkeletonGraph:
+            occluded: Callable[[np.ndarray], np.ndarray] | None = None) -> SkeletonGraph:
     """Dispatch on ``cfg.method``: none | hough | collinear."""
     if cfg.method == "hough":
         return recover_hough(graph, cfg, radius_map)
     if cfg.method == "collinear":
-        return recover_collinear(graph, cfg, radius_map, occluder)
+        return recover_collinear(graph, cfg, radius_map, occluded)
     return graph

@@ -1,0 +1,78 @@
+"""The whole method against the exact truth of the committed rendered scenes (fixtures/scenes).
+
+Bounds are what the methods reach with a margin (see docs/localize.md for the figures), so a
+change that makes localization worse fails here.
+"""
+
+from pathlib import Path
+
+import cv2
+import pytest
+
+from appliance.calibrate.model import load_calibration
+from appliance.config import load_config
+from appliance.localize import Localizer
+from appliance.synth.evaluate import pool, score_result
+from appliance.synth.truth import load_truth
+
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
+SCENES = sorted((FIXTURES / "scenes").glob("truth_*.json"))
+
+
+def _scores(variant: str, true_masks: bool = True):
+    calib = load_calibration(FIXTURES / "rig.yaml")
+    loc = Localizer(calib, load_config().localize, variant)
+    scores = []
+    for t in SCENES:
+        nn = t.stem.split("_")[1]
+        left = cv2.imread(str(FIXTURES / "scenes" / f"left_{nn}.png"))
+        right = cv2.imread(str(FIXTURES / "scenes" / f"right_{nn}.png"))
+        truth = load_truth(t)
+        kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right) if true_masks else {}
+        scores.append(score_result(loc.localize(left, right, **kw), truth, name=nn))
+    return pool(scores)
+
+
+@pytest.fixture(scope="module")
+def improved():
+    return _scores("improved")
+
+
+@pytest.fixture(scope="module")
+def paper():
+    return _scores("paper")
+
+
+def test_fixtures_are_there():
+    assert len(SCENES) >= 4
+
+
+def test_improved_method_against_truth(improved):
+    assert improved.n_true >= 30
+    assert improved.recall >= 0.45
+    assert improved.precision >= 0.35
+    assert improved.depth_err_mm["median"] <= 3.0
+    assert improved.depth_err_px["median"] <= 0.5
+    assert improved.branch_coverage >= 0.65
+    assert improved.branch_precision >= 0.5
+    assert improved.radius_err_mm["median"] <= 1.0
+
+
+def test_paper_variant_against_truth(paper):
+    assert paper.recall >= 0.3
+    assert paper.depth_err_mm["median"] <= 6.0
+    assert paper.branch_coverage >= 0.3
+
+
+def test_improved_beats_the_paper(improved, paper):
+    assert improved.recall >= paper.recall
+    assert improved.precision > paper.precision
+    assert improved.branch_coverage > paper.branch_coverage + 0.2
+    assert improved.depth_err_mm["median"] < paper.depth_err_mm["median"]
+
+
+def test_improved_with_the_colour_recogniser():
+    s = _scores("improved", true_masks=False)
+    assert s.recall >= 0.4
+    assert s.depth_err_mm["median"] <= 3.5
+    assert s.branch_coverage >= 0.6

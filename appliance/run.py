@@ -1,0 +1,335 @@
+"""The run loop: acquire -> localize -> outputs (MCAP log, arm link), wired in one place.
+
+Three threads and two bounded queues::
+
+    acquire ──frames(2)──> localize ──> arm link (its own bounded queue, newest wins)
+                                    └──log(logging.queue_frames)──> MCAP writer
+
+- A live camera is never stalled: when the localizer is busy the oldest waiting pair is
+  dropped; when the writer is behind, the pair is not logged. Both are counted and written
+  to ``/diagnostics``. A fake (replay) source is never dropped by the localizer queue: a
+  replay localizes every recorded pair, so its results are reproducible.
+- A camera lost mid-run is reopened with back-off (``camera.reconnect_min_s`` doubling up
+  to ``camera.reconnect_max_s``); the gap is counted and logged. A camera that cannot be
+  opened at start is an error.
+- ``stop`` (set by SIGINT/SIGTERM in the command) ends acquisition; what is queued is
+  localized and written, and the log is finished with its index.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import queue
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from appliance.acquire import AcquireError, StereoFrame, open_driver
+from appliance.calibrate.model import StereoCalibration
+from appliance.config import Config
+from appliance.config.load import config_to_dict
+from appliance.localize import Localizer
+from appliance.localize.result import LocalizationResult
+
+_END = object()  # end-of-stream marker in the queues
+
+
+def software_version() -> str:
+    """The installed appliance version."""
+    try:
+        return importlib.metadata.version("appliance")
+    except importlib.metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+@dataclass
+class RunStatus:
+    """A snapshot of the loop for the status line and ``/diagnostics``.
+
+    Counts are since the start; rates and latencies over the last few seconds.
+    """
+
+    pairs: int = 0                  # pairs delivered by the camera
+    localized: int = 0              # pairs localized
+    dropped_localize: int = 0       # pairs the localizer had no time for
+    dropped_log: int = 0            # pairs not logged because the writer was behind
+    dropped_driver: int = 0         # pairs the driver dropped (stamp skew)
+    reconnects: int = 0             # times the camera was reopened
+    camera_ok: bool = True
+    rate_hz: float = 0.0            # localized pairs per second
+    latency_p50_ms: float = 0.0     # capture -> result
+    latency_p99_ms: float = 0.0
+    features: int = 0               # in the latest result
+    branches: int = 0
+    arm: dict = field(default_factory=dict)   # the arm link's counters
+    log_paths: list[str] = field(default_factory=list)
+    logging: bool = False           # the log is being written (false after low disk)
+
+    def to_dict(self) -> dict:
+        d = dict(self.__dict__)
+        d["rate_hz"], d["latency_p50_ms"], d["latency_p99_ms"] = (
+            round(v, 3) for v in (self.rate_hz, self.latency_p50_ms, self.latency_p99_ms))
+        return d
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What ``appliance run`` was asked to do (the rest is in :class:`Config`)."""
+
+    device: str
+    log_dir: Path | None = None     # None: no MCAP log
+    frames: int | None = None       # stop after this many pairs; None: until stopped / end of replay
+    variant: str = "improved"       # localizer variant: improved | paper
+    status_period_s: float = 0.5    # how often ``on_status`` is called and diagnostics written
+
+
+def run_loop(cfg: Config, calib: StereoCalibration, opts: RunOptions, *,
+             stop: threading.Event | None = None,
+             on_status: Callable[[RunStatus], None] | None = None) -> RunStatus:
+    """Run acquire -> localize -> outputs until ``stop``, ``opts.frames`` or the end of a replay.
+
+    Parameters
+    ----------
+    cfg : Config
+        The effective configuration; ``cfg.serial.port`` (not None) enables the arm link.
+    calib : StereoCalibration
+        The rig's calibration; its image size must match the camera's.
+    opts : RunOptions
+    stop : threading.Event, optional
+        Set it (e.g. from a signal handler) to end the run cleanly.
+    on_status : callable, optional
+        Called from the calling thread with a :class:`RunStatus` every ``opts.status_period_s``.
+
+    Returns
+    -------
+    RunStatus
+        The final counters.
+
+    Raises
+    ------
+    AcquireError
+        The camera cannot be opened at start.
+    ApplianceError
+        The arm port is missing at start (and ``serial.wait_for_port`` is false), or the
+        log folder cannot be written.
+    """
+    return _Loop(cfg, calib, opts, stop or threading.Event(), on_status).run()
+
+
+class _Loop:
+    def __init__(self, cfg, calib, opts, stop, on_status):
+        self.cfg, self.calib, self.opts, self.stop, self.on_status = cfg, calib, opts, stop, on_status
+        self.status = RunStatus()
+        self.replay = opts.device.startswith("fake:")
+        self.frames_q: queue.Queue = queue.Queue(maxsize=2)
+        self.log_q: queue.Queue = queue.Queue(maxsize=cfg.logging.queue_frames)
+        self.localizer = Localizer(calib, cfg.localize, variant=opts.variant)
+        self.camera_to_base = np.asarray(cfg.arm.camera_to_base, float)
+        self._done_ns: deque = deque(maxlen=120)      # result times, for the rate
+        self._latency_ms: deque = deque(maxlen=300)
+        self.error: BaseException | None = None
+
+    # -- wiring --------------------------------------------------------------------------
+    def run(self) -> RunStatus:
+        driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
+        self._check_size(driver)
+        self.writer = self._open_writer(driver)
+        self.arm = self._open_arm()
+        threads = [threading.Thread(target=self._guard(self._acquire), args=(driver,), name="acquire",
+                                    daemon=True),
+                   threading.Thread(target=self._guard(self._localize), name="localize", daemon=True)]
+        if self.writer is not None:
+            threads.append(threading.Thread(target=self._guard(self._write), name="log", daemon=True))
+        for t in threads:
+            t.start()
+        try:
+            while threads[1].is_alive():
+                threads[1].join(self.opts.status_period_s)
+                self._report()
+        finally:
+            self.stop.set()
+            for t in threads:
+                t.join(timeout=10)
+            if self.arm is not None:
+                self.status.arm = self.arm.stats()
+                self.arm.close()
+            if self.writer is not None:
+                self.writer.close()
+        if self.error is not None:
+            raise self.error
+        self._report(final=True)
+        return self.status
+
+    def _guard(self, fn):
+        """Run ``fn`` in a thread; an unexpected error stops the loop and is re-raised by run()."""
+        def target(*args):
+            try:
+                fn(*args)
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                self.error = self.error or exc
+                self.stop.set()
+                if fn is self._acquire:
+                    self.frames_q.put(_END)
+        return target
+
+    def _check_size(self, driver) -> None:
+        info = driver.info
+        w, h = self.calib.image_size
+        if info.width_px and (info.width_px, info.height_px) != (w, h):
+            driver.close()
+            raise AcquireError(f"{info.device}: delivers {info.width_px}x{info.height_px} images, "
+                               f"the calibration is for {w}x{h}")
+
+    def _open_writer(self, driver):
+        if self.opts.log_dir is None:
+            return None
+        from appliance.logs import LogWriter
+
+        device = dict(dataclasses.asdict(driver.info), variant=self.opts.variant)
+        writer = LogWriter(self.opts.log_dir, self.cfg.logging, calibration=self.calib,
+                           config_dict=config_to_dict(self.cfg), device=device,
+                           version=software_version())
+        self.status.logging = True
+        return writer
+
+    def _open_arm(self):
+        if self.cfg.serial.port is None:
+            return None
+        from appliance.arm.link import ArmLink
+
+        link = ArmLink(self.cfg.serial, self.camera_to_base)
+        link.open()
+        return link
+
+    # -- threads -------------------------------------------------------------------------
+    def _acquire(self, driver) -> None:
+        """Read pairs; reopen a lost camera with back-off; hand pairs to the localizer."""
+        wanted = self.opts.frames
+        try:
+            while not self.stop.is_set():
+                try:
+                    for frame in driver:
+                        self._put_frame(frame)
+                        if self.stop.is_set() or (wanted is not None and self.status.pairs >= wanted):
+                            return
+                    return                                  # a replay ended
+                except AcquireError as exc:                 # lost mid-run: reconnect
+                    self.status.camera_ok = False
+                    self._note(f"camera lost: {exc}")
+                    driver.close()
+                    driver = self._reopen()
+                    if driver is None:
+                        return
+                    self.status.camera_ok = True
+                    self.status.reconnects += 1
+                    self._note(f"camera back after {self.status.reconnects} reconnect(s)")
+        finally:
+            self.status.dropped_driver += getattr(driver, "dropped_pairs", 0) if driver else 0
+            if driver is not None:
+                driver.close()
+            self.frames_q.put(_END)
+
+    def _reopen(self):
+        delay_s = self.cfg.camera.reconnect_min_s
+        while not self.stop.wait(delay_s):
+            try:
+                return open_driver(self.opts.device, self.cfg.camera)
+            except AcquireError:
+                delay_s = min(2 * delay_s, self.cfg.camera.reconnect_max_s)
+        return None
+
+    def _put_frame(self, frame: StereoFrame) -> None:
+        item = (frame, time.monotonic_ns())
+        if self.replay:                                     # wait for the localizer, unless stopping
+            while not self.stop.is_set():
+                try:
+                    self.frames_q.put(item, timeout=0.1)
+                    self.status.pairs += 1
+                    return
+                except queue.Full:
+                    continue
+            return
+        self.status.pairs += 1
+        while True:
+            try:
+                self.frames_q.put_nowait(item)
+                return
+            except queue.Full:                              # newest wins
+                try:
+                    self.frames_q.get_nowait()
+                    self.status.dropped_localize += 1
+                except queue.Empty:
+                    pass
+
+    def _localize(self) -> None:
+        while True:
+            item = self.frames_q.get()
+            if item is _END:
+                break
+            frame, received_ns = item
+            result = self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns)
+            now_ns = time.time_ns()
+            age_ns = now_ns - frame.stamp_ns
+            if not 0 <= age_ns < 10**10:                    # replayed stamps: time from arrival
+                age_ns = time.monotonic_ns() - received_ns
+            self._latency_ms.append(age_ns / 1e6)
+            self._done_ns.append(time.monotonic_ns())
+            s = self.status
+            s.localized += 1
+            s.features, s.branches = len(result.features), len(result.branches)
+            if self.arm is not None:
+                self.arm.submit(result, frame.seq)
+            if self.writer is not None:
+                try:
+                    self.log_q.put_nowait((frame, result))
+                except queue.Full:
+                    s.dropped_log += 1
+        if self.writer is not None:
+            self.log_q.put(_END)
+
+    def _write(self) -> None:
+        while True:
+            item = self.log_q.get()
+            if item is _END:
+                return
+            if isinstance(item, dict):
+                self.writer.write_diagnostics(item, time.time_ns())
+                continue
+            frame, result = item
+            self.writer.write_frame(frame)
+            self.writer.write_result(result, frame.seq, self.camera_to_base)
+
+    # -- status --------------------------------------------------------------------------
+    def _note(self, message: str) -> None:
+        if self.writer is not None:
+            try:
+                self.log_q.put_nowait({"message": message})
+            except queue.Full:
+                pass
+
+    def _report(self, final: bool = False) -> None:
+        s = self.status
+        done = list(self._done_ns)
+        s.rate_hz = (len(done) - 1) / ((done[-1] - done[0]) / 1e9) if len(done) > 1 and done[-1] > done[0] \
+            else 0.0
+        if self._latency_ms:
+            s.latency_p50_ms, s.latency_p99_ms = np.percentile(list(self._latency_ms), [50, 99]).tolist()
+        if self.arm is not None:
+            self.arm.set_status(camera_ok=s.camera_ok, calibrated=True, rate_hz=s.rate_hz)
+            s.arm = self.arm.stats()
+        if self.writer is not None:
+            s.log_paths = [str(p) for p in getattr(self.writer, "paths", [])]
+            s.logging = bool(getattr(self.writer, "active", True))
+            if not final:
+                try:
+                    self.log_q.put_nowait(s.to_dict())
+                except queue.Full:
+                    pass
+        if self.on_status is not None:
+            self.on_status(replace(s, arm=dict(s.arm), log_paths=list(s.log_paths)))

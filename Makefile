@@ -20,8 +20,19 @@ $(BIN)/.installed: pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $@
 
+SCENES := $(sort $(wildcard fixtures/scenes/left_*.png))
+
+# The main job on the bundled fixtures: the run loop through the fake driver (MCAP log in
+# $(OUT)/logs), the log's check, then each scene localized with an overlay and scored against truth.
 demo: $(BIN)/.installed
-	$(BIN)/appliance config show
+	rm -rf $(OUT)/logs
+	$(BIN)/appliance run --device fake:fixtures/scenes --calib fixtures/rig.yaml --log $(OUT)/logs
+	$(BIN)/appliance logs check $(OUT)/logs/*.mcap
+	for left in $(SCENES); do n=$${left##*left_}; n=$${n%.png}; \
+	  $(BIN)/appliance localize --calib fixtures/rig.yaml $$left fixtures/scenes/right_$$n.png \
+	    --json $(OUT)/result_$$n.json --overlay $(OUT)/overlay_$$n.png || exit 1; done
+	$(BIN)/python -m appliance.synth.evaluate $(foreach l,$(SCENES),$(OUT)/result_$(subst left_,,$(basename $(notdir $(l)))).json fixtures/scenes/truth_$(subst left_,,$(basename $(notdir $(l)))).json)
+	@echo "overlays: $(OUT)/overlay_*.png   log: $(OUT)/logs"
 
 test: $(BIN)/.installed
 	$(BIN)/pytest

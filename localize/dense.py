@@ -289,6 +289,20 @@ class _Builder:
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
 
+    def bridge_holds(self, s: int) -> bool:
+        """A recovered piece joins one branch only if each side's disparity, carried along its
+        own curve to the other side, lands on the other side's (2 px or 3 %)."""
+        a, z = self.g.seg_nodes[s]
+        if a not in self.uvd or z not in self.uvd:
+            return False
+        for p, q in ((a, z), (z, a)):
+            curves = [self.curves[t] for t in self.incident[p] if t in self.curves]
+            if curves:
+                d_ext = curves[0].d_at(curves[0].t_of(self.uvd[q][:2]))[0]
+                if abs(d_ext - self.uvd[q][2]) > max(2.0, 0.03 * self.uvd[q][2]):
+                    return False
+        return True
+
     def joint(self, node: int) -> None:
         segs = [s for s in self.incident[node] if s in self.curves]
         if segs:
@@ -367,6 +381,16 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         b.tip(node)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
+    kinds = kinds.copy()
+    bridges = []
+    for s in np.flatnonzero(graph.seg_recovered):
+        if b.bridge_holds(s):
+            bridges.append(s)
+        else:                                   # not one branch: its ends are ends again
+            for node in graph.seg_nodes[s]:
+                kinds[node] = ENDPOINT
+                b.uvd.pop(node, None)
+                b.tip(node)
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px
@@ -392,7 +416,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         parts = ([ends[0][None]] if ends[0] is not None else []) + [uvd] + \
                 ([ends[1][None]] if ends[1] is not None else [])
         pieces.append(PieceUVD(s, np.vstack(parts), c.radius_px, False, (int(a), int(z))))
-    for s in np.flatnonzero(graph.seg_recovered):
+    for s in bridges:
         a, z = graph.seg_nodes[s]
         if a in b.uvd and z in b.uvd:
             r = np.mean([b.radius.get(a, np.nan), b.radius.get(z, np.nan)])

@@ -5,6 +5,8 @@ Three threads and two bounded queues::
     acquire ──frames(2)──> localize ──> arm link (its own bounded queue, newest wins)
                                     └──log(logging.queue_frames)──> MCAP writer
 
+- Latency is capture stamp -> result for a camera, arrival in the loop -> result for a replay
+  (whose stamps are the recording's).
 - A live camera is never stalled: when the localizer is busy the oldest waiting pair is
   dropped; when the writer is behind, the pair is not logged. Both are counted and written
   to ``/diagnostics``. A fake (replay) source is never dropped by the localizer queue: a
@@ -274,10 +276,10 @@ class _Loop:
                 break
             frame, received_ns = item
             result = self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns)
-            now_ns = time.time_ns()
-            age_ns = now_ns - frame.stamp_ns
-            if not 0 <= age_ns < 10**10:                    # replayed stamps: time from arrival
+            if self.replay:                                 # replayed stamps: time from arrival
                 age_ns = time.monotonic_ns() - received_ns
+            else:
+                age_ns = time.time_ns() - frame.stamp_ns
             self._latency_ms.append(age_ns / 1e6)
             self._done_ns.append(time.monotonic_ns())
             s = self.status

@@ -334,12 +334,17 @@ def _flat_curve(b: _Builder, s: int, runs_lt: Runs) -> BranchCurve | None:
     lo, hi = float(t[inl].min()), float(t[inl].max())
     u = np.arange(lo, hi + 1, 4.0)
     uv = np.column_stack([u, v_poly(u)])
-    d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, np.full(len(u), max(1, int(0.5 * radius))),
-                                      sm.d_range_px)
+    d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, np.full(len(u), max(1, int(0.6 * radius))),
+                                      sm.d_range_px, half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
+    xr = np.rint(u - np.nan_to_num(d_surf)).astype(int)
+    on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
+    good &= on_right                                   # the match must land on a branch in the right view
+    good[on_right] &= sm.right_mask[np.rint(uv[on_right, 1]).astype(int), xr[on_right]] >= 128
     if good.sum() >= 3:
         d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px)
-        d_poly, inl_d = robust_fit(u[good], d_axis, 1 if hi - lo < 160 else 2)
+        # texture disparities are noisy: a constant for short pieces, a line for long ones
+        d_poly, inl_d = robust_fit(u[good], d_axis, 0 if hi - lo < 100 else 1)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
     if len(ends) == 0:

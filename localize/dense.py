@@ -283,11 +283,45 @@ class _Builder:
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
+        if not c.by_row:
+            # a flat piece's disparity comes from its texture: the tip stands only if the end of
+            # its row run lies at that disparity in the right view too
+            d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
+            if d_end is None or abs(d_end - self.uvd[node][2]) > 2.0:
+                self.hidden.add(int(node))
+                return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half + 2)
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
+
+    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float) -> float | None:
+        """Disparity of the end of a flat piece: the end of its row run in both views.
+
+        The round cap's silhouette ends one image radius beyond the cap centre in both views,
+        so the run ends are corresponding points. Right runs of a similar length ending in the
+        disparity range are candidates; the one nearest ``d_prior`` wins.
+        """
+        sm = self.sm
+        row = int(np.rint(uv_edge[1]))
+        if not 0 <= row < sm.left_mask.shape[0]:
+            return None
+        runs_l = find_runs(sm.left_mask[row:row + 1], soft=True)
+        i = runs_l.find(np.zeros(1, int), np.array([uv_edge[0] - np.sign(out[0])]))[0]
+        runs_r = find_runs(sm.right_mask[row:row + 1], soft=True)
+        if i < 0 or len(runs_r.row) == 0:
+            return None
+        right_end = out[0] > 0
+        e_l = runs_l.right_px[i] if right_end else runs_l.left_px[i]
+        e_r = runs_r.right_px if right_end else runs_r.left_px
+        d = e_l - e_r
+        ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1])
+        ok &= np.abs(runs_r.span_px - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3
+        if not ok.any():
+            return None
+        d = d[ok]
+        return float(d[np.argmin(np.abs(d - d_prior))])
 
     def bridge_holds(self, s: int) -> bool:
         """A recovered piece joins one branch only if each side's disparity, carried along its

@@ -37,7 +37,6 @@ from appliance.calibrate.model import StereoCalibration
 from appliance.config import Config
 from appliance.config.load import config_to_dict
 from appliance.localize import Localizer
-from appliance.localize.result import LocalizationResult
 
 _END = object()  # end-of-stream marker in the queues
 
@@ -326,8 +325,8 @@ class _Loop:
             self.arm.set_status(camera_ok=s.camera_ok, calibrated=True, rate_hz=s.rate_hz)
             s.arm = self.arm.stats()
         if self.writer is not None:
-            s.log_paths = [str(p) for p in getattr(self.writer, "paths", [])]
-            s.logging = bool(getattr(self.writer, "active", True))
+            s.log_paths = [str(p) for p in self.writer.paths]
+            s.logging = not self.writer.stopped
             if not final:
                 try:
                     self.log_q.put_nowait(s.to_dict())

@@ -18,9 +18,3 @@ ConfigOption = Annotated[
 def effective_config(path: Path | None) -> Config:
     """The default configuration overlaid with ``path`` (raises ConfigError)."""
     return load_config(path)
-
-
-def not_implemented(what: str) -> None:
-    """Exit 2 with a plain statement; used by commands whose issue has not landed."""
-    typer.echo(f"appliance {what}: not implemented yet", err=True)
-    raise typer.Exit(2)

@@ -162,6 +162,15 @@ def test_a_lost_camera_is_reopened_and_the_run_goes_on(tmp_path):
     assert reconnects >= 2
 
 
+def test_a_full_disk_stops_logging_but_not_localizing(tmp_path):
+    cfg = write_config(tmp_path / "c.yaml", "logging:\n  min_free_bytes: 1000000000000000\n")
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / "logs"),
+                  "--config", str(cfg), "-q")
+    assert r.returncode == 0, r.stderr
+    assert f"pairs {N_SCENES}, localized {N_SCENES}" in r.stdout
+    assert "logging stopped" in r.stderr
+
+
 @pytest.mark.parametrize("args, message", [
     (["--device", "fake:/nonexistent/folder"], "fake:/nonexistent/folder"),
     (["--calib", "/nonexistent/calib.yaml"], "/nonexistent/calib.yaml"),

@@ -11,7 +11,7 @@ import serial
 
 from appliance.arm import protocol as P
 from appliance.arm.link import ArmLink, ArmLinkError
-from conftest import make_result, serial_cfg
+from armtest import make_result, serial_cfg
 
 
 def submit_paced(link, seqs, period_s, on_each=None):
@@ -95,16 +95,18 @@ def test_unplug_and_replug_loses_only_what_was_sent_meanwhile(bridge, tmp_path, 
             marks["back"] = time.monotonic()
 
     times, longest = submit_paced(link, range(100), 0.01, plug)
-    assert sim_wait(sim, lambda obs: obs and obs[-1]["frame_seq"] == 99)
+    assert sim_wait(sim, lambda obs: obs and obs[-1]["frame_seq"] == 99), (link.stats(), marks)
     stats = link.stats()
     link.close()
     sim.stop()
     got = [o["frame_seq"] for o in sim.obstacles()]
-    assert got == sorted(set(got))  # in order, no duplicates
+    context = {"got": got, "stats": stats, "longest_s": longest,
+               **{k: v - times[0] for k, v in marks.items()}}
+    assert got == sorted(set(got)), context  # in order, no duplicates
     lost = set(range(100)) - set(got)
     window = (marks["unplug"] - 0.1, marks["back"])  # bytes in the pty when it went are lost too
-    assert lost and all(window[0] <= times[i] <= window[1] for i in lost), (sorted(lost), window)
-    assert stats["disconnects"] == 1 and stats["connects"] == 2 and longest < 0.1
+    assert lost and all(window[0] <= times[i] <= window[1] for i in lost), context
+    assert stats["disconnects"] == 1 and stats["connects"] == 2 and longest < 0.1, context
     hellos = [e for e in sim.events() if e.get("type") == "HELLO"]
     assert len(hellos) == 2
 

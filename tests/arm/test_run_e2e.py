@@ -6,7 +6,7 @@ import subprocess
 
 import numpy as np
 
-from conftest import APPLIANCE, REPO_FIXTURES
+from armtest import APPLIANCE, REPO_FIXTURES
 
 
 def test_run_delivers_every_result_to_arm_sim_in_order(bridge, tmp_path, start_sim):

@@ -12,7 +12,7 @@ import serial
 from appliance.arm import make_test_vectors
 from appliance.arm import protocol as P
 from appliance.arm.link import ArmLink
-from conftest import APPLIANCE, make_result, serial_cfg
+from armtest import APPLIANCE, make_result, serial_cfg
 
 
 def read_frames(port, want: int, timeout_s: float = 5.0) -> list:

@@ -100,6 +100,31 @@ def sgbm_result(loc: Localizer, left: np.ndarray, right: np.ndarray, truth: Scen
     return LocalizationResult(tuple(feats))
 
 
+def axis_errors(result: LocalizationResult, truth: SceneTruth, step_mm: float = 2.0, near_mm: float = 10.0):
+    """Distance (mm) of reported branch axes to the nearest true axis, sampled every ``step_mm``; only
+    samples within ``near_mm`` (the covered ones, so wrong pieces do not swamp the figure), with their true Z."""
+    a = np.concatenate([b.axis_mm[:-1] for b in truth.branches])
+    b = np.concatenate([b.axis_mm[1:] for b in truth.branches])
+    ab = b - a
+    out = []
+    for br in result.branches:
+        poly = np.asarray(br.polyline_mm, float)
+        seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+        cum = np.r_[0.0, np.cumsum(seg)]
+        if cum[-1] <= 0:
+            continue
+        s = np.arange(0.0, cum[-1], step_mm)
+        pts = np.column_stack([np.interp(s, cum, poly[:, k]) for k in range(3)])
+        t = np.clip(((pts[:, None] - a[None]) * ab[None]).sum(2) / (ab * ab).sum(1)[None], 0, 1)
+        q = a[None] + t[..., None] * ab[None]
+        d = np.linalg.norm(pts[:, None] - q, axis=2)
+        j = d.argmin(1)
+        dist = d[np.arange(len(j)), j]
+        keep = dist <= near_mm
+        out += list(zip(dist[keep], q[np.arange(len(j)), j][keep, 2]))
+    return out
+
+
 def band_table(pooled: dict) -> str:
     """p95 |dZ| (mm) of matched features per true-depth band, one row per method."""
     head = f"{'method':<22}" + "".join(f"{f'{a}-{b} mm':>14}" for a, b in BANDS_MM) + f"{'all':>10}"
@@ -130,6 +155,7 @@ def main() -> int:
     mask_modes = ["true", "colour"] if a.masks == "both" else [a.masks]
     per_method: dict[str, list] = {}
     times: dict[str, list] = {}
+    axes: dict[str, list] = {}
     for name, lp, rp, tp in scenes(a.extra):
         left, right, truth = cv2.imread(str(lp)), cv2.imread(str(rp)), load_truth(tp)
         for mode in mask_modes:
@@ -140,6 +166,7 @@ def main() -> int:
                 times.setdefault(f"{variant}, {mode} masks", []).append(time.perf_counter() - t0)
                 per_method.setdefault(f"{variant}, {mode} masks", []).append(
                     score_result(res, truth, name=name))
+                axes.setdefault(f"{variant}, {mode} masks", []).extend(axis_errors(res, truth))
         per_method.setdefault("sgbm at true features", []).append(
             score_result(sgbm_result(locs["improved"], left, right, truth), truth, name=name))
         print(f"{name}: done", flush=True)
@@ -158,6 +185,20 @@ def main() -> int:
         print(f"{method:<22}{s.recall:>7.2f}{s.precision:>6.2f}{s.depth_err_mm['p95']:>8.2f}"
               f"{s.depth_err_px['p95']:>8.3f}{s.branch_coverage:>7.2f}{s.branch_precision:>7.2f}"
               f"{s.radius_err_mm['median']:>9.2f}")
+    print("\n== branch axes: distance of reported axis points to the true axis (covered points), mm")
+    head = f"{'method':<22}" + "".join(f"{f'{lo}-{hi} p95':>14}" for lo, hi in BANDS_MM) + f"{'median':>8}{'p95':>8}"
+    print(head)
+    print("-" * len(head))
+    for method, rows in axes.items():
+        e = np.array(rows).reshape(-1, 2)
+        cells = []
+        for lo, hi in BANDS_MM:
+            sel = (e[:, 1] >= lo) & (e[:, 1] < hi)
+            cells.append(f"{np.percentile(e[sel, 0], 95):14.2f}" if sel.any() else f"{'-':>14}")
+        print(f"{method:<22}" + "".join(cells) + f"{np.median(e[:, 0]):8.2f}{np.percentile(e[:, 0], 95):8.2f}")
+    print("\n== time per pair (this machine, all cores, includes the first call)")
+    for method, t in times.items():
+        print(f"{method:<22}{1e3 * np.median(t):8.0f} ms")
     if a.json:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         a.json.write_text(json.dumps({m: s.to_dict() for m, s in pooled.items()}, indent=1) + "\n")

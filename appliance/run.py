@@ -205,6 +205,7 @@ class _Loop:
         from appliance.arm.link import ArmLink
 
         link = ArmLink(self.cfg.serial, self.camera_to_base)
+        link.set_status(camera_ok=True, calibrated=True, rate_hz=0.0)   # the HELLO's first heartbeat
         link.open()
         return link
 

@@ -368,8 +368,16 @@ def _flat_curve(b: _Builder, s: int, runs_lt: Runs) -> BranchCurve | None:
     lo, hi = float(t[inl].min()), float(t[inl].max())
     u = np.arange(lo, hi + 1, 4.0)
     uv = np.column_stack([u, v_poly(u)])
-    d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, np.full(len(u), max(1, int(0.6 * radius))),
-                                      sm.d_range_px, half_w_px=12)
+    half_h = np.full(len(u), max(1, int(0.6 * radius)))
+    # a few patches searched over the whole range give a prior; all patches then search near it
+    d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[::3], half_h[::3], sm.d_range_px, half_w_px=12)
+    if not (np.isfinite(d0) & (s0 >= 0.6)).any():
+        d_surf, score = d0, s0
+        u, uv = u[::3], uv[::3]
+    else:
+        prior = float(np.median(d0[np.isfinite(d0) & (s0 >= 0.6)]))
+        d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
+                                          half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
     xr = np.rint(u - np.nan_to_num(d_surf)).astype(int)
     on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])

@@ -85,8 +85,8 @@ class Localizer:
             ml = as_mask(mask_left, left.shape[:2], "left mask")
             mr = as_mask(mask_right, right.shape[:2], "right mask")
         else:
-            ml, occluder = segment_color(left, seg)
-            mr, _ = segment_color(right, seg)
+            ml, occluder = segment_color(left, seg, occluder=self.cfg.recover.method == "collinear")
+            mr, _ = segment_color(right, seg, occluder=False)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries

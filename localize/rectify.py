@@ -86,31 +86,35 @@ class Rectifier:
 
 
 class LazyRectified:
-    """A rectified image computed band by band when indexed (``img[y0:y1, x0:x1]``).
+    """A rectified image computed tile by tile when indexed (``img[y0:y1, x0:x1]``).
 
-    The matcher reads the grey images only in small patches; rectifying just the bands
-    of rows it touches saves most of a full remap.
+    The matcher reads the grey images only in small patches and strips; rectifying just the
+    tiles it touches saves most of a full remap.
     """
 
-    def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, band_px: int = 32):
-        self.rectifier, self.image, self.side, self.band = rectifier, image, side, band_px
+    def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, tile_px: tuple[int, int] = (32, 128)):
+        self.rectifier, self.image, self.side = rectifier, image, side
+        self.th, self.tw = tile_px
         w, h = rectifier.calib.image_size
         self.shape = (h, w)
-        self._bands: dict[int, np.ndarray] = {}
+        self.dtype = image.dtype
+        self._tiles: dict[tuple[int, int], np.ndarray] = {}
 
-    def _band(self, k: int) -> np.ndarray:
-        if k not in self._bands:
+    def _tile(self, i: int, j: int) -> np.ndarray:
+        if (i, j) not in self._tiles:
             m1, m2 = self.rectifier.maps[self.side]
-            y0, y1 = k * self.band, min((k + 1) * self.band, self.shape[0])
-            self._bands[k] = cv2.remap(self.image, m1[y0:y1], m2[y0:y1], cv2.INTER_LINEAR,
-                                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        return self._bands[k]
+            y0, x0 = i * self.th, j * self.tw
+            y1, x1 = min(y0 + self.th, self.shape[0]), min(x0 + self.tw, self.shape[1])
+            self._tiles[i, j] = cv2.remap(self.image, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], cv2.INTER_LINEAR,
+                                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        return self._tiles[i, j]
 
     def __getitem__(self, index):
         ys, xs = index
         y0, y1, _ = ys.indices(self.shape[0])
-        if y1 <= y0:
-            return np.zeros((0, self.shape[1]), self.image.dtype)[:, xs]
-        k0, k1 = y0 // self.band, (y1 - 1) // self.band
-        rows = np.vstack([self._band(k) for k in range(k0, k1 + 1)])
-        return rows[y0 - k0 * self.band:y1 - k0 * self.band, xs]
+        x0, x1, _ = xs.indices(self.shape[1])
+        if y1 <= y0 or x1 <= x0:
+            return np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), self.dtype)
+        i0, i1, j0, j1 = y0 // self.th, (y1 - 1) // self.th, x0 // self.tw, (x1 - 1) // self.tw
+        block = np.vstack([np.hstack([self._tile(i, j) for j in range(j0, j1 + 1)]) for i in range(i0, i1 + 1)])
+        return block[y0 - i0 * self.th:y1 - i0 * self.th, x0 - j0 * self.tw:x1 - j0 * self.tw]

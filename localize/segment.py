@@ -21,7 +21,7 @@ def _kernel(size_px: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size_px, size_px))
 
 
-def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
+def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Raw bark and occluder masks from colour thresholds, uint8 0/255, shape (H, W).
 
     Bark: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max),
@@ -35,8 +35,8 @@ def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarra
     else:
         bark = cv2.inRange(hsv, (cfg.hue_min, lo_s, cfg.value_min), (180, hi_s, cfg.value_max))
         bark |= cv2.inRange(hsv, (0, lo_s, cfg.value_min), (cfg.hue_max, hi_s, cfg.value_max))
-    occluder = cv2.inRange(hsv, (0, min(cfg.saturation_max + 1, 255), cfg.value_min), (180, 255, 255))
-    return bark, occluder
+    occ = cv2.inRange(hsv, (0, min(cfg.saturation_max + 1, 255), cfg.value_min), (180, 255, 255)) if occluder else None
+    return bark, occ
 
 
 def clean_mask(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
@@ -69,10 +69,10 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     return cv2.bitwise_and(mask, keep_big)
 
 
-def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The embedded recogniser: (branch mask, occluder mask), uint8 0/255, shape (H, W)."""
-    bark, occluder = hsv_bark(bgr, cfg)
-    return clean_mask(bark, cfg), occluder
+def segment_color(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """The embedded recogniser: (branch mask, occluder mask or None), uint8 0/255, shape (H, W)."""
+    bark, occ = hsv_bark(bgr, cfg, occluder)
+    return clean_mask(bark, cfg), occ
 
 
 def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:

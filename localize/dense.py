@@ -106,7 +106,7 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
         return None
     # a branch's width varies smoothly along it: rows much narrower (partly occluded) or wider
     # (merged with a crossing branch) than the trend are not its centre
-    w_fit, _ = robust_fit(rows.astype(float), w_l, 2)
+    w_fit, _ = robust_fit(rows.astype(float), w_l, 2, rounds=2)
     ok = np.abs(w_l - w_fit(rows)) <= 0.1 * w_fit(rows) + 1.5
     rows, il, w_l = rows[ok], il[ok], w_l[ok]
     n = len(rows)
@@ -125,7 +125,7 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     degree = degree_for(n, float(t.max() - t.min()))
     single = np.bincount(q, minlength=n)[q] == 1
     if single.sum() >= max(4, 0.3 * n):
-        model, _ = robust_fit(t[q[single]], cd[single], 1)
+        model, _ = robust_fit(t[q[single]], cd[single], 1, rounds=2)
     else:
         hist, edges = np.histogram(cd, bins=np.arange(dmin - 1, dmax + 2, 1.0))
         hist = np.convolve(hist, [1, 2, 1], "same")
@@ -285,11 +285,14 @@ class _Builder:
         self.radius[node] = c.radius_px
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
-            # its row run lies at that disparity in the right view too
+            # its row run is found in the right view too, and takes that run end's disparity
+            # when the two disagree
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
-            if d_end is None or abs(d_end - self.uvd[node][2]) > 2.0:
+            if d_end is None:
                 self.hidden.add(int(node))
                 return
+            if abs(d_end - self.uvd[node][2]) > 2.0:
+                self.uvd[node][2] = d_end
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half + 2)
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],

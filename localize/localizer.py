@@ -139,7 +139,7 @@ class Localizer:
         r.check_size(right, "right image")
         clock = _Clock()
         ml, mr, occluder = self._masks(left, right, mask_left, mask_right, clock)
-        bl, br = ((m >= 128).astype(np.uint8) * 255 for m in (ml, mr))
+        bl, br = (cv2.threshold(m, 127, 255, cv2.THRESH_BINARY)[1] for m in (ml, mr))
         clock.lap("rectify")
         if not bl.any() or not br.any():
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)

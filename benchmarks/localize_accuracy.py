@@ -29,7 +29,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
 from appliance.calibrate.model import StereoCalibration, load_calibration
 from appliance.config import load_config
 from appliance.localize import Feature, LocalizationResult, Localizer

@@ -19,14 +19,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, Poly, degree_for, end_slopes, robust_fit
+from appliance.localize.curves import (
+    BranchCurve,
+    Poly,
+    degree_for,
+    end_slopes,
+    robust_fit,
+)
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD
 from appliance.localize.radius import RadiusMap, radius_at
-from appliance.localize.texture import nearer_in_front, surface_disparity, surface_to_axis
+from appliance.localize.texture import (
+    nearer_in_front,
+    surface_disparity,
+    surface_to_axis,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,7 +243,7 @@ class _Builder:
             xy = p0
         else:
             xy = p0 + np.clip(np.dot(xy - p0, e1), -limit, limit) * e1
-        at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]  # noqa: E731
+        at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
         if parents:
             d = float(np.mean([at(s) for s in parents]))
         elif child in self.curves:
@@ -420,7 +429,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:
-        runs_lt = find_runs(np.ascontiguousarray(sm.left_mask.T), None, soft=True)
+        runs_lt = find_runs(np.ascontiguousarray(sm.left_mask.T), soft=True)
         for s in flat:
             c = _flat_curve(b, s, runs_lt)
             if c is not None:
@@ -458,9 +467,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         a, z = graph.seg_nodes[s]
         ends = [b.uvd.get(n) for n in (a, z)]
         # order the samples from node a to node z and put the nodes' own points at the ends
-        if ends[0] is not None and np.hypot(*(uvd[-1, :2] - ends[0][:2])) < np.hypot(*(uvd[0, :2] - ends[0][:2])):
-            uvd = uvd[::-1]
-        elif ends[0] is None and ends[1] is not None and \
+        if ends[0] is not None and np.hypot(*(uvd[-1, :2] - ends[0][:2])) < np.hypot(*(uvd[0, :2] - ends[0][:2])) or ends[0] is None and ends[1] is not None and \
                 np.hypot(*(uvd[0, :2] - ends[1][:2])) < np.hypot(*(uvd[-1, :2] - ends[1][:2])):
             uvd = uvd[::-1]
         parts = ([ends[0][None]] if ends[0] is not None else []) + [uvd] + \

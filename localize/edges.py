@@ -1,8 +1,9 @@
-"""Horizontal runs of a mask with sub-pixel edges from the grey image (vectorised).
+"""Horizontal runs of a mask with sub-pixel boundaries (vectorised).
 
-A run is a maximal stretch of mask pixels along a row. Its two boundaries lie half a pixel
-outside its first and last pixel; each is refined to where the grey-level gradient along
-the row peaks (parabola through the three gradient samples around it, within +-0.5 px).
+A run is a maximal stretch of branch pixels along a row. With a soft mask (a binary mask
+remapped with linear interpolation, so its boundary pixels carry the coverage), each boundary
+is placed where the coverage crosses one half between the pixel outside and the pixel inside:
+the rectified outline to a small fraction of a pixel.
 """
 
 from __future__ import annotations
@@ -72,20 +73,6 @@ class Runs:
         return query, run
 
 
-def _refine(gray: np.ndarray, row: np.ndarray, boundary: np.ndarray) -> np.ndarray:
-    """Boundary positions (half-integer) moved to the gradient peak, within +-0.5 px."""
-    h, w = gray.shape
-    k = np.floor(boundary).astype(int)            # boundary between pixel k and k + 1
-    cols = np.clip(k[:, None] + np.arange(-1, 3)[None, :], 0, w - 1)
-    vals = gray[row[:, None], cols]
-    g = np.abs(np.diff(vals, axis=1))             # gradients at k - 0.5, k + 0.5, k + 1.5
-    gm, g0, gp = g[:, 0], g[:, 1], g[:, 2]
-    denom = gm - 2 * g0 + gp
-    peak = (g0 >= gm) & (g0 >= gp) & (denom < 0)
-    off = np.where(peak, 0.5 * (gm - gp) / np.where(denom < 0, denom, -1.0), 0.0)
-    return boundary + np.clip(off, -0.5, 0.5)
-
-
 def _soft_crossing(soft: np.ndarray, row: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:
     """Where the soft mask crosses half way between an outside and an inside pixel of a row."""
     a = soft[row, outside].astype(np.float32)
@@ -94,7 +81,7 @@ def _soft_crossing(soft: np.ndarray, row: np.ndarray, outside: np.ndarray, insid
     return outside + frac * (inside - outside)
 
 
-def find_runs(mask: np.ndarray, gray: np.ndarray | None = None, soft: bool = False) -> Runs:
+def find_runs(mask: np.ndarray, soft: bool = False) -> Runs:
     """Runs of ``mask`` (H, W).
 
     Parameters
@@ -102,9 +89,8 @@ def find_runs(mask: np.ndarray, gray: np.ndarray | None = None, soft: bool = Fal
     mask : ndarray (H, W)
         Branch mask; with ``soft`` a uint8 coverage 0-255 (e.g. a binary mask remapped with
         linear interpolation): branch where >= 128, and each boundary is placed where the
-        coverage crosses 127.5 between its outside and inside pixel.
-    gray : ndarray (H, W), optional
-        Grey image: boundaries are moved to the gradient peak (+-0.5 px).
+        coverage crosses 127.5 between its outside and inside pixel; otherwise branch where
+        non-zero and boundaries half a pixel outside the run.
     """
     mask = np.asarray(mask)
     h, w = mask.shape
@@ -123,7 +109,4 @@ def find_runs(mask: np.ndarray, gray: np.ndarray | None = None, soft: bool = Fal
     if soft and len(sr):
         left = np.where(x0 > 0, _soft_crossing(mask, sr, np.maximum(x0 - 1, 0), x0), left)
         right = np.where(x1 < w - 1, _soft_crossing(mask, sr, np.minimum(x1 + 1, w - 1), x1), right)
-    if gray is not None and len(sr):
-        g = np.asarray(gray, np.float32)
-        left, right = _refine(g, sr, left), _refine(g, sr, right)
     return Runs(w, sr, x0, x1, left, right)

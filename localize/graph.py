@@ -12,8 +12,13 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-
-from appliance.localize.skeleton import DX, DY, Skeleton, neighbour_code, neighbour_tables
+from appliance.localize.skeleton import (
+    DX,
+    DY,
+    Skeleton,
+    neighbour_code,
+    neighbour_tables,
+)
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
 
@@ -123,7 +128,6 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     ey, ex = np.nonzero(endpoint)
     node_img = jlab.copy()
     node_img[ey, ex] = n_j + 1 + np.arange(len(ey))
-    n_nodes = n_j + len(ey)
     jy, jx = np.nonzero(junction)
     node_pixels = _group(jlab, jy, jx, n_j) + [np.array([[y, x]]) for y, x in zip(ey, ex)]
     node_yx = np.array([p.mean(0) for p in node_pixels]).reshape(-1, 2)

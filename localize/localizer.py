@@ -15,7 +15,6 @@ from typing import Literal
 
 import cv2
 import numpy as np
-
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
 from appliance.localize.dense import StereoMasks, match_dense

@@ -9,7 +9,6 @@ between two matched features takes their disparities, linearly along it.
 from __future__ import annotations
 
 import numpy as np
-
 from appliance.config.schema import MatchConfig
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD
@@ -93,7 +92,7 @@ def match_features(left: SkeletonGraph, right: SkeletonGraph, radius_l: np.ndarr
                 ([ends[1][None]] if ends[1] is not None else [])
         pieces.append(PieceUVD(s, np.vstack(parts), seg_r[s], False, (int(a), int(z))))
     # joints (ends bridged by recovery) take the disparity of the piece they end
-    for p in list(pieces):
+    for p in pieces:
         for k, node in enumerate(p.nodes):
             if node >= 0 and left.node_kind[node] == JOINT and node not in uvd:
                 uvd[node] = p.uvd[0] if k == 0 else p.uvd[-1]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph, build_graph
 from appliance.localize.radius import radius_at
 from appliance.localize.skeleton import Skeleton, remove_corners

@@ -11,12 +11,11 @@ Bridges become recovered segments of the graph; the ends they join become JOINT 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import cv2
 import numpy as np
-
 from appliance.config.schema import RecoverConfig
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
 from appliance.localize.radius import radius_at

@@ -10,7 +10,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
 from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
 

@@ -6,11 +6,10 @@ its masks are passed to :meth:`Localizer.localize` as ``mask_left``/``mask_right
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import cv2
 import numpy as np
-
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
 

@@ -47,6 +47,17 @@ def neighbour_code(img01: np.ndarray) -> np.ndarray:
     return code.astype(np.uint8)
 
 
+def _groups(pts: np.ndarray) -> int:
+    """Number of 8-connected groups among a few pixel positions (N, 2)."""
+    label = list(range(len(pts)))
+    for a in range(len(pts)):
+        for b in range(a + 1, len(pts)):
+            if np.abs(pts[a] - pts[b]).max() <= 1:
+                old, new = label[b], label[a]
+                label = [new if x == old else x for x in label]
+    return len(set(label))
+
+
 @lru_cache(maxsize=1)
 def neighbour_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lookup tables over the 256 neighbour codes.
@@ -69,18 +80,7 @@ def neighbour_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pos = np.column_stack([DY, DX])
     for code in range(256):
         on = np.flatnonzero(bits[code])
-        parent = list(range(len(on)))
-
-        def find(i):
-            while parent[i] != i:
-                i = parent[i]
-            return i
-
-        for a in range(len(on)):
-            for b in range(a + 1, len(on)):
-                if np.abs(pos[on[a]] - pos[on[b]]).max() <= 1:
-                    parent[find(a)] = find(b)
-        comps[code] = len({find(i) for i in range(len(on))})
+        comps[code] = _groups(pos[on])
         four = [k for k in (0, 2, 4, 6) if bits[code, k]]
         perpendicular = any((b - a) % 8 in (2, 6) for a in four for b in four if a < b)
         corner[code] = comps[code] == 1 and count[code] >= 2 and perpendicular

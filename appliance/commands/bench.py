@@ -6,7 +6,7 @@ import json
 import statistics
 import time
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -23,8 +23,8 @@ def localize(
     runs: Annotated[int, typer.Option("--runs", min=1, help="Timed runs (after 2 warm-up runs).")] = 30,
     sgbm_runs: Annotated[int, typer.Option("--sgbm-runs", min=1, help="Timed SGBM runs.")] = 5,
     paper: Annotated[bool, typer.Option("--paper", help="Time the paper's method.")] = False,
-    mask_left: Annotated[Optional[Path], typer.Option("--mask-left", help="External left mask.")] = None,
-    mask_right: Annotated[Optional[Path], typer.Option("--mask-right", help="External right mask.")] = None,
+    mask_left: Annotated[Path | None, typer.Option("--mask-left", help="External left mask.")] = None,
+    mask_right: Annotated[Path | None, typer.Option("--mask-right", help="External right mask.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print {median_ms, stages, sgbm_median_ms} as JSON.")] = False,
     config: ConfigOption = None,
 ) -> None:

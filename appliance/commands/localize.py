@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -50,11 +50,11 @@ def command(
     right: Annotated[Path, typer.Argument(help="Right image.")],
     calib: Annotated[Path, typer.Option("--calib", help="Stereo calibration (appliance calibrate).")],
     json_out: Annotated[Path, typer.Option("--json", help="Result file to write (JSON).")],
-    overlay: Annotated[Optional[Path], typer.Option("--overlay", help="Also draw the result into this PNG.")] = None,
+    overlay: Annotated[Path | None, typer.Option("--overlay", help="Also draw the result into this PNG.")] = None,
     paper: Annotated[bool, typer.Option("--paper", help="Run the paper's method instead of the improved one.")] = False,
-    mask_left: Annotated[Optional[Path], typer.Option(
+    mask_left: Annotated[Path | None, typer.Option(
         "--mask-left", help="Branch mask of the left image from an external segmenter (non-zero = branch).")] = None,
-    mask_right: Annotated[Optional[Path], typer.Option("--mask-right", help="Branch mask of the right image.")] = None,
+    mask_right: Annotated[Path | None, typer.Option("--mask-right", help="Branch mask of the right image.")] = None,
     config: ConfigOption = None,
 ) -> None:
     """Localize the branches of one stereo pair: tips and forks in 3D (mm, left camera frame), branches as

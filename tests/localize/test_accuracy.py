@@ -8,7 +8,6 @@ from pathlib import Path
 
 import cv2
 import pytest
-
 from appliance.calibrate.model import load_calibration
 from appliance.config import load_config
 from appliance.localize import Localizer

@@ -8,7 +8,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-
 from appliance.localize import LocalizationResult
 from appliance.synth.truth import load_truth
 

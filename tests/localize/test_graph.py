@@ -1,7 +1,6 @@
 import cv2
 import numpy as np
 import pytest
-
 from appliance.localize.graph import ENDPOINT, JUNCTION, build_graph
 from appliance.localize.skeleton import neighbour_code, neighbour_tables, skeletonize
 

@@ -1,7 +1,6 @@
 import cv2
 import numpy as np
 import pytest
-
 from appliance.config import load_config
 from appliance.localize import LocalizeError, Localizer
 from appliance.localize.triangulate import triangulate

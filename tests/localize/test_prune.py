@@ -1,6 +1,5 @@
 import cv2
 import numpy as np
-
 from appliance.localize.graph import ENDPOINT, JUNCTION, build_graph
 from appliance.localize.prune import prune
 from appliance.localize.radius import ridge_radius_map

@@ -1,7 +1,6 @@
 import cv2
 import numpy as np
 import pytest
-
 from appliance.config import load_config
 from appliance.localize.graph import JOINT, build_graph
 from appliance.localize.prune import prune

@@ -9,6 +9,7 @@ visible true axis length (2 mm samples visible in both views) within ``cover_mm`
 branch precision the fraction of reported polyline length within ``cover_mm`` of a true axis.
 
     python -m appliance.synth.evaluate RESULT.json TRUTH.json [RESULT.json TRUTH.json ...] [--json OUT]
+    python -m appliance.synth.evaluate --calib calib.yaml --rig fixtures/rig.yaml [--json OUT]
 """
 
 from __future__ import annotations
@@ -23,10 +24,10 @@ import cv2
 import numpy as np
 
 from appliance.calibrate.compare import compare
-from appliance.calibrate.model import StereoCalibration
+from appliance.calibrate.model import StereoCalibration, load_calibration
 from appliance.errors import ApplianceError
 from appliance.localize.result import Branch, Feature, LocalizationResult
-from appliance.synth.rig import Rig
+from appliance.synth.rig import Rig, rig_from_calibration
 from appliance.synth.truth import SceneTruth, load_truth
 
 SAFETY_K = 1.05          # safe depth = Z - k * radius (the paper's k)
@@ -258,7 +259,7 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
     found = [r for r in rows if r.truth_index >= 0 and r.result_id >= 0]
 
     # branches: coverage of the visible true axes, and how much of what was reported lies on a true axis
-    pts, lens, radii, vis = _true_axis_samples(truth)
+    pts, lens, _, vis = _true_axis_samples(truth)
     segs = [(np.asarray(b.polyline_mm, float)[:-1], np.asarray(b.polyline_mm, float)[1:], k)
             for k, b in enumerate(result.branches) if len(b.polyline_mm) >= 2]
     a = np.concatenate([s[0] for s in segs]) if segs else np.zeros((0, 3))
@@ -358,13 +359,43 @@ def score_calibration(calib: StereoCalibration, rig: Rig) -> dict:
     return out
 
 
+CALIBRATION_ROWS = (
+    ("fx_pct", "focal length fx (worst camera)", "%"), ("fy_pct", "focal length fy (worst camera)", "%"),
+    ("pp_px", "principal point (worst camera)", "px"), ("baseline_pct", "baseline", "%"),
+    ("baseline_mm", "baseline", "mm"), ("rotation_deg", "rotation between the cameras", "deg"),
+    ("depth_pct_at_500", "depth RMS at 500 mm", "%"), ("depth_pct_at_1000", "depth RMS at 1000 mm", "%"),
+    ("depth_pct_at_1500", "depth RMS at 1500 mm", "%"),
+)
+
+
+def format_calibration(errors: dict) -> str:
+    """A plain-text table of :func:`score_calibration`'s errors."""
+    lines = [f"{'calibration error':<34}{'value':>12}", "-" * 46]
+    lines += [f"{label:<34}{errors[key]:>+9.3f} {unit:<3}" for key, label, unit in CALIBRATION_ROWS if key in errors]
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m appliance.synth.evaluate", description=__doc__.splitlines()[0])
-    ap.add_argument("pairs", nargs="+", type=Path, help="RESULT.json TRUTH.json, repeated")
+    ap.add_argument("pairs", nargs="*", type=Path, help="RESULT.json TRUTH.json, repeated")
     ap.add_argument("--json", type=Path, help="write the scores here")
     ap.add_argument("--tol-px", type=float, default=5.0)
+    ap.add_argument("--calib", type=Path, help="score this calibration file against --rig instead")
+    ap.add_argument("--rig", type=Path, help="the true rig (e.g. fixtures/rig.yaml)")
     a = ap.parse_args(argv)
-    if len(a.pairs) % 2:
+    if a.calib or a.rig:
+        if not (a.calib and a.rig) or a.pairs:
+            ap.error("--calib and --rig go together, without RESULT/TRUTH pairs")
+        try:
+            errors = score_calibration(load_calibration(a.calib), rig_from_calibration(load_calibration(a.rig)))
+        except ApplianceError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+        print(format_calibration(errors))
+        if a.json:
+            a.json.write_text(json.dumps(errors, indent=1) + "\n")
+        return 0
+    if not a.pairs or len(a.pairs) % 2:
         ap.error("give RESULT.json TRUTH.json pairs")
     scores = []
     for res_path, truth_path in zip(a.pairs[::2], a.pairs[1::2]):

@@ -290,7 +290,7 @@ class _Hits:
 
 
 def _cast(scene: Scene, seg: _Segments, rig: Rig, side: str, ss: int) -> _Hits:
-    K, D, Rc, tc = rig.camera(side)
+    _, _, Rc, tc = rig.camera(side)
     grid = rig.normalised_grid(side, ss)
     d_cam = np.concatenate([grid, np.ones(grid.shape[:2] + (1,))], axis=-1)
     d_cam /= np.linalg.norm(d_cam, axis=-1, keepdims=True)
@@ -419,12 +419,38 @@ def _sensor(img: np.ndarray, rng: np.random.Generator, gain: float, jpeg_quality
     x = x + sigma * rng.standard_normal(x.shape, dtype=np.float32)
     out = np.clip(np.round(x), 0, 255).astype(np.uint8)
     if jpeg_quality is not None:
-        ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
+        _, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
         out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
     return out
 
 
+def _shows(hits: _Hits, owner: np.ndarray, rig: Rig, ss: int, points_mm: np.ndarray, points_px: np.ndarray,
+           allowed: list, reach_mm: list) -> np.ndarray:
+    """Whether most supersamples of each point's pixel hit one of its ``allowed`` branches no more than
+    ``reach_mm`` before the point (so neither something else nor the branch itself hides it), (N,) bool."""
+    out = np.zeros(len(points_px), bool)
+    for j, (u, v) in enumerate(points_px):
+        ui, vi = int(round(u)), int(round(v))
+        if not (1 <= ui < rig.width_px - 1 and 1 <= vi < rig.height_px - 1):
+            continue
+        block = (slice(vi * ss, (vi + 1) * ss), slice(ui * ss, (ui + 1) * ss))
+        k, t = hits.ids[block].ravel(), hits.t[block].ravel()
+        own = (k >= 0) & (k < len(owner)) & np.isin(owner[np.clip(k, 0, len(owner) - 1)], allowed[j])
+        dist = np.linalg.norm(points_mm[j] - hits.origin)
+        out[j] = (own & (t >= dist - reach_mm[j])).sum() * 2 > ss * ss
+    return out
+
+
+def _reach(b: TrueBranch, v0: int, point: np.ndarray, origin: np.ndarray) -> float:
+    """How far before ``point`` (at vertex ``v0`` of ``b``) the tube's own surface may be along the ray from
+    ``origin``: r / sin(ray, axis), the sine bounded below (a tube seen end-on hides its own tip)."""
+    a = _unit(b.axis_mm[min(v0 + 1, len(b.axis_mm) - 1)] - b.axis_mm[max(v0 - 1, 0)])
+    sin = np.sqrt(max(1 - float(a @ _unit(point - origin)) ** 2, 0.0))
+    return 1.1 * b.radius_mm[v0] / max(sin, 0.3) + 1.0
+
+
 def _features(scene: Scene, rig: Rig, seg: _Segments, hits: dict, ss: int) -> TrueFeatures:
+    """Tips and forks with their projections and visibility in each view."""
     rows = []
     for i, b in enumerate(scene.branches):
         if b.parent >= 0:
@@ -435,46 +461,22 @@ def _features(scene: Scene, rig: Rig, seg: _Segments, hits: dict, ss: int) -> Tr
     branch = np.array([r[2] for r in rows], int)
     parent = np.array([r[3] for r in rows], int)
     radius = np.array([r[4] for r in rows], float)
-    px = {side: rig.project(xyz, side) for side in ("left", "right")}
-    vis = {}
+    br = scene.branches
+    allowed = [[branch[j], parent[j]] if parent[j] >= 0 else [branch[j]] for j in range(len(kind))]
+    px, vis = {}, {}
     for side in ("left", "right"):
-        owner = seg.branch
-        ids = hits[side].ids
-
-        def shows(points_px, points_mm, allowed, reach_mm):
-            """Whether most supersamples of each point's pixel hit one of the ``allowed`` branches no more than
-            ``reach_mm`` before the point (so neither something else nor the branch itself hides it)."""
-            out = np.zeros(len(points_px), bool)
-            for j, (u, v) in enumerate(points_px):
-                ui, vi = int(round(u)), int(round(v))
-                if not (1 <= ui < rig.width_px - 1 and 1 <= vi < rig.height_px - 1):
-                    continue
-                block = (slice(vi * ss, (vi + 1) * ss), slice(ui * ss, (ui + 1) * ss))
-                k, t = ids[block].ravel(), hits[side].t[block].ravel()
-                dist = np.linalg.norm(points_mm[j] - hits[side].origin)
-                own = (k >= 0) & (k < len(owner)) & np.isin(owner[np.clip(k, 0, len(owner) - 1)], allowed[j])
-                out[j] = (own & (t >= dist - reach_mm[j])).sum() * 2 > ss * ss
-            return out
-
-        allowed = [[branch[j], parent[j]] if parent[j] >= 0 else [branch[j]] for j in range(len(kind))]
-        def reach(b, v0, point):
-            """How far before ``point`` (at vertex ``v0`` of branch ``b``) the tube's surface may be along the
-            ray: r / sin(ray, axis), the sine bounded below (a tube seen end-on hides its own tip)."""
-            a = _unit(b.axis_mm[min(v0 + 1, len(b.axis_mm) - 1)] - b.axis_mm[max(v0 - 1, 0)])
-            sin = np.sqrt(max(1 - float(a @ _unit(point - hits[side].origin)) ** 2, 0.0))
-            return 1.1 * b.radius_mm[v0] / max(sin, 0.3) + 1.0
-
-        reaches = [reach(scene.branches[branch[j]], len(scene.branches[branch[j]].axis_mm) - 1, xyz[j])
-                   if parent[j] < 0 else
-                   reach(scene.branches[parent[j]], scene.branches[branch[j]].parent_vertex, xyz[j])
-                   for j in range(len(kind))]
-        v = shows(px[side], xyz, allowed, reaches)
+        h = hits[side]
+        px[side] = rig.project(xyz, side)
+        reach = [_reach(br[branch[j]], len(br[branch[j]].axis_mm) - 1, xyz[j], h.origin) if parent[j] < 0 else
+                 _reach(br[parent[j]], br[branch[j]].parent_vertex, xyz[j], h.origin) for j in range(len(kind))]
+        v = _shows(h, seg.branch, rig, ss, xyz, px[side], allowed, reach)
         # a fork counts only where its child is seen leaving the parent (within a few child radii of it)
         for j in np.nonzero((kind == "bifurcation") & v)[0]:
-            b = scene.branches[branch[j]]
-            pr = scene.branches[parent[j]].radius_mm[b.parent_vertex]
-            p = np.array([_point_along(b.axis_mm, m * (pr + 2 * b.radius_mm[0])) for m in (1.0, 1.5, 2.0, 3.0)])
-            v[j] = shows(rig.project(p, side), p, [[branch[j]]] * len(p), [reach(b, 0, q) for q in p]).any()
+            b = br[branch[j]]
+            step = br[parent[j]].radius_mm[b.parent_vertex] + 2 * b.radius_mm[0]
+            p = np.array([_point_along(b.axis_mm, m * step) for m in (1.0, 1.5, 2.0, 3.0)])
+            v[j] = _shows(h, seg.branch, rig, ss, p, rig.project(p, side), [[branch[j]]] * len(p),
+                          [_reach(b, 0, q, h.origin) for q in p]).any()
         vis[side] = v
     return TrueFeatures(kind, xyz, px["left"], px["right"], vis["left"], vis["right"], branch, parent, radius)
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from appliance.calibrate.model import StereoCalibration
+from appliance.calibrate.model import StereoCalibration, save_calibration
 from appliance.localize.result import Feature, LocalizationResult
 from appliance.synth.evaluate import format_table, pool, result_from_truth, score_calibration, score_result
 from appliance.synth.rig import default_rig
@@ -96,3 +96,18 @@ def test_calibration_score_against_the_true_rig():
     assert e["fx_pct"] == pytest.approx(1.0, rel=1e-6)
     assert e["baseline_mm"] == pytest.approx(0.02 * np.linalg.norm(rig.T), rel=1e-3)
     assert e["baseline_pct"] == pytest.approx(2.0, rel=1e-3)
+
+
+def test_calibration_command_line(tmp_path):
+    rig = default_rig()
+    K1 = rig.K1.copy()
+    K1[0, 0] *= 1.01
+    calib = StereoCalibration.from_pose(rig.size, K1, rig.D1, rig.K2, rig.D2, rig.R, rig.T)
+    save_calibration(calib, tmp_path / "c.yaml")
+    repo = SCENES.parents[1]
+    r = subprocess.run([sys.executable, "-m", "appliance.synth.evaluate", "--calib", tmp_path / "c.yaml", "--rig",
+                        repo / "fixtures" / "rig.yaml", "--json", tmp_path / "e.json"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "+1.000 %" in r.stdout
+    assert json.loads((tmp_path / "e.json").read_text())["fx_pct"] == pytest.approx(1.0, rel=1e-6)

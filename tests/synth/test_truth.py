@@ -132,3 +132,19 @@ def test_truth_files_round_trip(tmp_path, truth):
     npz_path.unlink()
     with pytest.raises(TruthError, match="t.npz"):
         load_truth(json_path)
+
+
+def test_render_is_deterministic_and_jpeg_optional():
+    r = default_rig()
+    scale = np.diag([0.25, 0.25, 1.0])
+    small = type(r)(scale @ r.K1, r.D1, scale @ r.K2, r.D2, r.R, r.T, 320, 240)
+    scene = make_scene(2)
+    a_left, a_right, a_truth = render(scene, small, seed=4)
+    b_left, _, _ = render(scene, small, seed=4)
+    j_left, _, j_truth = render(scene, small, seed=4, jpeg_quality=60)
+    assert a_left.shape == (240, 320, 3) and a_left.dtype == np.uint8
+    assert np.array_equal(a_left, b_left)
+    assert not np.array_equal(a_left, j_left) and np.abs(a_left.astype(int) - j_left).mean() < 6
+    assert np.array_equal(a_truth.mask_left, j_truth.mask_left)
+    gain = a_right.mean() / a_left.mean()
+    assert 0.85 < gain < 1.15 and a_truth.mask_left.any()

@@ -90,6 +90,7 @@ class BranchCurve:
     radius_px: float
     n_samples: int
     d_end_slopes: tuple[float, float] | None = None
+    right_runs: np.ndarray | None = None
 
     def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))

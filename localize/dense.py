@@ -95,8 +95,13 @@ def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.
     return near
 
 
-def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> BranchCurve | None:
-    """Dense row-by-row match of a steep segment; None when it finds too little."""
+def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+              taken: np.ndarray | None = None) -> BranchCurve | None:
+    """Dense row-by-row match of a steep segment; None when it finds too little.
+
+    ``taken`` (bool per right run) marks right crossings that belong to another piece.
+    The curve's ``right_runs`` are the right crossings it used.
+    """
     pts = graph.to_full(graph.seg_yx[s])
     rows, xc = _centre_guess(pts, 1, graph.scale)
     keep = ~_near_junction(graph, s, np.column_stack([xc, rows]), sm.radius_map)
@@ -127,18 +132,14 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     cd = c_l[q] - runs_r.centre_px[rr]
     cw = runs_r.span_px[rr]
     good = np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5
-    q, cd, cw = q[good], cd[good], cw[good]
+    if taken is not None:
+        good &= ~taken[rr]
+    q, rr, cd, cw = q[good], rr[good], cd[good], cw[good]
     if len(q) < 4:
         return None
     t = rows.astype(float)
     degree = degree_for(n, float(t.max() - t.min()))
-    single = np.bincount(q, minlength=n)[q] == 1
-    if single.sum() >= max(4, 0.3 * n):
-        model, _ = robust_fit(t[q[single]], cd[single], 1, rounds=2)
-    else:
-        hist, edges = np.histogram(cd, bins=np.arange(dmin - 1, dmax + 2, 1.0))
-        hist = np.convolve(hist, [1, 2, 1], "same")
-        model = Poly.constant(edges[np.argmax(hist)] + 0.5)
+    model = _consensus_line(t[q], cd)
     for k, tol in enumerate((3.0, 1.5, 0.75)):      # per row, the candidate nearest the model
         res = np.abs(cd - model(t[q]))
         order = np.lexsort((res, q))
@@ -154,7 +155,52 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     slope = u_poly.deriv()(tf)
     radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
     return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, model, radius, len(tf),
-                       end_slopes(tf, df))
+                       end_slopes(tf, df), rr[chosen])
+
+
+def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> None:
+    """Uniqueness: a right crossing belongs to one piece. Where two pieces matched the same
+    crossings (parallel twigs of similar width), the one with fewer samples is matched again
+    without them, or dropped."""
+    for _ in range(2):
+        owner = np.full(len(runs_r.row), -1)
+        conflict = set()
+        for s in sorted(curves, key=lambda k: -curves[k].n_samples):
+            used = curves[s].right_runs
+            if used is None or len(used) == 0:
+                continue
+            clash = owner[used] >= 0
+            if clash.mean() > 0.2:
+                conflict.add(s)
+            else:
+                owner[used[~clash]] = s
+        if not conflict:
+            return
+        for s in conflict:
+            c = fit_steep(graph, s, runs_l, runs_r, sm, taken=owner >= 0)
+            if c is None:
+                del curves[s]
+            else:
+                curves[s] = c
+
+
+def _consensus_line(t: np.ndarray, d: np.ndarray, n_hyp: int = 96, tol_px: float = 1.5) -> Poly:
+    """The straight line d(t) through the most candidates (RANSAC over candidate pairs, fixed seed).
+
+    Candidates of one row belong to different branches crossing it; the piece's own
+    disparities are the largest set on one line.
+    """
+    rng = np.random.default_rng(0)
+    i, j = rng.integers(0, len(t), (2, n_hyp))
+    dt = t[j] - t[i]
+    ok = np.abs(dt) >= 3
+    if not ok.any():
+        return Poly.constant(float(np.median(d)))
+    i, j, dt = i[ok], j[ok], dt[ok]
+    slope = (d[j] - d[i]) / dt
+    inl = np.abs(d[None, :] - (d[i, None] + slope[:, None] * (t[None, :] - t[i, None]))) <= tol_px
+    best = int(np.argmax(inl.sum(1)))
+    return Poly.fit(t[inl[best]], d[inl[best]], 1)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -422,6 +468,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         c = fit_steep(graph, s, runs_l, runs_r, sm)
         if c is not None:
             curves[s] = c
+    _resolve_shared(curves, graph, runs_l, runs_r, sm)
     b = _Builder(graph, sm, curves, cfg)
     kinds = graph.node_kind
     for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture

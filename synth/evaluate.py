@@ -87,6 +87,8 @@ class Score:
     branch_radius_err_mm : dict
         Absolute error of each reported branch's radius against the true radius where it lies.
     rows : list of FeatureRow
+    branch_radius_errors_mm : list of float
+        Signed radius error of each reported branch lying on a true axis.
     """
 
     name: str
@@ -105,6 +107,7 @@ class Score:
     reported_on_axis_mm: float
     branch_radius_err_mm: dict
     rows: list = field(default_factory=list)
+    branch_radius_errors_mm: list = field(default_factory=list)
 
     @property
     def recall(self) -> float:
@@ -291,7 +294,7 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
         radius_err_mm=_stats([r.radius_err_mm for r in found]),
         visible_axis_mm=float(lens[vis].sum()), covered_axis_mm=covered,
         reported_mm=reported, reported_on_axis_mm=on_axis,
-        branch_radius_err_mm=_stats(branch_radius_err), rows=rows,
+        branch_radius_err_mm=_stats(branch_radius_err), rows=rows, branch_radius_errors_mm=branch_radius_err,
     )
 
 
@@ -307,7 +310,8 @@ def pool(scores, name: str = "all") -> Score:
         radius_err_mm=_stats([r.radius_err_mm for r in found]),
         visible_axis_mm=sum(s.visible_axis_mm for s in scores), covered_axis_mm=sum(s.covered_axis_mm for s in scores),
         reported_mm=sum(s.reported_mm for s in scores), reported_on_axis_mm=sum(s.reported_on_axis_mm for s in scores),
-        branch_radius_err_mm=_stats([]), rows=rows,
+        branch_radius_err_mm=_stats([e for s in scores for e in s.branch_radius_errors_mm]), rows=rows,
+        branch_radius_errors_mm=[e for s in scores for e in s.branch_radius_errors_mm],
     )
 
 

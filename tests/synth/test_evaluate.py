@@ -70,7 +70,9 @@ def test_table_json_and_command_line(truth, tmp_path):
     s = score_result(result_from_truth(truth), truth, name="scene 01")
     table = format_table([s, s])
     assert "scene 01" in table and "all" in table and "1.00" in table
-    assert pool([s, s]).n_true == 2 * s.n_true
+    pooled = pool([s, s])
+    assert pooled.n_true == 2 * s.n_true and pooled.recall == 1.0
+    assert pooled.branch_radius_err_mm["n"] == 2 * s.branch_radius_err_mm["n"] > 0
     d = json.loads(json.dumps(s.to_dict()))
     assert d["recall"] == 1.0 and len(d["rows"]) == s.n_true
     res = tmp_path / "result.json"

@@ -55,6 +55,8 @@ class StereoMasks:
         Disparities of the working range.
     f_px, offset_px : float
         Rectified focal length and principal-point difference ``cx_left - cx_right``.
+    valid_left : ndarray (H, W) bool, optional
+        Where the rectified left image sees the scene; a branch end at its edge leaves the view.
     """
 
     left_mask: np.ndarray
@@ -65,6 +67,7 @@ class StereoMasks:
     d_range_px: tuple[float, float]
     f_px: float
     offset_px: float = 0.0
+    valid_left: np.ndarray | None = None
 
 
 def _angle_deg(pts: np.ndarray) -> float:
@@ -334,6 +337,11 @@ class _Builder:
         step = c.uv_at(t_edge + sign)[0] - uv_edge
         out = step / max(np.hypot(*step), 1e-9)
         r = max(c.radius_px, 1.0)
+        beyond = np.rint(uv_edge + 2.5 * out).astype(int)
+        h, w = self.sm.left_mask.shape
+        if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (
+                self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
+            return                                   # the branch leaves the view: no tip seen
         uv = uv_edge - out * r
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
@@ -507,6 +515,8 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
             continue
         if kind == "endpoint" and min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
             continue
+        if any(f.kind == kind and np.hypot(f.u - u, f.v - v) < 3 for f in features):
+            continue                                 # two graph ends placed on one tip
         features.append(FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node]))
     pieces = []
     for s, c in sorted(curves.items()):

@@ -153,7 +153,7 @@ class Localizer:
             gl, gr = LazyRectified(r, gl, 0), LazyRectified(r, gr, 1)
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
-                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]))
+                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), r.valid[0])
             matching = match_dense(graph_l, sm, c.match)
         clock.lap("match")
         result = self._assemble(matching, stamp_ns)

@@ -24,20 +24,28 @@ class Rectifier:
     maps : tuple of two (map1, map2) pairs
         ``cv2.initUndistortRectifyMap`` tables (fixed point, CV_16SC2) of the left and
         right camera.
+    valid : tuple of two ndarray (H, W) bool
+        Rectified pixels that see the camera's image (2 px in from its outline).
     """
 
     calib: StereoCalibration
     maps: tuple
 
+    valid: tuple = ()
+
     @classmethod
     def from_calibration(cls, calib: StereoCalibration) -> Rectifier:
-        """Build the remap tables (the only expensive step; done once)."""
+        """Build the remap tables and the valid areas (the only expensive step; done once)."""
         size = tuple(int(s) for s in calib.image_size)
         maps = tuple(
             cv2.initUndistortRectifyMap(K, D, Rr, P, size, cv2.CV_16SC2)
             for K, D, Rr, P in ((calib.K1, calib.D1, calib.R1, calib.P1), (calib.K2, calib.D2, calib.R2, calib.P2))
         )
-        return cls(calib, maps)
+        ones = np.full(size[::-1], 255, np.uint8)
+        valid = tuple(cv2.erode(cv2.remap(ones, m1, m2, cv2.INTER_NEAREST, borderValue=0), np.ones((5, 5), np.uint8),
+                                borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
+                      for m1, m2 in maps)
+        return cls(calib, maps, valid)
 
     def check_size(self, image: np.ndarray, what: str) -> None:
         """Raise LocalizeError unless ``image`` has the calibration's size."""

@@ -290,6 +290,8 @@ class _Hits:
 
 
 def _cast(scene: Scene, seg: _Segments, rig: Rig, side: str, ss: int) -> _Hits:
+    """Nearest hit of every supersample ray of camera ``side``; each primitive is tested only inside the
+    window of samples whose rays can reach its bounding sphere."""
     _, _, Rc, tc = rig.camera(side)
     grid = rig.normalised_grid(side, ss)
     d_cam = np.concatenate([grid, np.ones(grid.shape[:2] + (1,))], axis=-1)

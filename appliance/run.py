@@ -158,13 +158,13 @@ class _Loop:
             for t in threads:
                 t.join(timeout=10)
             if self.arm is not None:
-                self.status.arm = self.arm.stats()
                 self.arm.close()
+            self._report(final=True)
             if self.writer is not None:
+                self.writer.write_diagnostics(self.status.to_dict(), time.time_ns())   # the final counters
                 self.writer.close()
         if self.error is not None:
             raise self.error
-        self._report(final=True)
         return self.status
 
     def _guard(self, fn):
@@ -323,7 +323,8 @@ class _Loop:
         if self._latency_ms:
             s.latency_p50_ms, s.latency_p99_ms = np.percentile(list(self._latency_ms), [50, 99]).tolist()
         if self.arm is not None:
-            self.arm.set_status(camera_ok=s.camera_ok, calibrated=True, rate_hz=s.rate_hz)
+            if not final:
+                self.arm.set_status(camera_ok=s.camera_ok, calibrated=True, rate_hz=s.rate_hz)
             s.arm = self.arm.stats()
         if self.writer is not None:
             s.log_paths = [str(p) for p in self.writer.paths]

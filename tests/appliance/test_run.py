@@ -72,6 +72,7 @@ def test_run_logs_every_topic_for_every_pair(tmp_path):
         assert counts[topic] == N_SCENES, (topic, counts)
     assert counts["/camera/left/calibration"] == counts["/camera/right/calibration"] == 1
     assert counts["/diagnostics"] >= 1
+    assert read_diagnostics(log)[-1]["localized"] == N_SCENES     # the final counters
     assert {"config", "calibration", "version", "device"} <= metadata
     results = read_results(log)
     assert [seq for seq, _, _ in results] == list(range(N_SCENES))

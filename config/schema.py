@@ -90,6 +90,7 @@ class MatchConfig:
     max_horizontal_deg: float = rng(min=0, max=90)
     require_same_degree: bool = field()
     min_segment_px: float = rng(min=0)
+    oblique_end_ratio: float = rng(min=0)
 
 
 @dataclass(frozen=True)

@@ -306,14 +306,20 @@ class _Builder:
         else:
             self.hidden.discard(int(node))
 
-    def _walk_out(self, c: BranchCurve, node: int) -> tuple[float, float]:
-        """Parameter where the fitted centre line, followed outwards, leaves the mask; and the direction (+-1) of t."""
+    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0) -> tuple[float, float]:
+        """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
+        followed outwards, leaves the mask; and the direction (+-1) of t."""
         lo, hi = c.t_range
         t_node = c.t_of(self.node_xy[node])[0]
         start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
         reach = 3 * c.radius_px + 3 * self.g.scale + 4
         t = start + sign * np.arange(0, reach, 0.25)
-        uv = np.rint(c.uv_at(t)).astype(int)
+        uv = c.uv_at(t)
+        if offset_px:
+            step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
+            step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
+            uv = uv + offset_px * np.column_stack([-step[:, 1], step[:, 0]])
+        uv = np.rint(uv).astype(int)
         h, w = self.sm.left_mask.shape
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < w) & (uv[:, 1] >= 0) & (uv[:, 1] < h)
         on = np.zeros(len(t), bool)
@@ -337,6 +343,15 @@ class _Builder:
         step = c.uv_at(t_edge + sign)[0] - uv_edge
         out = step / max(np.hypot(*step), 1e-9)
         r = max(c.radius_px, 1.0)
+        if self.cfg.oblique_end_ratio > 0:
+            # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
+            # usually cuts the branch obliquely: such an end is hidden, not a tip
+            t_a, _ = self._walk_out(c, node, 0.7 * r)
+            t_b, _ = self._walk_out(c, node, -0.7 * r)
+            speed = float(np.hypot(*(c.uv_at(t_edge + 0.5)[0] - c.uv_at(t_edge - 0.5)[0])))
+            if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
+                self.hidden.add(int(node))
+                return
         beyond = np.rint(uv_edge + 2.5 * out).astype(int)
         h, w = self.sm.left_mask.shape
         if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (

@@ -95,3 +95,19 @@ def test_same_input_same_result():
     b = loc.localize(left, right, mask_left=ml, mask_right=mr).to_dict()
     a.pop("timings_ms"), b.pop("timings_ms")
     assert a == b
+
+
+def test_an_obliquely_cut_end_is_not_a_tip_when_asked():
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=8.0)
+    for img, m, shift in ((left, ml, 0.0), (right, mr, d)):
+        cut = np.array([[150, 300], [400, 200], [400, 480], [150, 480]], np.float64)   # a slanted edge
+        cut[:, 0] -= shift
+        cv2.fillPoly(img, [np.rint(cut).astype(np.int32)], (40, 40, 40))
+        cv2.fillPoly(m, [np.rint(cut).astype(np.int32)], 0)
+    plain = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    cfg = load_config(overrides={"localize": {"match": {"oblique_end_ratio": 0.35}}}).localize
+    strict = Localizer(calib, cfg).localize(left, right, mask_left=ml, mask_right=mr)
+    assert len([f for f in plain.features if f.kind == "endpoint"]) == 2
+    tips = [f for f in strict.features if f.kind == "endpoint"]
+    assert len(tips) == 1 and tips[0].left_px[1] < 100          # the round cap at the top stays

@@ -22,6 +22,8 @@ from pathlib import Path
 from appliance.calibrate import load_calibration
 from appliance.calibrate.board import Board
 from appliance.calibrate.compare import compare
+from appliance.synth.evaluate import score_calibration
+from appliance.synth.rig import rig_from_calibration
 from appliance.calibrate.stereo import calibrate_folder
 from appliance.config import load_config
 
@@ -56,11 +58,8 @@ def rendered(detector: str, cfg, folder: Path, rig_path: Path) -> None:
           "(a choice of the rectification, see compare.py)")
     print("  depth of true points triangulated through it, RMS: "
           + ", ".join(f"{e[k]:.3f} % at {k.rsplit('_', 1)[1]} mm" for k in e if k.startswith("depth")))
-    try:
-        from appliance.synth.evaluate import score_calibration
-    except ImportError:
-        return
-    print(f"  score_calibration: {score_calibration(c, truth)}")
+    s = score_calibration(c, rig_from_calibration(truth))
+    print(f"  baseline error {s['baseline_mm']:+.3f} mm, rotation error {s['rotation_deg']:.4f} deg")
 
 
 def real(detector: str, cfg) -> None:

@@ -143,14 +143,14 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     t = rows.astype(float)
     degree = degree_for(n, float(t.max() - t.min()))
     model = _consensus_line(t[q], cd)
-    for k, tol in enumerate((3.0, 1.5, 0.75)):      # per row, the candidate nearest the model
+    for k, tol in enumerate((2.0, 0.75)):           # per row, the candidate nearest the model
         res = np.abs(cd - model(t[q]))
         order = np.lexsort((res, q))
         first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
         chosen = first[res[first] <= tol]
         if len(chosen) < max(4, 0.25 * n):
             return None
-        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree, rounds=1 if k < 2 else 3)
+        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree, rounds=1 if k == 0 else 3)
     chosen = chosen[inl]
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])

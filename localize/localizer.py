@@ -17,10 +17,10 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
-from appliance.localize.dense import StereoMasks, match_dense
+from appliance.localize.dense import match_dense
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.match import match_features
-from appliance.localize.matching import Matching
+from appliance.localize.matching import Matching, StereoMasks
 from appliance.localize.prune import prune
 from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from appliance.localize.radius import RadiusMap
 
 
 @dataclass(frozen=True)
@@ -37,3 +38,35 @@ class Matching:
     features: list = field(default_factory=list)
     pieces: list = field(default_factory=list)
     stats: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class StereoMasks:
+    """The rectified pair as the dense matcher needs it.
+
+    Attributes
+    ----------
+    left_mask, right_mask : ndarray (H, W) uint8
+        Branch coverage 0-255 (binary masks remapped with linear interpolation); branch
+        where >= 128.
+    left_gray, right_gray : ndarray (H, W) uint8
+        Rectified grey images.
+    radius_map : RadiusMap
+        Left mask's radius map (:func:`radius.ridge_radius_map`).
+    d_range_px : (float, float)
+        Disparities of the working range.
+    f_px, offset_px : float
+        Rectified focal length and principal-point difference ``cx_left - cx_right``.
+    valid_left : ndarray (H, W) bool, optional
+        Where the rectified left image sees the scene; a branch end at its edge leaves the view.
+    """
+
+    left_mask: np.ndarray
+    right_mask: np.ndarray
+    left_gray: np.ndarray
+    right_gray: np.ndarray
+    radius_map: RadiusMap
+    d_range_px: tuple[float, float]
+    f_px: float
+    offset_px: float = 0.0
+    valid_left: np.ndarray | None = None

@@ -10,12 +10,12 @@ from appliance.logs.check import Gap, LogSummary, TopicSummary, check_log, recov
 from appliance.logs.errors import LogError
 from appliance.logs.images import EncodedFrame, decode_image, encode_frame, encode_image
 from appliance.logs.read import (
-    LoggedFrame, iter_messages, iter_stereo_frames, read_diagnostics, read_log_metadata, read_results,
+    iter_messages, iter_stereo_frames, read_diagnostics, read_log_metadata, read_results,
 )
 from appliance.logs.writer import LogWriter
 
 __all__ = [
-    "EncodedFrame", "Gap", "LogError", "LogSummary", "LogWriter", "LoggedFrame", "TopicSummary",
+    "EncodedFrame", "Gap", "LogError", "LogSummary", "LogWriter", "TopicSummary",
     "check_log", "decode_image", "encode_frame", "encode_image", "iter_messages", "iter_stereo_frames",
     "read_diagnostics", "read_log_metadata", "read_results", "recover_log",
 ]

@@ -7,14 +7,13 @@ cut short by a crash reads as far as it is whole.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-import numpy as np
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from mcap.records import Channel, Message, Metadata
 
+from appliance.acquire.frame import StereoFrame
 from appliance.localize.result import LocalizationResult
 from appliance.logs import messages as m
 from appliance.logs.images import decode_image
@@ -22,31 +21,6 @@ from appliance.logs.metadata import calibration_from_record, config_from_record
 from appliance.logs.records import ReadStatus, iter_records
 
 PENDING_MAX = 256  # an image whose partner has not come within this many messages is dropped
-
-
-@dataclass(frozen=True, eq=False)
-class LoggedFrame:
-    """A logged stereo pair (the fields of :class:`~appliance.acquire.StereoFrame`).
-
-    Attributes
-    ----------
-    left, right : ndarray, shape (H, W, 3) uint8 BGR or (H, W) grey
-    seq : int
-        The pair's seq as the driver numbered it.
-    stamp_left_ns, stamp_right_ns : int
-        Capture times, ns.
-    """
-
-    left: np.ndarray
-    right: np.ndarray
-    seq: int
-    stamp_left_ns: int
-    stamp_right_ns: int
-
-    @property
-    def stamp_ns(self) -> int:
-        """Mean of the two capture times, ns."""
-        return (self.stamp_left_ns + self.stamp_right_ns) // 2
 
 
 def iter_messages(path: str | Path, topics=None,
@@ -62,7 +36,7 @@ def iter_messages(path: str | Path, topics=None,
                 yield channel, record
 
 
-def iter_stereo_frames(path: str | Path) -> Iterator[LoggedFrame]:
+def iter_stereo_frames(path: str | Path) -> Iterator[StereoFrame]:
     """The logged stereo pairs in recorded order, decoded.
 
     Left and right images are paired by their seq (the MCAP message sequence); an image
@@ -84,7 +58,7 @@ def iter_stereo_frames(path: str | Path) -> Iterator[LoggedFrame]:
                 pending.pop(next(iter(pending)))
             continue
         left, right = (image, partner) if channel.topic == m.LEFT_IMAGE else (partner, image)
-        yield LoggedFrame(decode_image(left.data), decode_image(right.data), msg.sequence,
+        yield StereoFrame(decode_image(left.data), decode_image(right.data), msg.sequence,
                           m.stamp_ns_of(left.timestamp), m.stamp_ns_of(right.timestamp))
 
 

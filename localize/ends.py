@@ -188,11 +188,25 @@ class EndPlacer:
                 return
             if abs(d_end - self.uvd[node][2]) > 2.0:
                 self.uvd[node][2] = d_end
+        if not self._seen_right(self.uvd[node], r):
+            self.hidden.add(int(node))                # hidden in the right view: no depth of its own
+            return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half + 2)
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
+
+    def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
+        """Whether the right mask has branch within half a radius of the point's right position."""
+        m = self.sm.right_mask
+        u, v = uvd[0] - uvd[2], uvd[1]
+        k = max(1, int(round(0.5 * r)))
+        y0, y1 = int(round(v)) - k, int(round(v)) + k + 1
+        x0, x1 = int(round(u)) - k, int(round(u)) + k + 1
+        if y0 < 0 or x0 < 0 or y1 > m.shape[0] or x1 > m.shape[1]:
+            return False
+        return bool((m[y0:y1, x0:x1] >= 128).any())
 
     def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float) -> float | None:
         """Disparity of the end of a flat piece: the end of its row run in both views.

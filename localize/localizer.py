@@ -18,6 +18,7 @@ import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
 from appliance.localize.dense import match_dense
+from appliance.localize.errors import LocalizeError
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.match import match_features
 from appliance.localize.matching import Matching, StereoMasks
@@ -76,11 +77,13 @@ class Localizer:
 
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):
+        """Rectified branch coverage of both images (uint8 0-255), and the left image's
+        occluder test for recovery (None without the colour recogniser)."""
         seg = self.cfg.segment
         occluder = None
         if mask_left is not None or mask_right is not None:
             if mask_left is None or mask_right is None:
-                raise ValueError("give both mask_left and mask_right, or neither")
+                raise LocalizeError("masks: give both the left and the right mask, or neither")
             ml = as_mask(mask_left, left.shape[:2], "left mask")
             mr = as_mask(mask_right, right.shape[:2], "right mask")
         else:

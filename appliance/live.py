@@ -85,7 +85,7 @@ class LiveServer:
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, *, calibration=None,
-                 image_encoding: str = "jpeg", jpeg_quality: int = 90, backlog_messages: int = 64,
+                 image_encoding: str = "jpeg", jpeg_quality: int = 90, backlog_messages: int = 32,
                  queue_messages: int = 16, calibration_period_s: float = 1.0, name: str = "appliance"):
         try:
             import foxglove
@@ -241,12 +241,13 @@ class LiveServer:
             with self._cond:
                 self._count(kind, ok)
 
-    def _log(self, topic: str, build, stamp_ns: int) -> bool:
-        """Send ``build()`` (bytes or a protobuf message) on ``topic`` if a client subscribed to it."""
+    def _log(self, topic: str, message, stamp_ns: int) -> bool:
+        """Send ``message`` (bytes, a protobuf message, or a function building one) on ``topic``
+        if a client subscribed to it."""
         channel = self._channels[topic]
         if not channel.has_sinks():
             return False
-        data = build()
+        data = message() if callable(message) else message
         channel.log(data if isinstance(data, bytes) else data.SerializeToString(), log_time=int(stamp_ns))
         return True
 
@@ -261,9 +262,9 @@ class LiveServer:
         if self.calibration is not None and now_s - self._last_calibration_s >= self.calibration_period_s:
             self._last_calibration_s = now_s
             left, right = m.calibration_messages(self.calibration, stamp)
-            sent |= self._log(m.LEFT_CALIBRATION, lambda: left, stamp)
-            sent |= self._log(m.RIGHT_CALIBRATION, lambda: right, stamp)
-            sent |= self._log(m.TF_STATIC, lambda: m.right_camera_message(self.calibration, stamp), stamp)
+            sent |= self._log(m.LEFT_CALIBRATION, left, stamp)
+            sent |= self._log(m.RIGHT_CALIBRATION, right, stamp)
+            sent |= self._log(m.TF_STATIC, partial(m.right_camera_message, self.calibration, stamp), stamp)
         for topic, side, frame_id in ((m.LEFT_IMAGE, "left", m.CAMERA_FRAME), (m.RIGHT_IMAGE, "right", m.RIGHT_FRAME)):
             if topic in images:
                 image_stamp = int(getattr(enc, f"stamp_{side}_ns"))
@@ -273,11 +274,11 @@ class LiveServer:
 
     def _send_result(self, result, seq: int, camera_to_base) -> bool | None:
         stamp = int(result.stamp_ns) or time.time_ns()
-        sent = self._log(m.RESULT, lambda: m.result_json(result, seq), stamp)
-        sent |= self._log(m.BRANCHES, lambda: m.branches_message(result, stamp), stamp)
+        sent = self._log(m.RESULT, partial(m.result_json, result, seq), stamp)
+        sent |= self._log(m.BRANCHES, partial(m.branches_message, result, stamp), stamp)
         if camera_to_base is not None:
-            sent |= self._log(m.TF, lambda: m.camera_to_base_message(np.asarray(camera_to_base, np.float64), stamp),
-                              stamp)
+            pose = np.asarray(camera_to_base, np.float64)
+            sent |= self._log(m.TF, partial(m.camera_to_base_message, pose, stamp), stamp)
         return sent or None
 
     def _send_diagnostics(self, diagnostics: dict, stamp_ns: int | None) -> bool | None:

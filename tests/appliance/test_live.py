@@ -14,12 +14,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from mcap.reader import make_reader
 from websockets.sync.client import connect
 
 from appliance.acquire import StereoFrame
 from appliance.calibrate.model import load_calibration
+from appliance.config import load_config
 from appliance.live import LiveError, LiveServer
 from appliance.localize.result import Branch, Feature, LocalizationResult
+from appliance.logs import LogWriter
 from appliance.logs import messages as m
 from appliance.logs.images import decode_image
 
@@ -213,3 +216,28 @@ def test_without_foxglove_sdk_the_error_says_how_to_install():
     out = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "the live view needs foxglove-sdk: pip install 'appliance[live]'"
+
+
+def test_every_topic_carries_the_bytes_the_log_has(tmp_path):
+    """Same inputs through LogWriter and LiveServer: every message but /diagnostics is identical."""
+    calib = load_calibration(RIG)
+    cfg = load_config(overrides={"logging": {"image_encoding": "jpeg", "jpeg_quality": 75}}).logging
+    frame, result = make_frame(5), make_result(5)
+    with LogWriter(tmp_path / "run.mcap", cfg, calibration=calib) as writer:
+        writer.write_frame(frame)
+        writer.write_result(result, 5, CAMERA_TO_BASE)
+    with open(tmp_path / "run.mcap", "rb") as f:
+        logged = {ch.topic: (msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages()}
+    assert set(logged) == set(m.PROTOBUF_TOPICS) | {m.RESULT}
+
+    with LiveServer("127.0.0.1", 0, calibration=calib, image_encoding=cfg.image_encoding,
+                    jpeg_quality=cfg.jpeg_quality) as server, Client(server.url) as client:
+        client.subscribe(*logged)
+        wait_subscribed(server, *logged)
+        assert server.write_frame(frame)
+        assert server.write_result(result, 5, CAMERA_TO_BASE)
+        live = {}
+        while len(live) < len(logged):
+            topic, stamp_ns, payload = client.message()
+            live[topic] = (stamp_ns, payload)
+    assert live == logged

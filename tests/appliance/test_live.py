@@ -68,7 +68,7 @@ class Client:
         return json.loads(self.ws.recv(timeout=5))
 
     def subscribe(self, *topics: str) -> None:
-        subs = [{"id": 10 + i, "channelId": self.channels[t]["id"]} for i, t in enumerate(topics)]
+        subs = [{"id": 10 + len(self.subscriptions) + i, "channelId": self.channels[t]["id"]} for i, t in enumerate(topics)]
         self.subscriptions.update({s["id"]: t for s, t in zip(subs, topics)})
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
@@ -159,17 +159,28 @@ def test_frame_result_and_diagnostics_arrive_as_in_the_log(server):
         assert m.RIGHT_IMAGE not in got                                    # not subscribed: not sent
 
 
-def test_calibration_reaches_a_client_that_joins_late():
-    with LiveServer("127.0.0.1", 0, calibration=load_calibration(RIG), calibration_period_s=0.0) as server:
-        with Client(server.url) as client:
-            client.subscribe(m.LEFT_CALIBRATION)
-            wait_subscribed(server, m.LEFT_CALIBRATION)
-            assert server.write_frame(make_frame(1))
-            topic, _, payload = client.message()
-            calibration = client.protobuf_class(topic).FromString(payload)
-            assert topic == m.LEFT_CALIBRATION
-            assert (calibration.width, calibration.height) == load_calibration(RIG).image_size
-            assert server.frames_sent == 1 and server.errors == 0
+def test_calibration_is_repeated_for_a_client_that_subscribes_late():
+    calib = load_calibration(RIG)
+    with LiveServer("127.0.0.1", 0, calibration=calib, calibration_period_s=0.3) as server, \
+            Client(server.url) as client:
+        client.subscribe(m.LEFT_IMAGE)
+        wait_subscribed(server, m.LEFT_IMAGE)
+        assert server.write_frame(make_frame(1))                 # calibration due, nobody wants it
+        assert client.message()[0] == m.LEFT_IMAGE
+        client.subscribe(m.LEFT_CALIBRATION)
+        wait_subscribed(server, m.LEFT_CALIBRATION)
+        assert server.write_frame(make_frame(2))                 # within the period: images only
+        assert client.message()[0] == m.LEFT_IMAGE
+        time.sleep(0.3)
+        frame = make_frame(3)
+        assert server.write_frame(frame)
+        topic, stamp_ns, payload = client.message()
+        assert (topic, stamp_ns) == (m.LEFT_CALIBRATION, frame.stamp_left_ns)
+        calibration = client.protobuf_class(topic).FromString(payload)
+        assert (calibration.width, calibration.height) == calib.image_size
+        assert calibration.K == pytest.approx(calib.K1.ravel())
+        assert client.message()[0] == m.LEFT_IMAGE
+        assert server.frames_sent == 3 and server.errors == 0
 
 
 def test_a_client_that_never_reads_does_not_block_the_caller(server):
@@ -182,7 +193,7 @@ def test_a_client_that_never_reads_does_not_block_the_caller(server):
             t0 = time.perf_counter()
             assert server.write_frame(frame)
             worst_s = max(worst_s, time.perf_counter() - t0)
-        assert worst_s < 0.05
+        assert worst_s < 0.25                                # no wait for the client (or the JPEGs)
         with Client(server.url) as other:                    # the server still answers others
             assert other.server_info["op"] == "serverInfo"
         t0 = time.perf_counter()

@@ -3,6 +3,7 @@
 Three threads and two bounded queues::
 
     acquire ──frames(2)──> localize ──> arm link (its own bounded queue, newest wins)
+                                    ├──> live view (optional; its own worker, newest wins)
                                     └──log(logging.queue_frames)──> MCAP writer
 
 - Latency is capture stamp -> result for a camera, arrival in the loop -> result for a replay
@@ -70,6 +71,7 @@ class RunStatus:
     branches: int = 0
     arm: dict = field(default_factory=dict)   # the arm link's counters
     log_paths: list[str] = field(default_factory=list)
+    live: dict = field(default_factory=dict)  # the live server's url and counters
     logging: bool = False           # the log is being written (false after low disk)
 
     def to_dict(self) -> dict:
@@ -87,6 +89,7 @@ class RunOptions:
     log_dir: Path | None = None     # None: no MCAP log
     frames: int | None = None       # stop after this many pairs; None: until stopped / end of replay
     variant: str = "improved"       # localizer variant: improved | paper
+    live_port: int | None = None    # Foxglove WebSocket server on 127.0.0.1:live_port; None: none
     status_period_s: float = 0.5    # how often ``on_status`` is called and diagnostics written
 
 
@@ -141,6 +144,7 @@ class _Loop:
         driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
         self._check_size(driver)
         self.writer = self._open_writer(driver)
+        self.live = self._open_live()
         self.arm = self._open_arm()
         threads = [threading.Thread(target=self._guard(self._acquire), args=(driver,), name="acquire",
                                     daemon=True),
@@ -159,6 +163,8 @@ class _Loop:
                 t.join(timeout=10)
             if self.arm is not None:
                 self.arm.close()
+            if self.live is not None:
+                self.live.close()
             self._report(final=True)
             if self.writer is not None:
                 self.writer.write_diagnostics(self.status.to_dict(), time.time_ns())   # the final counters
@@ -198,6 +204,14 @@ class _Loop:
                            version=software_version())
         self.status.logging = True
         return writer
+
+    def _open_live(self):
+        if self.opts.live_port is None:
+            return None
+        from appliance.live import LiveServer
+
+        return LiveServer("127.0.0.1", self.opts.live_port, calibration=self.calib,
+                          jpeg_quality=self.cfg.logging.jpeg_quality)
 
     def _open_arm(self):
         if self.cfg.serial.port is None:
@@ -287,6 +301,9 @@ class _Loop:
             s.features, s.branches = len(result.features), len(result.branches)
             if self.arm is not None:
                 self.arm.submit(result, frame.seq)
+            if self.live is not None:                       # never blocks: its own worker
+                self.live.write_frame(frame)
+                self.live.write_result(result, frame.seq, self.camera_to_base)
             if self.writer is not None:
                 try:
                     self.log_q.put_nowait((frame, result))
@@ -334,5 +351,9 @@ class _Loop:
                     self.log_q.put_nowait(s.to_dict())
                 except queue.Full:
                     pass
+        if self.live is not None:
+            s.live = self.live.stats()
+            if not final:
+                self.live.write_diagnostics(s.to_dict(), time.time_ns())
         if self.on_status is not None:
-            self.on_status(replace(s, arm=dict(s.arm), log_paths=list(s.log_paths)))
+            self.on_status(replace(s, arm=dict(s.arm), log_paths=list(s.log_paths), live=dict(s.live)))

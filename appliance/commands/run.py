@@ -30,6 +30,11 @@ def command(
     frames: Annotated[Optional[int], typer.Option(
         "--frames", "-n", min=1, help="Stop after this many stereo pairs.")] = None,
     paper: Annotated[bool, typer.Option("--paper", help="Use the paper's variant of the method.")] = False,
+    live: Annotated[bool, typer.Option(
+        "--live", help="Stream the log's topics to Foxglove over a WebSocket on 127.0.0.1 "
+                       "(needs pip install 'appliance[live]').")] = False,
+    live_port: Annotated[int, typer.Option("--live-port", min=0, max=65535,
+                                           help="TCP port of the live view.")] = 8765,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No live status line.")] = False,
     config: ConfigOption = None,
 ) -> None:
@@ -47,7 +52,8 @@ def command(
     calibration = load_calibration(calib)
     opts = RunOptions(device=device or cfg.camera.device,
                       log_dir=None if no_log else (log or Path(cfg.logging.dir)),
-                      frames=frames, variant="paper" if paper else "improved")
+                      frames=frames, variant="paper" if paper else "improved",
+                      live_port=live_port if live else None)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
@@ -71,6 +77,7 @@ def status_line(s) -> str:
     if s.arm:
         arm = f"  arm sent {s.arm.get('sent', 0)} dropped {s.arm.get('dropped', 0)}"
     log = "" if not s.log_paths else ("  logging" if s.logging else "  [red]logging stopped[/]")
+    log += f"  live {s.live['url']}" if s.live else ""
     return (f"{cam}  {s.rate_hz:5.1f} pairs/s  latency p50 {s.latency_p50_ms:5.1f} ms "
             f"p99 {s.latency_p99_ms:5.1f} ms  pairs {s.pairs} localized {s.localized}  "
             f"dropped {s.dropped_localize}+{s.dropped_log} (localize+log)  "

@@ -252,3 +252,39 @@ def test_every_topic_carries_the_bytes_the_log_has(tmp_path):
             topic, stamp_ns, payload = client.message()
             live[topic] = (stamp_ns, payload)
     assert live == logged
+
+
+def test_appliance_run_live_streams_results(tmp_path):
+    """`appliance run --live` as a real process: a client sees results while it runs; SIGINT ends it."""
+    import signal
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    scenes = RIG.parent / "scenes"
+    cfg = tmp_path / "loop.yaml"
+    cfg.write_text("camera:\n  fake_loop: true\n  fake_rate_hz: 10.0\n")
+    proc = subprocess.Popen([str(Path(sys.executable).with_name("appliance")), "run", "--device", f"fake:{scenes}",
+                             "--calib", str(RIG), "--no-log", "--live", "--live-port", str(port), "-q",
+                             "--config", str(cfg)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                client = Client(f"ws://127.0.0.1:{port}")
+                break
+            except OSError:
+                assert proc.poll() is None, proc.communicate()[1]
+                assert time.monotonic() < deadline, "the live server never came up"
+                time.sleep(0.2)
+        client.subscribe(m.RESULT)
+        topic, _stamp_ns, payload = client.message()
+        assert topic == m.RESULT
+        result = json.loads(payload)
+        assert result["features"] and result["branches"] and result["seq"] >= 0
+        client.__exit__(None, None, None)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "localized" in out

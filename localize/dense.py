@@ -77,6 +77,7 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     if len(rows) < 4:
         return None
     il = runs_l.find(rows, xc)
+    rows_all, il_all = rows[il >= 0], il[il >= 0]
     sin_t = max(np.sin(np.radians(_angle_deg(pts))), 0.2)
     r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
     ok = il >= 0
@@ -122,8 +123,43 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     u_poly, _ = robust_fit(tf, cf, degree, rounds=1)
     slope = u_poly.deriv()(tf)
     radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
+    used = rr[chosen]
+    # rows where the branch is partly hidden still show one true edge in both views
+    w_poly, _ = robust_fit(tf, w_l[q[chosen]], 1, rounds=2)     # the whole crossing's width, horizontally
+    te, de, re = _edge_samples(np.setdiff1d(rows_all, tf.astype(int)), il_all, rows_all, u_poly, w_poly, model,
+                               runs_l, runs_r, taken)
+    if len(te):
+        tf, df = np.r_[tf, te], np.r_[df, de]
+        model, inl = robust_fit(tf, df, degree_for(len(tf), float(np.ptp(tf))))
+        tf, df, used = tf[inl], df[inl], np.r_[used, re]
     return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, model, radius, len(tf),
-                       end_slopes(tf, df), rr[chosen])
+                       end_slopes(tf, df), used)
+
+
+def _edge_samples(rows: np.ndarray, il_all: np.ndarray, rows_all: np.ndarray, u_poly: Poly, w_fit: Poly, d_model: Poly,
+                  runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
+    """Disparity samples from single edges, on rows whose crossing is not whole.
+
+    On such a row the left crossing's edge that lies where the fitted centre line and width
+    put the branch's outline (within 1 px) is a true edge; the same-side edge of the right
+    crossing at the fitted disparity (within 1 px) is its match. Returns rows, disparities and
+    right run indices.
+    """
+    if len(rows) == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0, int)
+    il = il_all[np.searchsorted(rows_all, rows)]
+    t = rows.astype(float)
+    u, half, d = u_poly(t), 0.5 * w_fit(t), d_model(t)
+    out_t, out_d, out_r = [], [], []
+    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
+        e_l = edge_l[il]
+        ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
+        e_r = edge_r[np.maximum(ir, 0)]
+        ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
+        if taken is not None:
+            ok &= ~taken[np.maximum(ir, 0)]
+        out_t.append(t[ok]), out_d.append((e_l - e_r)[ok]), out_r.append(ir[ok])
+    return np.concatenate(out_t), np.concatenate(out_d), np.concatenate(out_r)
 
 
 def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> None:

@@ -257,6 +257,17 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, 0)
 
 
+def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None) -> np.ndarray:
+    """Samples (N, 3) ordered to run from the ``start`` node's point towards the ``end`` node's."""
+    def dist(a, b):
+        return np.hypot(*(a[:2] - b[:2]))
+    if start is not None:
+        return uvd[::-1] if dist(uvd[-1], start) < dist(uvd[0], start) else uvd
+    if end is not None:
+        return uvd[::-1] if dist(uvd[0], end) < dist(uvd[-1], end) else uvd
+    return uvd
+
+
 def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
@@ -318,10 +329,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         uvd = c.uvd()
         a, z = graph.seg_nodes[s]
         ends = [b.uvd.get(n) for n in (a, z)]
-        # order the samples from node a to node z and put the nodes' own points at the ends
-        if ends[0] is not None and np.hypot(*(uvd[-1, :2] - ends[0][:2])) < np.hypot(*(uvd[0, :2] - ends[0][:2])) or ends[0] is None and ends[1] is not None and \
-                np.hypot(*(uvd[0, :2] - ends[1][:2])) < np.hypot(*(uvd[-1, :2] - ends[1][:2])):
-            uvd = uvd[::-1]
+        uvd = _oriented(uvd, *ends)
         parts = ([ends[0][None]] if ends[0] is not None else []) + [uvd] + \
                 ([ends[1][None]] if ends[1] is not None else [])
         pieces.append(PieceUVD(s, np.vstack(parts), c.radius_px, False, (int(a), int(z))))

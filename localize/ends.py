@@ -20,12 +20,14 @@ from appliance.localize.texture import nearer_in_front
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Total-least-squares line through points (N, 2): centroid and unit direction."""
     c = pts.mean(0)
     _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
     return c, vt[0]
 
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
+    """Intersection of the lines c1 + t e1 and c2 + s e2; None when (nearly) parallel."""
     a = np.column_stack([e1, -e2])
     if abs(np.linalg.det(a)) < 0.05:
         return None
@@ -53,6 +55,7 @@ class EndPlacer:
         self.hidden: set[int] = set()
 
     def seg_points(self, s: int) -> np.ndarray:
+        """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels."""
         c = self.curves.get(s)
         if c is not None:
             lo, hi = c.t_range
@@ -60,6 +63,7 @@ class EndPlacer:
         return self.g.to_full(self.g.seg_yx[s])
 
     def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
+        """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
         pts = self.seg_points(s)
         dist = np.hypot(*(pts - p).T)
         sel = pts[(dist >= 1.6 * r) & (dist <= 1.6 * r + max(40.0, 4 * r))]

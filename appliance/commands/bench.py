@@ -15,6 +15,42 @@ from appliance.commands.common import ConfigOption, effective_config
 app = typer.Typer(help="Benchmarks of the pipeline on this machine.", no_args_is_help=True)
 
 
+def measure(loc, left, right, mask_left=None, mask_right=None, runs: int = 30, sgbm_runs: int = 5) -> dict:
+    """Median time per pair of ``loc.localize`` on one core (after 2 warm-up runs), per stage, and of
+    OpenCV SGBM_3WAY on the same rectified pair: ``{median_ms, stages, sgbm_median_ms, runs, variant,
+    features, branches}``."""
+    import cv2
+
+    from appliance.localize.sgbm import sgbm_disparity
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        for _ in range(2):
+            res = loc.localize(left, right, mask_left=mask_left, mask_right=mask_right)
+        totals, stages = [], {}
+        for _ in range(runs):
+            t = time.perf_counter()
+            res = loc.localize(left, right, mask_left=mask_left, mask_right=mask_right)
+            totals.append((time.perf_counter() - t) * 1e3)
+            for k, v in res.timings_ms.items():
+                if k != "total":
+                    stages.setdefault(k, []).append(v)
+        gl = loc.rectifier.rectify(cv2.cvtColor(left, cv2.COLOR_BGR2GRAY), 0)
+        gr = loc.rectifier.rectify(cv2.cvtColor(right, cv2.COLOR_BGR2GRAY), 1)
+        sgbm = []
+        for _ in range(sgbm_runs):
+            t = time.perf_counter()
+            sgbm_disparity(gl, gr, loc.d_range_px)
+            sgbm.append((time.perf_counter() - t) * 1e3)
+    finally:
+        cv2.setNumThreads(threads)
+    return {"median_ms": round(statistics.median(totals), 3),
+            "stages": {k: round(statistics.median(v), 3) for k, v in stages.items()},
+            "sgbm_median_ms": round(statistics.median(sgbm), 3), "runs": runs, "variant": loc.variant,
+            "features": len(res.features), "branches": len(res.branches)}
+
+
 @app.command("localize")
 def localize(
     left: Annotated[Path, typer.Argument(help="Left image.")],
@@ -30,40 +66,16 @@ def localize(
 ) -> None:
     """Time the whole localization per pair on one core (median of --runs after a warm-up), per stage,
     and OpenCV StereoSGBM (SGBM_3WAY, same disparity range) on the same rectified pair."""
-    import cv2
-
     from appliance.commands.localize import load_inputs
     from appliance.localize import Localizer
-    from appliance.localize.sgbm import sgbm_disparity
 
-    cv2.setNumThreads(1)
     cfg = effective_config(config)
     cal, (img_l, img_r), (m_l, m_r) = load_inputs(calib, left, right, mask_left, mask_right)
     loc = Localizer(cal, cfg.localize, "paper" if paper else "improved")
-    for _ in range(2):
-        loc.localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
-    totals, stages = [], {}
-    for _ in range(runs):
-        t = time.perf_counter()
-        res = loc.localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
-        totals.append((time.perf_counter() - t) * 1e3)
-        for k, v in res.timings_ms.items():
-            if k != "total":
-                stages.setdefault(k, []).append(v)
-    gl = loc.rectifier.rectify(cv2.cvtColor(img_l, cv2.COLOR_BGR2GRAY), 0)
-    gr = loc.rectifier.rectify(cv2.cvtColor(img_r, cv2.COLOR_BGR2GRAY), 1)
-    sgbm = []
-    for _ in range(sgbm_runs):
-        t = time.perf_counter()
-        sgbm_disparity(gl, gr, loc.d_range_px)
-        sgbm.append((time.perf_counter() - t) * 1e3)
-    median = statistics.median(totals)
-    stage_med = {k: round(statistics.median(v), 3) for k, v in stages.items()}
-    sgbm_med = statistics.median(sgbm)
+    fig = measure(loc, img_l, img_r, m_l, m_r, runs, sgbm_runs)
+    median, stage_med, sgbm_med = fig["median_ms"], fig["stages"], fig["sgbm_median_ms"]
     if as_json:
-        typer.echo(json.dumps({"median_ms": round(median, 3), "stages": stage_med, "sgbm_median_ms": round(sgbm_med, 3),
-                               "runs": runs, "variant": loc.variant,
-                               "features": len(res.features), "branches": len(res.branches)}))
+        typer.echo(json.dumps(fig))
         return
     from rich.console import Console
     from rich.table import Table

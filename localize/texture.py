@@ -37,16 +37,26 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
     lo, hi = int(np.floor(d_range_px[0])), int(np.ceil(d_range_px[1]))
     d_out = np.full(len(uv_px), np.nan)
     score = np.full(len(uv_px), -1.0)
-    for i, ((u, v), hh) in enumerate(zip(np.rint(uv_px).astype(int), np.asarray(half_h_px, int))):
-        hw = half_w_px
+    uv = np.rint(np.asarray(uv_px, float).reshape(-1, 2)).astype(int)
+    hhs = np.asarray(half_h_px, int)
+    if len(uv) == 0:
+        return d_out, score
+    hw = half_w_px
+    # read each image once, over the box all patches and strips need (lazy images rectify it then)
+    by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
+    bx0, bx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
+    if by1 <= by0 or bx1 <= bx0:
+        return d_out, score
+    lbox, rbox = left[by0:by1, bx0:bx1], right[by0:by1, bx0:bx1]
+    for i, ((u, v), hh) in enumerate(zip(uv, hhs)):
         x0, x1 = u - hi - hw, u - lo + hw + 1
         if v - hh < 0 or v + hh + 1 > h or u - hw < 0 or u + hw + 1 > w or x1 <= 0:
             continue
-        tmpl = left[v - hh:v + hh + 1, u - hw:u + hw + 1]
+        tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - bx0:u + hw + 1 - bx0]
         if tmpl.std() < 1.0:
             continue
         xs = max(x0, 0)
-        strip = right[v - hh:v + hh + 1, xs:min(x1, w)]
+        strip = rbox[v - hh - by0:v + hh + 1 - by0, xs - bx0:min(x1, w) - bx0]
         if strip.shape[1] < tmpl.shape[1] + 2:
             continue
         c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]

@@ -105,7 +105,13 @@ class EndPlacer:
         if not parents and not final:
             return
         c1, e1 = _line(np.vstack([near[pa], near[pb]]))
-        c2, e2 = _line(near[child])
+        if child in self.curves:             # the child's own fitted centre line where it starts
+            cc = self.curves[child]
+            lo, hi = cc.t_range
+            t_end = hi if abs(cc.t_of(p)[0] - hi) <= abs(cc.t_of(p)[0] - lo) else lo
+            c2, e2 = _line(cc.uv_at(np.linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
+        else:
+            c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
         xy = _intersect(c1, e1, c2, e2)
         limit = 1.5 * max(rad[pa], rad[pb]) + 2 * self.g.scale

@@ -114,7 +114,7 @@ class EndPlacer:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
         xy = _intersect(c1, e1, c2, e2)
-        limit = 1.5 * max(rad[pa], rad[pb]) + 2 * self.g.scale
+        limit = 1.0 * max(rad[pa], rad[pb]) + 2 * self.g.scale
         if xy is None:
             xy = p0
         else:

@@ -16,7 +16,9 @@ With ``camera.fake_restamp`` the MCAP stamps are instead moved onto the replay c
 (``start + (recorded - first recorded)``), keeping the recorded left/right skew.
 ``seq`` counts the delivered pairs from 0. Pairs whose left/right stamps differ by more
 than ``camera.max_stereo_skew_ms`` are dropped and counted, as with live cameras.
-Without ``camera.fake_loop`` iteration ends after the last pair.
+Without ``camera.fake_loop`` iteration ends after the last pair; with it, a folder's images are
+decoded once (up to ``FOLDER_CACHE_BYTES``) and delivered read-only, so a loop over a few pairs
+costs no decoding.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from appliance.acquire.images import split_side_by_side
 from appliance.acquire.pairs import find_pairs
 
 FOLDER_RATE_HZ = 10.0
+FOLDER_CACHE_BYTES = 512 * 2**20   # a looping folder's images are decoded once, up to this much memory
 
 # One lap of a source: (left, right, stamp_left_ns, stamp_right_ns); stamps None = synthesize.
 Item = tuple[np.ndarray, np.ndarray, "int | None", "int | None"]
@@ -58,6 +61,7 @@ class FakeDriver(DriverBase):
         self.path = Path(path)
         self.cfg = cfg
         self.dropped_pairs = 0
+        self._decoded: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # looping folder: pair index -> images
         if not self.path.exists():
             raise DeviceNotFound(f"{self.name}: no such folder or file")
         if self.path.is_dir():
@@ -91,12 +95,19 @@ class FakeDriver(DriverBase):
 
     # -- sources: one lap each ------------------------------------------------------------
     def _folder(self) -> Iterator[Item]:
-        for pair in self._pairs:
+        for i, pair in enumerate(self._pairs):
+            if i in self._decoded:
+                yield *self._decoded[i], None, None
+                continue
             left = cv2.imread(str(pair.left), cv2.IMREAD_COLOR)
             right = cv2.imread(str(pair.right), cv2.IMREAD_COLOR)
             if left is None or right is None:
                 bad = pair.left if left is None else pair.right
                 raise DeviceLost(f"{self.name}: cannot read image {bad.name}")
+            cached = sum(a.nbytes + b.nbytes for a, b in self._decoded.values())
+            if self.cfg.fake_loop and cached + left.nbytes + right.nbytes <= FOLDER_CACHE_BYTES:
+                left.flags.writeable = right.flags.writeable = False    # shared by every lap
+                self._decoded[i] = (left, right)
             yield left, right, None, None
 
     def _video(self) -> Iterator[Item]:

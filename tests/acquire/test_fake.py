@@ -54,6 +54,15 @@ def test_loop_restarts_and_stamps_keep_increasing(pair_folder):
     assert np.all(np.diff([f.stamp_ns for f in frames]) > 0)
 
 
+def test_a_looping_folder_is_decoded_once_and_delivered_read_only(pair_folder):
+    with open_driver(f"fake:{pair_folder}", camera_cfg(fake_rate_hz=-1, fake_loop=True)) as driver:
+        frames = take(driver, 8)
+    assert frames[6].left is frames[0].left and frames[7].right is frames[1].right   # the first lap's arrays
+    assert not frames[0].left.flags.writeable
+    with pytest.raises(ValueError):
+        frames[0].left[0, 0] = 0
+
+
 def test_side_by_side_video_at_its_own_rate(sbs_video):
     with open_driver(f"fake:{sbs_video}", camera_cfg(fake_rate_hz=-1)) as driver:
         frames = list(driver)

@@ -98,13 +98,6 @@ class SkeletonGraph:
         )
 
 
-def _shifted(img: np.ndarray, k: int) -> np.ndarray:
-    """``out[y, x] = img[y + DY[k], x + DX[k]]`` (0 outside)."""
-    h, w = img.shape
-    pad = np.pad(img, 1)
-    return pad[1 + DY[k]:1 + DY[k] + h, 1 + DX[k]:1 + DX[k] + w]
-
-
 def _group(labels: np.ndarray, ys: np.ndarray, xs: np.ndarray, n: int) -> list:
     """Pixels (row, col) grouped by label 1..n, as a list of n arrays."""
     lab = labels[ys, xs]
@@ -112,6 +105,15 @@ def _group(labels: np.ndarray, ys: np.ndarray, xs: np.ndarray, n: int) -> list:
     counts = np.bincount(lab, minlength=n + 1)[1:]
     yx = np.column_stack([ys, xs])[order]
     return np.split(yx, np.cumsum(counts)[:-1]) if n else []
+
+
+def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
+    """Distinct rows of a (N, 2) array of non-negative ints, sorted."""
+    if len(pairs) == 0:
+        return pairs.reshape(0, 2)
+    key = pairs[:, 0].astype(np.int64) << 32 | pairs[:, 1].astype(np.int64)
+    key = np.unique(key)
+    return np.column_stack([key >> 32, key & 0xFFFFFFFF])
 
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
@@ -138,31 +140,31 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     py, px = np.nonzero(path)
     seg_yx = _group(slab, py, px, n_s)
 
-    # segment <-> node contacts, and node <-> node contacts (segments without pixels)
-    seg_node, node_node = [], []
-    node_at = node_img > 0
+    # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
+    # at the few skeleton pixels only (images padded by one so neighbours never leave them)
+    node_pad, seg_pad = np.pad(node_img, 1), np.pad(slab, 1)
+    ny, nx = np.nonzero(node_img)
+    own = node_img[ny, nx]
+    sn, nn = [], []
+    length = np.zeros(n_s + 1)
     for k in range(8):
-        nb = _shifted(node_img, k)
-        on = (slab > 0) & (nb > 0)
-        seg_node.append(np.column_stack([slab[on], nb[on]]))
-        on = node_at & (nb > 0) & (nb != node_img)
-        node_node.append(np.column_stack([node_img[on], nb[on]]))
-    sn = np.unique(np.vstack(seg_node), axis=0) - 1
-    nn = np.unique(np.sort(np.vstack(node_node), axis=1), axis=0) - 1
+        nb = node_pad[py + 1 + DY[k], px + 1 + DX[k]]
+        sn.append(np.column_stack([slab[py, px][nb > 0], nb[nb > 0]]))
+        nb = node_pad[ny + 1 + DY[k], nx + 1 + DX[k]]
+        hit = (nb > 0) & (nb != own)
+        nn.append(np.sort(np.column_stack([own[hit], nb[hit]]), axis=1))
+        if k in (2, 3, 4, 5):        # E, SE, S, SW: each step along a segment counted once
+            same = seg_pad[py + 1 + DY[k], px + 1 + DX[k]] == slab[py, px]
+            length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[py, px][same], minlength=n_s + 1)
+    sn = _unique_pairs(np.vstack(sn)) - 1
+    nn = _unique_pairs(np.vstack(nn)) - 1
     ends = np.full((n_s, 2), -1)
     filled = np.zeros(n_s, int)
     for s_id, node in sn:
         if filled[s_id] < 2:
             ends[s_id, filled[s_id]] = node
             filled[s_id] += 1
-
-    # lengths: 4-steps 1, diagonal steps sqrt 2, plus one step onto each end node
-    length = np.zeros(n_s + 1)
-    for k, step in ((2, 1.0), (4, 1.0), (3, np.sqrt(2)), (5, np.sqrt(2))):
-        nb = _shifted(slab, k)
-        same = (slab > 0) & (nb == slab)
-        length += step * np.bincount(slab[same], minlength=n_s + 1)
-    length = length[1:] + filled
+    length = length[1:] + filled                    # plus one step onto each end node
     seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
     seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
     length = np.r_[length, np.ones(len(nn))] * skel.scale

@@ -42,6 +42,18 @@ from appliance.localize import Localizer
 _END = object()  # end-of-stream marker in the queues
 
 
+def _finish(q: queue.Queue, timeout_s: float = 5.0) -> None:
+    """Put the end marker; if the consumer is stuck, make room by dropping the oldest item."""
+    try:
+        q.put(_END, timeout=timeout_s)
+    except queue.Full:
+        try:
+            q.get_nowait()
+        except queue.Empty:
+            pass
+        q.put_nowait(_END)
+
+
 def software_version() -> str:
     """The installed appliance version."""
     try:
@@ -142,10 +154,17 @@ class _Loop:
     # -- wiring --------------------------------------------------------------------------
     def run(self) -> RunStatus:
         driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
-        self._check_size(driver)
-        self.writer = self._open_writer(driver)
-        self.live = self._open_live()
-        self.arm = self._open_arm()
+        self.writer = self.live = self.arm = None
+        try:
+            self._check_size(driver)
+            self.writer = self._open_writer(driver)
+            self.live = self._open_live()
+            self.arm = self._open_arm()
+        except BaseException:
+            for part in (driver, self.writer, self.live):
+                if part is not None:
+                    part.close()
+            raise
         threads = [threading.Thread(target=self._guard(self._acquire), args=(driver,), name="acquire",
                                     daemon=True),
                    threading.Thread(target=self._guard(self._localize), name="localize", daemon=True)]
@@ -181,15 +200,12 @@ class _Loop:
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self.error = self.error or exc
                 self.stop.set()
-                if fn is self._acquire:
-                    self.frames_q.put(_END)
         return target
 
     def _check_size(self, driver) -> None:
         info = driver.info
         w, h = self.calib.image_size
         if info.width_px and (info.width_px, info.height_px) != (w, h):
-            driver.close()
             raise AcquireError(f"{info.device}: delivers {info.width_px}x{info.height_px} images, "
                                f"the calibration is for {w}x{h}")
 
@@ -249,7 +265,7 @@ class _Loop:
             self.status.dropped_driver += getattr(driver, "dropped_pairs", 0) if driver else 0
             if driver is not None:
                 driver.close()
-            self.frames_q.put(_END)
+            _finish(self.frames_q)
 
     def _reopen(self):
         delay_s = self.cfg.camera.reconnect_min_s
@@ -284,10 +300,17 @@ class _Loop:
                     pass
 
     def _localize(self) -> None:
+        try:
+            self._localize_all()
+        finally:
+            if self.writer is not None:
+                _finish(self.log_q)
+
+    def _localize_all(self) -> None:
         while True:
             item = self.frames_q.get()
             if item is _END:
-                break
+                return
             frame, received_ns = item
             result = self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns)
             if self.replay:                                 # replayed stamps: time from arrival
@@ -309,8 +332,6 @@ class _Loop:
                     self.log_q.put_nowait((frame, result))
                 except queue.Full:
                     s.dropped_log += 1
-        if self.writer is not None:
-            self.log_q.put(_END)
 
     def _write(self) -> None:
         while True:

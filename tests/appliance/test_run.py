@@ -185,6 +185,15 @@ def test_bad_input_is_one_line_naming_it(args, message):
     assert len(r.stderr.strip().splitlines()) == 1
 
 
+def test_a_missing_serial_port_is_one_line_and_leaves_a_readable_log(tmp_path):
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path),
+                  "--serial", "/dev/nonexistent-tty", "-q")
+    assert r.returncode == 1
+    assert r.stderr.startswith("error: ") and "/dev/nonexistent-tty" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert check_log(only_log(tmp_path)).intact
+
+
 def test_calibration_of_another_image_size_is_refused(tmp_path):
     small = tmp_path / "small"
     small.mkdir()

@@ -79,15 +79,17 @@ def surface_to_axis(d_px: np.ndarray, radius_px: float, f_px: float, offset_px: 
 
 
 def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_branch_px: np.ndarray,
-                    half_px: np.ndarray, d_max_px: float, margin_px: float = 2.0, min_score: float = 0.7,
+                    half_px: np.ndarray, d_max_px: float, margin_px: float = -3.0, min_score: float = 0.7,
                     min_lead: float = 0.1) -> np.ndarray:
-    """True where the patch at ``uv_px`` is nearer than the branch (its disparity larger by ``margin_px``).
+    """True where the patch at ``uv_px`` is not behind the branch (its disparity larger than
+    ``d_branch_px + margin_px``; the default margin takes things at the branch's own depth too).
 
     Tells a branch end hidden by a leaf or an apple (the patch just beyond it is that
-    occluder, in front) from a true tip (beyond it lies the background, behind). The
-    search spans disparities from 1 px (far background) to ``d_max_px``; the patch counts
-    as in front only if its best match in front scores >= ``min_score`` and beats every
-    match behind the branch by ``min_lead``. Patches without texture count as not in front.
+    occluder, at the branch's depth or in front) from a true tip (beyond it lies the
+    background, far behind). The search spans disparities from 1 px (far background) to
+    ``d_max_px``; the patch counts as in front only if its best match in front scores
+    >= ``min_score`` and beats every match behind by ``min_lead``. Patches without
+    texture count as not in front.
     """
     uv = np.asarray(uv_px, float).reshape(-1, 2)
     out = np.zeros(len(uv), bool)
@@ -106,7 +108,7 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         d = u - (x0 + np.arange(len(c)) + hh)          # disparity of each position
         front = d > d_branch_px[i] + margin_px
-        behind = d <= d_branch_px[i]
+        behind = ~front
         if not front.any():
             continue
         best_front = c[front].max()

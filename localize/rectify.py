@@ -2,6 +2,10 @@
 
 Rectified images have their epipolar lines on pixel rows: a 3D point seen at row ``v``
 in the rectified left image is at the same row in the rectified right image.
+
+Masks are mostly background: :meth:`Rectifier.rectify` remaps only the output tiles whose
+source area holds a non-zero pixel (the others are zero in a full remap too), which gives the
+same image as a full remap in about half the time.
 """
 
 from __future__ import annotations
@@ -26,12 +30,20 @@ class Rectifier:
         right camera.
     valid : tuple of two ndarray (H, W) bool
         Rectified pixels that see the camera's image (2 px in from its outline).
+    tiles : tuple of two ndarray (T, 8) int
+        Output tiles ``y0, y1, x0, x1`` and the source box they read ``sy0, sy1, sx0, sx1``
+        (end exclusive, clipped to the image; empty when the tile sees nothing), per camera.
     """
 
     calib: StereoCalibration
     maps: tuple
 
     valid: tuple = ()
+    tiles: tuple = ()
+
+    TILE_PX = (32, 64)      # output tile (rows, cols) of the sparse remap
+    BLOCK_PX = 8            # source pixels per cell of the "anything here" map
+    SPARSE_MAX = 0.7        # remap in full when more than this share of the tiles is needed
 
     @classmethod
     def from_calibration(cls, calib: StereoCalibration) -> Rectifier:
@@ -45,7 +57,8 @@ class Rectifier:
         valid = tuple(cv2.erode(cv2.remap(ones, m1, m2, cv2.INTER_NEAREST, borderValue=0), np.ones((5, 5), np.uint8),
                                 borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
                       for m1, m2 in maps)
-        return cls(calib, maps, valid)
+        tiles = tuple(_tile_sources(*cv2.convertMaps(m1, m2, cv2.CV_32FC1), cls.TILE_PX) for m1, m2 in maps)
+        return cls(calib, maps, valid, tiles)
 
     def check_size(self, image: np.ndarray, what: str) -> None:
         """Raise LocalizeError unless ``image`` has the calibration's size."""
@@ -67,7 +80,31 @@ class Rectifier:
         """
         m1, m2 = self.maps[side]
         interp = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
+        if image.dtype == np.uint8 and image.shape == m1.shape[:2] and self.tiles:
+            need = self._needed_tiles(image, side)
+            if len(need) <= self.SPARSE_MAX * len(self.tiles[side]):
+                out = np.zeros(image.shape, np.uint8)
+                for y0, y1, x0, x1 in need.tolist():
+                    cv2.remap(image, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], interp, dst=out[y0:y1, x0:x1],
+                              borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+                return out
         return cv2.remap(image, m1, m2, interp, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+    def _needed_tiles(self, image: np.ndarray, side: int) -> np.ndarray:
+        """Output tiles (y0, y1, x0, x1) whose source box holds a non-zero pixel of ``image``, (N, 4)."""
+        b = self.BLOCK_PX
+        h, w = image.shape
+        hb, wb = -(-h // b), -(-w // b)
+        any_px = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY)[1]
+        if (hb * b, wb * b) != (h, w):
+            any_px = cv2.copyMakeBorder(any_px, 0, hb * b - h, 0, wb * b - w, cv2.BORDER_CONSTANT, value=0)
+        # integer-factor INTER_AREA is the block mean: one 255 pixel of 64 still rounds to >= 4
+        cells = cv2.integral(cv2.resize(any_px, (wb, hb), interpolation=cv2.INTER_AREA))
+        t = self.tiles[side]
+        by0, bx0 = t[:, 4] // b, t[:, 6] // b
+        by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
+        count = cells[by1, bx1] - cells[by0, bx1] - cells[by1, bx0] + cells[by0, bx0]
+        return t[count > 0, :4]
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
         """Rectified pixel positions -> pixel positions in the original (distorted) image.
@@ -90,6 +127,34 @@ class Rectifier:
         rays = rays @ Rr  # rows: R^T @ ray, back into the camera's unrectified frame
         img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
         return img.reshape(-1, 2)
+
+
+def _tile_sources(map_x: np.ndarray, map_y: np.ndarray, tile_px: tuple[int, int]) -> np.ndarray:
+    """Output tiles of a remap and the source pixels each reads with linear interpolation.
+
+    Returns
+    -------
+    ndarray (T, 8) int
+        ``y0, y1, x0, x1, sy0, sy1, sx0, sx1`` (end exclusive; the source box clipped to the
+        image, so it is empty when the tile sees nothing).
+    """
+    h, w = map_x.shape
+    ys, xs = np.arange(0, h, tile_px[0]), np.arange(0, w, tile_px[1])
+
+    def reduce(f, m):
+        return f.reduceat(f.reduceat(m, ys, axis=0), xs, axis=1).ravel()
+
+    finite_x = np.nan_to_num(map_x, nan=-1e6)
+    finite_y = np.nan_to_num(map_y, nan=-1e6)
+    # pixel floor(p) and floor(p) + 1 are read; a little margin for the 1/32 px rounding
+    sx0 = np.floor(reduce(np.minimum, finite_x)) - 1
+    sx1 = np.floor(reduce(np.maximum, finite_x)) + 3
+    sy0 = np.floor(reduce(np.minimum, finite_y)) - 1
+    sy1 = np.floor(reduce(np.maximum, finite_y)) + 3
+    y0, x0 = (a.ravel() for a in np.meshgrid(ys, xs, indexing="ij"))
+    y1, x1 = np.minimum(y0 + tile_px[0], h), np.minimum(x0 + tile_px[1], w)
+    src = [np.clip(v, 0, lim) for v, lim in ((sy0, h), (sy1, h), (sx0, w), (sx1, w))]
+    return np.column_stack([y0, y1, x0, x1, *src]).astype(np.int64)
 
 
 class LazyRectified:

@@ -196,7 +196,9 @@ class EndPlacer:
             if d_end is None:
                 self.hidden.add(int(node))
                 return
-            if abs(d_end - self.uvd[node][2]) > 2.0:
+            if abs(d_end - self.uvd[node][2]) <= 2.0:
+                self.uvd[node][2] = 0.5 * (d_end + self.uvd[node][2])
+            else:
                 self.uvd[node][2] = d_end
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own

@@ -12,13 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import (
-    DX,
-    DY,
-    Skeleton,
-    neighbour_code,
-    neighbour_tables,
-)
+from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
 
@@ -98,13 +92,19 @@ class SkeletonGraph:
         )
 
 
-def _group(labels: np.ndarray, ys: np.ndarray, xs: np.ndarray, n: int) -> list:
-    """Pixels (row, col) grouped by label 1..n, as a list of n arrays."""
-    lab = labels[ys, xs]
-    order = np.argsort(lab, kind="stable")
-    counts = np.bincount(lab, minlength=n + 1)[1:]
-    yx = np.column_stack([ys, xs])[order]
-    return np.split(yx, np.cumsum(counts)[:-1]) if n else []
+def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
+    """Pixels (N, 2) grouped by their label 1..n (row-major order kept), as a list of n arrays."""
+    order = np.argsort(labels, kind="stable")
+    counts = np.bincount(labels, minlength=n + 1)[1:]
+    return np.split(yx[order], np.cumsum(counts)[:-1]) if n else []
+
+
+def _labels(shape: tuple[int, int], yx: np.ndarray) -> tuple[int, np.ndarray]:
+    """8-connected components of a few pixels (N, 2): (count, label 1..count of each pixel)."""
+    img = np.zeros(shape, np.uint8)
+    img[yx[:, 0], yx[:, 1]] = 1
+    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    return n - 1, lab[yx[:, 0], yx[:, 1]]
 
 
 def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
@@ -117,53 +117,58 @@ def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
 
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
-    """The graph of a skeleton (see module docstring)."""
+    """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
     s = (skel.image > 0).astype(np.uint8)
+    img = SparseImage.from_image(s)
+    yx = np.argwhere(s)                                       # row-major
+    idx = img.index(yx[:, 0], yx[:, 1])
     count, _, _ = neighbour_tables()
-    n = count[neighbour_code(s)] * s
-    junction = (n >= 3).astype(np.uint8)
-    endpoint = n == 1
-    path = (n == 2).astype(np.uint8)
+    n = count[img.codes(idx)]
+    jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
+    pidx = idx[n == 2]
 
-    n_j, jlab = cv2.connectedComponents(junction, connectivity=8, ltype=cv2.CV_32S)
-    n_j -= 1
-    ey, ex = np.nonzero(endpoint)
-    node_img = jlab.copy()
-    node_img[ey, ex] = n_j + 1 + np.arange(len(ey))
-    jy, jx = np.nonzero(junction)
-    node_pixels = _group(jlab, jy, jx, n_j) + [np.array([[y, x]]) for y, x in zip(ey, ex)]
-    node_yx = np.array([p.mean(0) for p in node_pixels]).reshape(-1, 2)
-    node_kind = np.r_[np.full(n_j, JUNCTION), np.full(len(ey), ENDPOINT)].astype(int)
+    n_j, jlab = _labels(s.shape, jyx)
+    node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
+    n_nodes = len(node_pixels)
+    node_of = np.r_[jlab, n_j + 1 + np.arange(len(eyx))]      # 1-based node id of each node pixel
+    node_yx = np.zeros((n_nodes, 2))
+    if n_nodes:
+        nyx = np.vstack([jyx, eyx])
+        size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
+        for c in (0, 1):
+            node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
+    node_kind = np.r_[np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)].astype(int)
 
-    n_s, slab = cv2.connectedComponents(path, connectivity=8, ltype=cv2.CV_32S)
-    n_s -= 1
-    py, px = np.nonzero(path)
-    seg_yx = _group(slab, py, px, n_s)
+    n_s, slab = _labels(s.shape, pyx)
+    seg_yx = _group(slab, pyx, n_s)
 
     # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
-    # at the few skeleton pixels only (images padded by one so neighbours never leave them)
-    node_pad, seg_pad = np.pad(node_img, 1), np.pad(slab, 1)
-    ny, nx = np.nonzero(node_img)
-    own = node_img[ny, nx]
+    # at the skeleton pixels in flat, zero-padded id images
+    node_flat = np.zeros(img.flat.shape, np.int64)
+    seg_flat = np.zeros(img.flat.shape, np.int64)
+    nidx = np.r_[idx[n >= 3], idx[n == 1]]
+    node_flat[nidx] = node_of
+    seg_flat[pidx] = slab
+    off = img.offsets()
     sn, nn = [], []
     length = np.zeros(n_s + 1)
     for k in range(8):
-        nb = node_pad[py + 1 + DY[k], px + 1 + DX[k]]
-        sn.append(np.column_stack([slab[py, px][nb > 0], nb[nb > 0]]))
-        nb = node_pad[ny + 1 + DY[k], nx + 1 + DX[k]]
-        hit = (nb > 0) & (nb != own)
-        nn.append(np.sort(np.column_stack([own[hit], nb[hit]]), axis=1))
+        nb = node_flat[pidx + off[k]]
+        sn.append(np.column_stack([slab[nb > 0], nb[nb > 0]]))
+        nb = node_flat[nidx + off[k]]
+        hit = (nb > 0) & (nb != node_of)
+        nn.append(np.sort(np.column_stack([node_of[hit], nb[hit]]), axis=1))
         if k in (2, 3, 4, 5):        # E, SE, S, SW: each step along a segment counted once
-            same = seg_pad[py + 1 + DY[k], px + 1 + DX[k]] == slab[py, px]
-            length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[py, px][same], minlength=n_s + 1)
-    sn = _unique_pairs(np.vstack(sn)) - 1
+            same = seg_flat[pidx + off[k]] == slab
+            length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[same], minlength=n_s + 1)
+    sn = _unique_pairs(np.vstack(sn)) - 1                     # sorted by segment, then node
     nn = _unique_pairs(np.vstack(nn)) - 1
     ends = np.full((n_s, 2), -1)
-    filled = np.zeros(n_s, int)
-    for s_id, node in sn:
-        if filled[s_id] < 2:
-            ends[s_id, filled[s_id]] = node
-            filled[s_id] += 1
+    first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
+    rank = np.arange(len(sn)) - first
+    two = rank < 2
+    ends[sn[two, 0], rank[two]] = sn[two, 1]
+    filled = np.minimum(np.bincount(sn[:, 0], minlength=n_s), 2)
     length = length[1:] + filled                    # plus one step onto each end node
     seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
     seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)

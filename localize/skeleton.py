@@ -47,6 +47,47 @@ def neighbour_code(img01: np.ndarray) -> np.ndarray:
     return code.astype(np.uint8)
 
 
+@dataclass(eq=False)
+class SparseImage:
+    """A binary image held as a zero-padded flat array, for work at a few pixels only.
+
+    Attributes
+    ----------
+    flat : ndarray ((H + 2) * (W + 2),) uint8
+        The image, 0/1, with a one-pixel border of zeros, raveled.
+    shape : (int, int)
+        (H, W) of the image.
+    """
+
+    flat: np.ndarray
+    shape: tuple[int, int]
+
+    @classmethod
+    def from_image(cls, img: np.ndarray) -> SparseImage:
+        h, w = img.shape
+        pad = np.zeros((h + 2, w + 2), np.uint8)
+        pad[1:-1, 1:-1] = img > 0
+        return cls(pad.ravel(), (h, w))
+
+    def index(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
+        """Flat indices of pixels (row, col), shape (N,) int64."""
+        return (np.asarray(ys, np.int64) + 1) * (self.shape[1] + 2) + np.asarray(xs, np.int64) + 1
+
+    def offsets(self) -> np.ndarray:
+        """Flat index steps to neighbour k (N, NE, E, SE, S, SW, W, NW), shape (8,)."""
+        return DY * (self.shape[1] + 2) + DX
+
+    def codes(self, idx: np.ndarray) -> np.ndarray:
+        """:func:`neighbour_code` at the flat indices ``idx``, shape (N,) uint8."""
+        nb = self.flat[np.asarray(idx)[:, None] + self.offsets()]
+        return (nb << np.arange(8, dtype=np.uint8)).sum(1, dtype=np.uint8)
+
+    def image(self) -> np.ndarray:
+        """The (H, W) uint8 0/1 image."""
+        h, w = self.shape
+        return self.flat.reshape(h + 2, w + 2)[1:-1, 1:-1].copy()
+
+
 def _groups(pts: np.ndarray) -> int:
     """Number of 8-connected groups among a few pixel positions (N, 2)."""
     label = list(range(len(pts)))
@@ -94,13 +135,14 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.
     """
     _, _, corner = neighbour_tables()
-    s = skel01.astype(np.uint8).copy()
-    yy, xx = np.indices(s.shape, sparse=True)
-    parity = ((yy + xx) & 1).astype(bool)
-    for p in (False, True):
-        drop = corner[neighbour_code(s)] & (s > 0) & (parity == p)
-        s[drop] = 0
-    return s
+    img = SparseImage.from_image(skel01)
+    ys, xs = np.nonzero(skel01)
+    idx = img.index(ys, xs)
+    parity = (ys + xs) & 1
+    for p in (0, 1):            # each pass decided on the image as the previous pass left it
+        at = idx[parity == p]
+        img.flat[at[corner[img.codes(at)]]] = 0
+    return img.image()
 
 
 def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:

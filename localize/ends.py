@@ -204,7 +204,7 @@ class EndPlacer:
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
             return
         half = max(4, int(round(r)))
-        probe = uv_edge + out * (half + 2)
+        probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))

@@ -302,6 +302,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     kinds = kinds.copy()
+    for node in np.flatnonzero(kinds == ENDPOINT):
+        if b.hidden_fork(node):
+            kinds[node] = JUNCTION
     bridges = []
     for s in np.flatnonzero(graph.seg_recovered):
         if b.bridge_holds(s):

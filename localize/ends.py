@@ -133,6 +133,47 @@ class EndPlacer:
         else:
             self.hidden.discard(int(node))
 
+    def hidden_fork(self, node: int, hidden_only: bool = True, reach_px: float = 80.0) -> bool:
+        """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
+
+        The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
+        line of a fitted piece at least as thick; if the end's own disparity carried along
+        agrees there with that piece's (1.5 px or 1.5 %), the crossing is the fork (with the
+        parent's disparity) and the end is placed there. Returns whether it was.
+        """
+        if hidden_only and node in self.uvd and node not in self.hidden:
+            return False
+        segs = [s for s in self.incident[node] if s in self.curves]
+        if not segs:
+            return False
+        c = self.curves[segs[0]]
+        t_edge, sign = self._walk_out(c, node)
+        t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
+        uv = c.uv_at(t)
+        best = None
+        for s2, c2 in self.curves.items():
+            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
+                continue
+            lo, hi = c2.t_range
+            ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
+            f = tb - c2.s_at(ta)
+            inside = (ta >= lo - 2) & (ta <= hi + 2)
+            cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
+            if len(cross) and (best is None or cross[0] < best[0]):
+                best = (int(cross[0]), c2)
+        if best is None:
+            return False
+        k, c2 = best
+        xy = uv[k]
+        d_par = float(c2.d_at(c2.t_of(xy))[0])
+        d_child = float(c.d_at(c.t_of(xy))[0])
+        if abs(d_child - d_par) > max(1.5, 0.015 * d_par):
+            return False
+        self.uvd[node] = np.array([xy[0], xy[1], d_par])
+        self.radius[node] = c.radius_px
+        self.hidden.discard(int(node))
+        return True
+
     def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask; and the direction (+-1) of t."""

@@ -1,6 +1,7 @@
 """Single-pixel, 8-connected skeletons of branch masks.
 
-``thinning`` is the paper's morphological thinning (Zhang-Suen, cv2.ximgproc) at full
+``thinning`` is the paper's morphological thinning (Zhang-Suen, the same result as
+cv2.ximgproc.thinning, computed at the pixels that can still change only) at full
 resolution. ``fast`` thins a mask ``downscale`` times smaller (thinning time grows with the
 branch thickness, so a 4x smaller mask thins ~40x faster); the skeleton then carries
 only the topology and approximate centre lines, which the dense matcher refines at full
@@ -80,7 +81,7 @@ class SparseImage:
     def codes(self, idx: np.ndarray) -> np.ndarray:
         """:func:`neighbour_code` at the flat indices ``idx``, shape (N,) uint8."""
         nb = self.flat[np.asarray(idx)[:, None] + self.offsets()]
-        return (nb << np.arange(8, dtype=np.uint8)).sum(1, dtype=np.uint8)
+        return np.packbits(nb, axis=1, bitorder="little").reshape(-1)
 
     def image(self) -> np.ndarray:
         """The (H, W) uint8 0/1 image."""
@@ -145,6 +146,72 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     return img.image()
 
 
+@lru_cache(maxsize=1)
+def zhang_suen_tables() -> tuple[np.ndarray, np.ndarray]:
+    """Deletion tables of Zhang-Suen's two sub-iterations over the 256 neighbour codes, (256,) bool.
+
+    A pixel goes when its neighbours (P2..P9 = N, NE, ..., NW) form one run (A = 1), it
+    has 2 to 6 of them (B), and P2*P4*P6 = P4*P6*P8 = 0 (first sub-iteration) or
+    P2*P4*P8 = P2*P6*P8 = 0 (second).
+    """
+    bits = (np.arange(256)[:, None] >> np.arange(8)) & 1
+    p2, _, p4, _, p6, _, p8, _ = bits.T
+    runs = ((bits == 0) & (np.roll(bits, -1, axis=1) == 1)).sum(1)
+    base = (runs == 1) & (bits.sum(1) >= 2) & (bits.sum(1) <= 6)
+    return (base & (p2 * p4 * p6 == 0) & (p4 * p6 * p8 == 0),
+            base & (p2 * p4 * p8 == 0) & (p2 * p6 * p8 == 0))
+
+
+def zhang_suen(mask: np.ndarray) -> np.ndarray:
+    """Zhang-Suen thinning, pixel for pixel the result of cv2.ximgproc.thinning (ZHANGSUEN).
+
+    Each sub-iteration deletes, all at once, the pixels its table marks; pixels on the image
+    border stay. A pixel's decision depends on its 3x3 neighbourhood only, so a pixel is
+    examined again only when a neighbour went in the last two sub-iterations (and at first
+    only where the neighbourhood is not full): the work follows the shrinking outline
+    instead of passing over the whole image each time (~10x faster at full size).
+
+    Parameters
+    ----------
+    mask : ndarray (H, W)
+        Non-zero = foreground.
+
+    Returns
+    -------
+    ndarray (H, W) uint8 0/1
+    """
+    tables = zhang_suen_tables()
+    m = (np.asarray(mask) > 0).astype(np.uint8)
+    h, w = m.shape
+    img = SparseImage.from_image(m)
+    inner = np.zeros((h + 2, w + 2), bool)
+    inner[2:h, 2:w] = True
+    inner = inner.ravel()
+    ys, xs = np.nonzero(m - cv2.erode(m, np.ones((3, 3), np.uint8)))
+    start = img.index(ys, xs)
+    start = start[inner[start]]
+    off = img.offsets()
+    near = [start, start]              # pixels next to a deletion in the last two sub-iterations
+    stamp = np.zeros(img.flat.shape, np.int64)
+    i, quiet = 0, 0
+    while quiet < 2:
+        if i == 0:
+            cand = start
+        else:
+            cand = np.concatenate(near)
+            cand = cand[img.flat[cand] == 1]
+            order = np.arange(len(cand))
+            stamp[cand] = order
+            cand = cand[stamp[cand] == order]          # each pixel once
+        gone = cand[tables[i & 1][img.codes(cand)]]
+        img.flat[gone] = 0
+        nb = (gone[:, None] + off).ravel()
+        near[i & 1] = nb[(img.flat[nb] == 1) & inner[nb]]
+        quiet = 0 if len(gone) else quiet + 1
+        i += 1
+    return img.image()
+
+
 def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:
     """Skeleton of a branch mask.
 
@@ -166,5 +233,4 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) 
         small = cv2.resize(m, (w // downscale, h // downscale), interpolation=cv2.INTER_AREA)
         m = (small >= 77).astype(np.uint8) * 255
         scale = downscale
-    thin = cv2.ximgproc.thinning(m, thinningType=cv2.ximgproc.THINNING_ZHANGSUEN)
-    return Skeleton(remove_corners(thin > 0), scale, m)
+    return Skeleton(remove_corners(zhang_suen(m)), scale, m)

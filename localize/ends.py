@@ -141,7 +141,7 @@ class EndPlacer:
         agrees there with that piece's (1.5 px or 1.5 %), the crossing is the fork (with the
         parent's disparity) and the end is placed there. Returns whether it was.
         """
-        if hidden_only and node in self.uvd and node not in self.hidden:
+        if hidden_only and node not in self.hidden:
             return False
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
@@ -156,8 +156,10 @@ class EndPlacer:
                 continue
             lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
-            f = tb - c2.s_at(ta)
             inside = (ta >= lo - 2) & (ta <= hi + 2)
+            if inside.sum() < 2:
+                continue
+            f = tb - c2.s_at(ta)
             cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
             if len(cross) and (best is None or cross[0] < best[0]):
                 best = (int(cross[0]), c2)

@@ -114,11 +114,16 @@ class EndPlacer:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
         xy = _intersect(c1, e1, c2, e2)
-        limit = 1.0 * max(rad[pa], rad[pb]) + 2 * self.g.scale
+        # the skeleton junction lies where the child's outline leaves the parent's, ahead of the
+        # fork in the child's direction: the fork slides back along the parent further than ahead
+        r_par = max(rad[pa], rad[pb])
+        ahead = np.sign(np.dot(c2 - p0, e1)) or 1.0
         if xy is None:
             xy = p0
         else:
-            xy = p0 + np.clip(np.dot(xy - p0, e1), -limit, limit) * e1
+            shift = np.clip(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale),
+                            0.5 * r_par + 2 * self.g.scale)
+            xy = p0 + ahead * shift * e1
         at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
         if parents:
             d = float(np.mean([at(s) for s in parents]))

@@ -27,14 +27,17 @@ def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tupl
     saturation <= saturation_max, value in [value_min, value_max]. Occluder (leaf,
     apple): saturation above saturation_max and value above value_min.
     """
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    lo_s, hi_s = 0, cfg.saturation_max
+    hue, sat, val = cv2.split(cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV))   # one-channel tests are 3x faster
     if cfg.hue_min <= cfg.hue_max:
-        bark = cv2.inRange(hsv, (cfg.hue_min, lo_s, cfg.value_min), (cfg.hue_max, hi_s, cfg.value_max))
+        bark = cv2.inRange(hue, cfg.hue_min, cfg.hue_max)
     else:
-        bark = cv2.inRange(hsv, (cfg.hue_min, lo_s, cfg.value_min), (180, hi_s, cfg.value_max))
-        bark |= cv2.inRange(hsv, (0, lo_s, cfg.value_min), (cfg.hue_max, hi_s, cfg.value_max))
-    occ = cv2.inRange(hsv, (0, min(cfg.saturation_max + 1, 255), cfg.value_min), (180, 255, 255)) if occluder else None
+        bark = cv2.inRange(hue, cfg.hue_min, 180) | cv2.inRange(hue, 0, cfg.hue_max)
+    cv2.bitwise_and(bark, cv2.inRange(sat, 0, cfg.saturation_max), dst=bark)
+    cv2.bitwise_and(bark, cv2.inRange(val, cfg.value_min, cfg.value_max), dst=bark)
+    occ = None
+    if occluder:
+        occ = cv2.inRange(sat, min(cfg.saturation_max + 1, 255), 255)
+        cv2.bitwise_and(occ, cv2.inRange(val, cfg.value_min, 255), dst=occ)
     return bark, occ
 
 
@@ -55,17 +58,29 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
 
     Components are found on a ``factor`` times smaller copy (any branch pixel keeps a
     small pixel), ten times faster than at full size; areas are counted at full size.
+    Only the small components are cleared (``mask`` itself is returned when none is).
     """
     h, w = mask.shape
-    cover = cv2.resize(mask, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
-    n, labels = cv2.connectedComponents((cover > 0).astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)
+    hs, ws = h // factor, w // factor
+    cover = cv2.resize(mask, (ws, hs), interpolation=cv2.INTER_AREA)
+    n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
-    area = np.bincount(labels.ravel(), weights=cover.ravel() / 255.0 * factor * factor, minlength=n)
-    keep = (area >= min_area_px).astype(np.uint8) * 255
-    keep[0] = 0
-    keep_big = cv2.resize(keep[labels], (w, h), interpolation=cv2.INTER_NEAREST)
-    return cv2.bitwise_and(mask, keep_big)
+    yx = cv2.findNonZero(cover).reshape(-1, 2)[:, ::-1]      # the few covered small pixels (row, col)
+    lab = labels[yx[:, 0], yx[:, 1]]
+    area = np.bincount(lab, weights=cover[yx[:, 0], yx[:, 1]] / 255.0 * factor * factor, minlength=n)
+    small = area < min_area_px
+    small[0] = False
+    if not small.any():
+        return mask
+    if (hs * factor, ws * factor) != (h, w):                  # blocks not aligned: clear via a full-size map
+        keep = np.where(small, 0, 255).astype(np.uint8)
+        keep[0] = 0
+        return cv2.bitwise_and(mask, cv2.resize(keep[labels], (w, h), interpolation=cv2.INTER_NEAREST))
+    out = mask.copy()
+    gone = yx[small[lab]]
+    out.reshape(hs, factor, ws, factor)[gone[:, 0], :, gone[:, 1], :] = 0
+    return out
 
 
 def segment_color(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:

@@ -125,15 +125,21 @@ class EndPlacer:
                             0.5 * r_par + 2 * self.g.scale)
             xy = p0 + ahead * shift * e1
         at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
+
+        def passes(s):              # a curve's disparity at the fork's row/column is its own there
+            c = self.curves[s]
+            return np.hypot(*(c.uv_at(c.t_of(xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
+        parents = [s for s in parents if passes(s)]
+        child_ok = child in self.curves and passes(child)
         if parents:
             d = float(np.mean([at(s) for s in parents]))
-        elif child in self.curves:
+        elif child_ok:
             d = float(at(child))
         else:
             return
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        if not parents or child not in self.curves or abs(at(child) - d) > max(1.5, 0.015 * d):
+        if not parents or not child_ok or abs(at(child) - d) > max(1.5, 0.015 * d):
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))

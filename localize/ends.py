@@ -35,6 +35,11 @@ def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     return c1 + t[0] * e1
 
 
+def _agree(d1: float, d2: float) -> bool:
+    """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
+    return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
+
+
 class EndPlacer:
     """Places forks, tips and joints of one graph on its fitted curves.
 
@@ -139,7 +144,7 @@ class EndPlacer:
             return
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        if not parents or not child_ok or abs(at(child) - d) > max(1.5, 0.015 * d):
+        if not parents or not child_ok or not _agree(at(child), d):
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
@@ -149,7 +154,7 @@ class EndPlacer:
 
         The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
         line of a fitted piece at least as thick; if the end's own disparity carried along
-        agrees there with that piece's (1.5 px or 1.5 %), the crossing is the fork (with the
+        agrees there with that piece's (:func:`_agree`), the crossing is the fork (with the
         parent's disparity) and the end is placed there. Returns whether it was.
         """
         if hidden_only and node not in self.hidden:
@@ -180,7 +185,7 @@ class EndPlacer:
         xy = uv[k]
         d_par = float(c2.d_at(c2.t_of(xy))[0])
         d_child = float(c.d_at(c.t_of(xy))[0])
-        if abs(d_child - d_par) > max(1.5, 0.015 * d_par):
+        if not _agree(d_child, d_par):
             return False
         self.uvd[node] = np.array([xy[0], xy[1], d_par])
         self.radius[node] = c.radius_px

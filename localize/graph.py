@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables
+from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables, pixels
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
 
@@ -120,7 +120,7 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
     s = (skel.image > 0).astype(np.uint8)
     img = SparseImage.from_image(s)
-    yx = np.argwhere(s)                                       # row-major
+    yx = pixels(s)                                            # row-major
     idx = img.index(yx[:, 0], yx[:, 1])
     count, _, _ = neighbour_tables()
     n = count[img.codes(idx)]

@@ -48,6 +48,12 @@ def neighbour_code(img01: np.ndarray) -> np.ndarray:
     return code.astype(np.uint8)
 
 
+def pixels(img: np.ndarray) -> np.ndarray:
+    """(row, col) of the non-zero pixels of a 2D uint8 image in row-major order, shape (N, 2) int64."""
+    pts = cv2.findNonZero(img)
+    return np.zeros((0, 2), np.int64) if pts is None else pts.reshape(-1, 2)[:, ::-1].astype(np.int64)
+
+
 @dataclass(eq=False)
 class SparseImage:
     """A binary image held as a zero-padded flat array, for work at a few pixels only.
@@ -137,9 +143,9 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     """
     _, _, corner = neighbour_tables()
     img = SparseImage.from_image(skel01)
-    ys, xs = np.nonzero(skel01)
-    idx = img.index(ys, xs)
-    parity = (ys + xs) & 1
+    yx = pixels((np.asarray(skel01) > 0).astype(np.uint8))
+    idx = img.index(yx[:, 0], yx[:, 1])
+    parity = yx.sum(1) & 1
     for p in (0, 1):            # each pass decided on the image as the previous pass left it
         at = idx[parity == p]
         img.flat[at[corner[img.codes(at)]]] = 0
@@ -184,12 +190,11 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     m = (np.asarray(mask) > 0).astype(np.uint8)
     h, w = m.shape
     img = SparseImage.from_image(m)
-    inner = np.zeros((h + 2, w + 2), bool)
-    inner[2:h, 2:w] = True
-    inner = inner.ravel()
-    ys, xs = np.nonzero(m - cv2.erode(m, np.ones((3, 3), np.uint8)))
-    start = img.index(ys, xs)
-    start = start[inner[start]]
+    pad = img.flat.reshape(h + 2, w + 2)
+    for edge in (pad[1], pad[h], pad[:, 1], pad[:, w]):
+        edge *= 2                      # 2: foreground on the image border, never deleted
+    start = img.index(*pixels(m - cv2.erode(m, np.ones((3, 3), np.uint8))).T)
+    start = start[img.flat[start] == 1]
     off = img.offsets()
     near = [start, start]              # pixels next to a deletion in the last two sub-iterations
     stamp = np.zeros(img.flat.shape, np.int64)
@@ -206,10 +211,10 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
         gone = cand[tables[i & 1][img.codes(cand)]]
         img.flat[gone] = 0
         nb = (gone[:, None] + off).ravel()
-        near[i & 1] = nb[(img.flat[nb] == 1) & inner[nb]]
+        near[i & 1] = nb[img.flat[nb] == 1]
         quiet = 0 if len(gone) else quiet + 1
         i += 1
-    return img.image()
+    return (img.image() > 0).astype(np.uint8)
 
 
 def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:

@@ -33,24 +33,40 @@ class EndGeometry:
 
 
 def end_geometry(graph: SkeletonGraph, radius_map: np.ndarray, reach_px: float = 20.0) -> EndGeometry:
-    """Position, outward direction (line fit to the last ``reach_px`` of its segment) and radius of every endpoint."""
-    nodes, xy, dirs, seg_of = [], [], [], []
-    for s, (a, b) in enumerate(graph.seg_nodes):
-        for node in (a, b):
-            if node < 0 or graph.node_kind[node] != ENDPOINT:
-                continue
-            p = graph.to_full(graph.node_yx[node])[0]
-            pts = graph.to_full(graph.seg_yx[s])
-            near = pts[np.hypot(*(pts - p).T) <= reach_px]
-            if len(near) < 2:
-                continue
-            c = near.mean(0)
-            _, _, vt = np.linalg.svd(near - c, full_matrices=False)
-            d = vt[0] if np.dot(vt[0], p - c) >= 0 else -vt[0]
-            nodes.append(node), xy.append(p), dirs.append(d), seg_of.append(s)
-    xy = np.array(xy).reshape(-1, 2)
-    return EndGeometry(np.array(nodes, int), xy, np.array(dirs).reshape(-1, 2),
-                       radius_at(radius_map, xy), np.array(seg_of, int))
+    """Position, outward direction (line fit to the last ``reach_px`` of its segment) and radius of every endpoint.
+
+    Ends are listed segment by segment; all ends are fitted at once (principal axis of each
+    end's nearby segment pixels, from their 2x2 scatter matrix).
+    """
+    ends = graph.seg_nodes.ravel()
+    seg = np.repeat(np.arange(len(graph.seg_nodes)), 2)
+    is_end = ends >= 0
+    is_end[is_end] = graph.node_kind[ends[is_end]] == ENDPOINT
+    ends, seg = ends[is_end], seg[is_end]
+    n_px = np.array([len(p) for p in graph.seg_yx], int)
+    if len(ends) == 0 or n_px[seg].sum() == 0:
+        return EndGeometry(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
+    all_px = graph.to_full(np.concatenate([p for p in graph.seg_yx if len(p)]))
+    first = np.r_[0, np.cumsum(n_px)[:-1]]
+    # every (end, pixel of its segment) pair
+    owner = np.repeat(np.arange(len(ends)), n_px[seg])
+    at = np.arange(len(owner)) - np.repeat(np.cumsum(n_px[seg]) - n_px[seg], n_px[seg]) + first[seg][owner]
+    p = graph.to_full(graph.node_yx[ends])
+    pts = all_px[at]
+    near = np.hypot(*(pts - p[owner]).T) <= reach_px
+    owner, pts = owner[near], pts[near]
+    count = np.bincount(owner, minlength=len(ends))
+    c = np.column_stack([np.bincount(owner, pts[:, k], len(ends)) for k in (0, 1)]) / np.maximum(count, 1)[:, None]
+    d = pts - c[owner]
+    sxx, sxy, syy = (np.bincount(owner, u * v, len(ends)) for u, v in ((d[:, 0], d[:, 0]), (d[:, 0], d[:, 1]),
+                                                                        (d[:, 1], d[:, 1])))
+    big = (sxx + syy) / 2 + np.hypot((sxx - syy) / 2, sxy)        # larger eigenvalue
+    axis = np.where((sxx >= syy)[:, None], np.column_stack([big - syy, sxy]), np.column_stack([sxy, big - sxx]))
+    axis /= np.maximum(np.hypot(axis[:, 0], axis[:, 1]), 1e-300)[:, None]
+    axis *= np.where(np.einsum("ij,ij->i", axis, p - c) >= 0, 1.0, -1.0)[:, None]
+    ok = count >= 2
+    xy = p[ok]
+    return EndGeometry(ends[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
 
 
 def _line_pixels(graph: SkeletonGraph, a_xy: np.ndarray, b_xy: np.ndarray) -> np.ndarray:

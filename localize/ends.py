@@ -3,8 +3,9 @@
 A fork is where the child's centre line meets the parent's, with the parent's disparity
 there, and is reported only if the child's own disparity agrees (else two branches merely
 cross in the image). A tip is where the centre line leaves the mask, one radius back (the
-round cap); an end with something nearer just beyond it, or running out of the view, is
-not a tip. A bridge across an occluder stands only if both sides' curves meet.
+round cap); an end that the right view's outline ends elsewhere (an occluder's edge), with
+something nearer just beyond it, or running out of the view, is not a tip; a hidden end
+whose centre line runs on into a thicker piece at the same disparity is a fork. A bridge across an occluder stands only if both sides' curves meet.
 """
 
 from __future__ import annotations
@@ -17,6 +18,11 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
+
+# a tip's end in the right view may lie this far (px, along the branch) from the left view's:
+# steep pieces (disparity from the outline), flat pieces (from the texture: looser)
+END_SHIFT_STEEP_PX = 2.0
+END_SHIFT_FLAT_PX = 6.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -192,9 +198,10 @@ class EndPlacer:
         self.hidden.discard(int(node))
         return True
 
-    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0) -> tuple[float, float]:
+    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
-        followed outwards, leaves the mask; and the direction (+-1) of t."""
+        followed outwards, leaves the mask (``right``: the right view's, the line moved by
+        the piece's disparity); and the direction (+-1) of t."""
         lo, hi = c.t_range
         t_node = c.t_of(self.node_xy[node])[0]
         start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
@@ -205,11 +212,14 @@ class EndPlacer:
             step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
             step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
             uv = uv + offset_px * np.column_stack([-step[:, 1], step[:, 0]])
+        if right:
+            uv[:, 0] -= c.d_at(t)
         uv = np.rint(uv).astype(int)
-        h, w = self.sm.left_mask.shape
+        mask = self.sm.right_mask if right else self.sm.left_mask
+        h, w = mask.shape
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < w) & (uv[:, 1] >= 0) & (uv[:, 1] < h)
         on = np.zeros(len(t), bool)
-        on[inside] = self.sm.left_mask[uv[inside, 1], uv[inside, 0]] >= 128
+        on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
         off = np.flatnonzero(~on)
         last = (off[0] - 1) if len(off) else len(t) - 1
         return float(t[max(last, 0)] + sign * 0.5), sign
@@ -217,8 +227,10 @@ class EndPlacer:
     def tip(self, node: int) -> None:
         """A tip: the end of the mask along the centre line, less the round cap (one radius).
 
-        An end with something nearer just beyond it is hidden, not a tip: it is kept
-        as the piece's end but flagged (``self.hidden``).
+        An end is hidden, not a tip (kept as the piece's end but flagged in ``self.hidden``),
+        when the right view's outline ends elsewhere along the branch than the left's (an
+        occluder's edge, not the branch's own cap), or when something at the branch's depth
+        or nearer lies just beyond it.
         """
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
@@ -261,6 +273,13 @@ class EndPlacer:
                 self.uvd[node][2] = d_end
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
+            return
+        # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
+        # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
+        t_right, _ = self._walk_out(c, node, right=True)
+        speed = float(np.hypot(*(c.uv_at(t_edge + 0.5)[0] - c.uv_at(t_edge - 0.5)[0])))
+        if abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX):
+            self.hidden.add(int(node))
             return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap

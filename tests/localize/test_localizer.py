@@ -113,3 +113,23 @@ def test_an_obliquely_cut_end_is_not_a_tip_when_asked():
         # there: the slab cuts it), both withhold the cut end; the round cap at the top stays
         tips = [f for f in result.features if f.kind == "endpoint"]
         assert len(tips) == 1 and tips[0].left_px[1] < 100
+
+
+def test_an_end_cut_by_something_nearer_is_not_a_tip():
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=8.0)
+    full = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert len([f for f in full.features if f.kind == "endpoint"]) == 2      # both round caps
+    # a plain slab 100 mm nearer across the lower part, its edge slanted to the rows: it cuts the
+    # branch at another place in the right view than the branch's own disparity puts a tip
+    # (an edge along the rows would cut both views on the same row: no telling it from a tip)
+    d_slab = calib.f_px * calib.baseline_mm / 900.0
+    for img, m, shift in ((left, ml, 0.0), (right, mr, d_slab)):
+        slab = np.array([[100, 250], [480, 400], [480, 479], [100, 479]], np.float64)
+        slab[:, 0] -= shift
+        cv2.fillPoly(img, [np.rint(slab).astype(np.int32)], (40, 40, 40))
+        cv2.fillPoly(m, [np.rint(slab).astype(np.int32)], 0)
+    cut = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in cut.features if f.kind == "endpoint"]
+    assert len(tips) == 1 and tips[0].left_px[1] < 100          # only the cap at the top
+    assert len(cut.branches) == 1

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables, pixels
+from appliance.localize.skeleton import Skeleton, SparseImage, binary, neighbour_tables, pixels
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
 
@@ -118,7 +118,7 @@ def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
     """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
-    s = (skel.image > 0).astype(np.uint8)
+    s = binary(skel.image)
     img = SparseImage.from_image(s)
     yx = pixels(s)                                            # row-major
     idx = img.index(yx[:, 0], yx[:, 1])

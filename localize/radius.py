@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from appliance.localize.skeleton import binary
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,7 +34,7 @@ def ridge_radius_map(mask: np.ndarray, window_px: int = 1, scale: int = 1) -> Ra
     ``mask`` may be a ``scale`` times smaller mask (then the radius is only good to
     about ``scale / 2`` px).
     """
-    dt = cv2.distanceTransform((mask > 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    dt = cv2.distanceTransform(binary(mask), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     if window_px > 1:
         dt = cv2.dilate(dt, np.ones((window_px, window_px), np.uint8))
     return RadiusMap(np.maximum(dt - 0.5, 0.0) * scale, scale)

@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
+from appliance.localize.skeleton import binary
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 
@@ -102,7 +103,7 @@ def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:
         m = m.max(axis=2)
     if m.shape != tuple(shape):
         raise LocalizeError(f"{what}: mask is {m.shape[1]}x{m.shape[0]}, the image is {shape[1]}x{shape[0]}")
-    m = (m > 0).astype(np.uint8) * 255
-    if not m.any():
+    m = binary(m, 255)
+    if not cv2.countNonZero(m):
         raise LocalizeError(f"{what}: mask is empty (no branch pixel)")
     return m

@@ -48,6 +48,14 @@ def neighbour_code(img01: np.ndarray) -> np.ndarray:
     return code.astype(np.uint8)
 
 
+def binary(img: np.ndarray, on: int = 1) -> np.ndarray:
+    """``on`` where ``img`` is non-zero, else 0, uint8 (one OpenCV pass for uint8 images)."""
+    img = np.asarray(img)
+    if img.dtype == np.uint8 and img.ndim == 2:
+        return cv2.threshold(img, 0, on, cv2.THRESH_BINARY)[1]
+    return (img > 0).astype(np.uint8) * np.uint8(on)
+
+
 def pixels(img: np.ndarray) -> np.ndarray:
     """(row, col) of the non-zero pixels of a 2D uint8 image in row-major order, shape (N, 2) int64."""
     pts = cv2.findNonZero(img)
@@ -143,7 +151,7 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     """
     _, _, corner = neighbour_tables()
     img = SparseImage.from_image(skel01)
-    yx = pixels((np.asarray(skel01) > 0).astype(np.uint8))
+    yx = pixels(binary(skel01))
     idx = img.index(yx[:, 0], yx[:, 1])
     parity = yx.sum(1) & 1
     for p in (0, 1):            # each pass decided on the image as the previous pass left it
@@ -187,7 +195,7 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     ndarray (H, W) uint8 0/1
     """
     tables = zhang_suen_tables()
-    m = (np.asarray(mask) > 0).astype(np.uint8)
+    m = binary(mask)
     h, w = m.shape
     img = SparseImage.from_image(m)
     pad = img.flat.reshape(h + 2, w + 2)
@@ -214,7 +222,7 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
         near[i & 1] = nb[img.flat[nb] == 1]
         quiet = 0 if len(gone) else quiet + 1
         i += 1
-    return (img.image() > 0).astype(np.uint8)
+    return binary(img.image())
 
 
 def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:
@@ -231,11 +239,11 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) 
     downscale : int
         Factor of ``fast``.
     """
-    m = (np.asarray(mask) > 0).astype(np.uint8) * 255
+    m = binary(mask, 255)
     scale = 1
     if method == "fast" and downscale > 1:
         h, w = m.shape
         small = cv2.resize(m, (w // downscale, h // downscale), interpolation=cv2.INTER_AREA)
-        m = (small >= 77).astype(np.uint8) * 255
+        m = cv2.threshold(small, 76, 255, cv2.THRESH_BINARY)[1]
         scale = downscale
     return Skeleton(remove_corners(zhang_suen(m)), scale, m)

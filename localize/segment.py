@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
-from appliance.localize.skeleton import binary
+from appliance.localize.skeleton import binary, pixels
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 
@@ -62,22 +62,22 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     Only the small components are cleared (``mask`` itself is returned when none is).
     """
     h, w = mask.shape
-    hs, ws = h // factor, w // factor
+    hs, ws = -(-h // factor), -(-w // factor)
+    if (hs * factor, ws * factor) != (h, w):                  # whole blocks only: pad, then crop
+        pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
+        out = drop_small(pad, min_area_px, factor)
+        return mask if out is pad else out[:h, :w]
     cover = cv2.resize(mask, (ws, hs), interpolation=cv2.INTER_AREA)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
-    yx = cv2.findNonZero(cover).reshape(-1, 2)[:, ::-1]      # the few covered small pixels (row, col)
+    yx = pixels(cover)                                        # the few covered small pixels (row, col)
     lab = labels[yx[:, 0], yx[:, 1]]
     area = np.bincount(lab, weights=cover[yx[:, 0], yx[:, 1]] / 255.0 * factor * factor, minlength=n)
     small = area < min_area_px
     small[0] = False
     if not small.any():
         return mask
-    if (hs * factor, ws * factor) != (h, w):                  # blocks not aligned: clear via a full-size map
-        keep = np.where(small, 0, 255).astype(np.uint8)
-        keep[0] = 0
-        return cv2.bitwise_and(mask, cv2.resize(keep[labels], (w, h), interpolation=cv2.INTER_NEAREST))
     out = mask.copy()
     gone = yx[small[lab]]
     out.reshape(hs, factor, ws, factor)[gone[:, 0], :, gone[:, 1], :] = 0

@@ -5,7 +5,7 @@ from appliance.config import load_config
 from appliance.localize.graph import JOINT, build_graph
 from appliance.localize.prune import prune
 from appliance.localize.radius import radius_at, ridge_radius_map, segment_radius
-from appliance.localize.recover import recover
+from appliance.localize.recover import end_geometry, recover
 from appliance.localize.skeleton import skeletonize
 
 
@@ -59,3 +59,16 @@ def test_no_recovery_when_disabled():
     mask = _cut_line()
     _, g = prune(skeletonize(mask), 5.0)
     assert not recover(g, cfg, ridge_radius_map(mask)).seg_recovered.any()
+
+
+def test_end_directions_point_out_of_their_segments():
+    mask = np.zeros((200, 300), np.uint8)
+    cv2.line(mask, (40, 150), (260, 40), 255, 7)         # a straight stick: two ends
+    g = build_graph(skeletonize(mask))
+    ends = end_geometry(g, ridge_radius_map(mask))
+    assert len(ends.node) == 2
+    axis = np.array([220.0, -110.0]) / np.hypot(220, 110)
+    for xy, d in zip(ends.xy_px, ends.dir):
+        outward = np.sign(np.dot(xy - [150, 95], axis))
+        assert np.dot(d, axis) * outward >= np.cos(np.radians(3))     # along the stick, away from its middle
+    assert np.allclose(ends.radius_px, 3.0, atol=1.0)

@@ -259,6 +259,10 @@ class EndPlacer:
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
+        if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
+            d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            if d_cap is not None:
+                self.uvd[node][2] = d_cap
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
             # its row run is found in the right view too, and takes that run end's disparity
@@ -286,6 +290,33 @@ class EndPlacer:
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
+
+    def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
+        """Disparity of a steep piece's tip from the rows across its round cap.
+
+        Each rectified row cuts the cap (a sphere) in a circle; the middles of the left and
+        right crossings of that row both project that circle's centre, a point within the
+        cap. Median over the cap's rows (one radius back from the end) of the middle
+        disparities near ``d_prior`` (2 px); None with fewer than 3 rows.
+        """
+        sm = self.sm
+        a, b = sorted((int(np.rint(t_edge - sign * r)), int(np.rint(t_edge))))
+        a, b = max(a, 0), min(b, sm.left_mask.shape[0] - 1)
+        if b - a < 2:
+            return None
+        rows = np.arange(a, b + 1)
+        runs_l = find_runs(sm.left_mask[a:b + 1], soft=True)
+        runs_r = find_runs(sm.right_mask[a:b + 1], soft=True)
+        il = runs_l.find(rows - a, c.s_at(rows))
+        ok = il >= 0
+        if ok.sum() < 3 or len(runs_r.row) == 0:
+            return None
+        c_l = runs_l.centre_px[il[ok]]
+        q, rr = runs_r.between(rows[ok] - a, c_l - d_prior - 2.0, c_l - d_prior + 2.0)
+        if len(q) < 3:
+            return None
+        d = c_l[q] - runs_r.centre_px[rr]
+        return float(np.median(d))
 
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
         """Whether the right mask has branch within half a radius of the point's right position."""

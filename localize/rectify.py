@@ -10,12 +10,15 @@ same image as a full remap in about half the time.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
+
+
+GREY_TILE_PX = (32, 128)    # LazyRectified's tiles (rows, cols)
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +43,7 @@ class Rectifier:
 
     valid: tuple = ()
     tiles: tuple = ()
+    _sources: dict = field(default_factory=dict, repr=False)   # tile_sources() cache
 
     TILE_PX = (32, 64)      # output tile (rows, cols) of the sparse remap
     BLOCK_PX = 8            # source pixels per cell of the "anything here" map
@@ -58,7 +62,20 @@ class Rectifier:
                                 borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
                       for m1, m2 in maps)
         tiles = tuple(_tile_sources(*cv2.convertMaps(m1, m2, cv2.CV_32FC1), cls.TILE_PX) for m1, m2 in maps)
-        return cls(calib, maps, valid, tiles)
+        rect = cls(calib, maps, valid, tiles)
+        for side in (0, 1):
+            rect.tile_sources(side, GREY_TILE_PX)        # LazyRectified's tiles, ready for the first frame
+        return rect
+
+    def tile_sources(self, side: int, tile_px: tuple[int, int]) -> np.ndarray:
+        """:func:`_tile_sources` of one camera for tiles of ``tile_px`` (rows, cols), computed once."""
+        key = (side, tuple(tile_px))
+        if key not in self._sources:
+            if tuple(tile_px) == self.TILE_PX and self.tiles:
+                self._sources[key] = self.tiles[side]
+            else:
+                self._sources[key] = _tile_sources(*cv2.convertMaps(*self.maps[side], cv2.CV_32FC1), tile_px)
+        return self._sources[key]
 
     def check_size(self, image: np.ndarray, what: str) -> None:
         """Raise LocalizeError unless ``image`` has the calibration's size."""
@@ -161,24 +178,40 @@ class LazyRectified:
     """A rectified image computed tile by tile when indexed (``img[y0:y1, x0:x1]``).
 
     The matcher reads the grey images only in small patches and strips; rectifying just the
-    tiles it touches saves most of a full remap.
+    tiles it touches saves most of a full remap. A BGR ``image`` is converted to grey only in
+    the source area of each tile (the same grey image as converting it all first: the
+    conversion is per pixel), which saves the full-size conversion too.
     """
 
-    def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, tile_px: tuple[int, int] = (32, 128)):
+    def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, tile_px: tuple[int, int] = GREY_TILE_PX):
         self.rectifier, self.image, self.side = rectifier, image, side
         self.th, self.tw = tile_px
         w, h = rectifier.calib.image_size
         self.shape = (h, w)
         self.dtype = image.dtype
         self._tiles: dict[tuple[int, int], np.ndarray] = {}
+        self._grey = None
 
     def _tile(self, i: int, j: int) -> np.ndarray:
         if (i, j) not in self._tiles:
             m1, m2 = self.rectifier.maps[self.side]
             y0, x0 = i * self.th, j * self.tw
             y1, x1 = min(y0 + self.th, self.shape[0]), min(x0 + self.tw, self.shape[1])
-            self._tiles[i, j] = cv2.remap(self.image, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], cv2.INTER_LINEAR,
-                                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+            m1, m2 = m1[y0:y1, x0:x1], m2[y0:y1, x0:x1]
+            src = self.image
+            if src.ndim == 3:
+                # grey only where this tile reads (its source box), into a full-size buffer
+                if self._grey is None:
+                    self._grey = np.empty(self.image.shape[:2], np.uint8)
+                    self._boxes = self.rectifier.tile_sources(self.side, (self.th, self.tw))
+                    self._cols = -(-self.shape[1] // self.tw)
+                sy0, sy1, sx0, sx1 = self._boxes[i * self._cols + j, 4:].tolist()
+                if sy1 <= sy0 or sx1 <= sx0:                  # the tile sees nothing of the image
+                    self._tiles[i, j] = np.zeros((y1 - y0, x1 - x0), np.uint8)
+                    return self._tiles[i, j]
+                cv2.cvtColor(src[sy0:sy1, sx0:sx1], cv2.COLOR_BGR2GRAY, dst=self._grey[sy0:sy1, sx0:sx1])
+                src = self._grey
+            self._tiles[i, j] = cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         return self._tiles[i, j]
 
     def __getitem__(self, index):

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 from appliance.calibrate.model import StereoCalibration
-from appliance.localize.rectify import Rectifier
+from appliance.localize.rectify import LazyRectified, Rectifier
 
 
 def distorted_rig(width: int, height: int) -> StereoCalibration:
@@ -33,3 +33,15 @@ def test_sparse_remap_of_a_mask_is_the_full_remap(size):
         assert np.array_equal(rect.rectify(np.zeros_like(mask), side), np.zeros_like(mask))
         grey = rng.integers(0, 256, (h, w), dtype=np.uint8)                         # dense: full remap
         assert np.array_equal(rect.rectify(grey, side), cv2.remap(grey, m1, m2, cv2.INTER_LINEAR))
+
+
+def test_lazy_rectified_bgr_gives_the_grey_rectified_image():
+    w, h = 333, 251
+    rect = Rectifier.from_calibration(distorted_rig(w, h))
+    bgr = np.random.default_rng(5).integers(0, 256, (h, w, 3), dtype=np.uint8)
+    for side in (0, 1):
+        want = rect.rectify(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), side)
+        lazy, lazy_grey = LazyRectified(rect, bgr, side, (32, 64)), LazyRectified(rect, cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), side)
+        for ys, xs in ((slice(0, h), slice(0, w)), (slice(40, 90), slice(100, 230)), (slice(h - 5, h), slice(0, 7))):
+            assert np.array_equal(lazy[ys, xs], want[ys, xs])
+            assert np.array_equal(lazy_grey[ys, xs], want[ys, xs])

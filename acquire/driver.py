@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import queue
 import threading
+import time
 from dataclasses import dataclass
 from typing import Iterator, Protocol
 
@@ -137,17 +138,33 @@ class PairedDriver(DriverBase):
     def __iter__(self) -> Iterator[StereoFrame]:
         seq = 0
         names = " and ".join(c.name for c in self.cameras)
+        failed: tuple[int, AcquireError] | None = None   # (side, error) of a camera that failed
+        deadline = 0.0
         while True:
             try:
-                side, stamp_ns, image, error = self._queue.get(timeout=self.timeout_s)
+                wait_s = self.timeout_s if failed is None else max(0.0, deadline - time.monotonic())
+                side, stamp_ns, image, error = self._queue.get(timeout=wait_s)
             except queue.Empty:
+                if failed is not None:
+                    raise failed[1] from None
                 raise DeviceLost(f"{names}: no image for {self.timeout_s:g} s from either camera") from None
+            if failed is not None and side == failed[0]:
+                continue
             if error is not None:
-                raise error  # the camera's own typed error (DeviceLost ...)
+                if failed is not None:
+                    raise failed[1]
+                # The camera's own typed error (DeviceLost ...): first pair what the other camera
+                # still delivers within the skew (its reader may lag behind), then raise it.
+                if not self.pairer.pending(side):
+                    raise error
+                failed, deadline = (side, error), time.monotonic() + self.pairer.max_skew_ns / 1e9
+                continue
             self.pairer.push(side, stamp_ns, image)
             for (stamp_l, left), (stamp_r, right) in self.pairer.pop():
                 yield StereoFrame(left, right, seq, stamp_l, stamp_r)
                 seq += 1
+            if failed is not None and not self.pairer.pending(failed[0]):
+                raise failed[1]                             # nothing left to pair
             if self.pairer.dropped_in_row >= self.out_of_sync_frames:
                 raise OutOfSync(f"{names}: {self.pairer.dropped_in_row} images in a row found no partner "
                                 f"within {self.pairer.max_skew_ns / 1e6:g} ms (camera.max_stereo_skew_ms)")

@@ -39,6 +39,10 @@ class StampPairer:
             self._first_ns[side] = stamp_ns
         self._sides[side].append((stamp_ns, image))
 
+    def pending(self, side: int) -> int:
+        """Images of ``side`` waiting for a partner."""
+        return len(self._sides[side])
+
     def pop(self) -> list[tuple[tuple[int, Any], tuple[int, Any]]]:
         """Pairs ``((stamp_left_ns, left), (stamp_right_ns, right))`` that are now final."""
         left, right = self._sides

@@ -51,6 +51,8 @@ def neighbour_code(img01: np.ndarray) -> np.ndarray:
 def binary(img: np.ndarray, on: int = 1) -> np.ndarray:
     """``on`` where ``img`` is non-zero, else 0, uint8 (one OpenCV pass for uint8 images)."""
     img = np.asarray(img)
+    if img.dtype == bool:
+        img = img.view(np.uint8)
     if img.dtype == np.uint8 and img.ndim == 2:
         return cv2.threshold(img, 0, on, cv2.THRESH_BINARY)[1]
     return (img > 0).astype(np.uint8) * np.uint8(on)

@@ -283,7 +283,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         if c is not None:
             curves[s] = c
     _resolve_shared(curves, graph, runs_l, runs_r, sm)
-    b = EndPlacer(graph, sm, curves, cfg)
+    b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind
     for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture
         b.fork(node)

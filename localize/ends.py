@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import BranchCurve
-from appliance.localize.edges import find_runs
+from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
@@ -53,8 +53,11 @@ class EndPlacer:
     nodes in ``hidden`` are placed (they end pieces) but are not features.
     """
 
-    def __init__(self, graph: SkeletonGraph, sm: StereoMasks, curves: dict, cfg: MatchConfig):
+    def __init__(self, graph: SkeletonGraph, sm: StereoMasks, curves: dict, cfg: MatchConfig,
+                 runs: tuple[Runs, Runs] | None = None):
         self.g, self.sm, self.curves, self.cfg = graph, sm, curves, cfg
+        self.runs_l, self.runs_r = runs if runs is not None else (find_runs(sm.left_mask, soft=True),
+                                                                  find_runs(sm.right_mask, soft=True))
         self.node_xy = graph.to_full(graph.node_yx)
         self.incident = [[] for _ in range(len(graph.node_kind))]
         for s, ends in enumerate(graph.seg_nodes):
@@ -64,6 +67,7 @@ class EndPlacer:
         self.uvd: dict[int, np.ndarray] = {}
         self.radius: dict[int, float] = {}
         self.hidden: set[int] = set()
+        self._box_cache: dict | None = None
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels."""
@@ -155,6 +159,15 @@ class EndPlacer:
         else:
             self.hidden.discard(int(node))
 
+    def _boxes(self) -> dict:
+        """Bounding boxes (u0, v0, u1, v1) of the fitted pieces' centre lines (cached)."""
+        if self._box_cache is None:
+            self._box_cache = {}
+            for s, c in self.curves.items():
+                uv = c.uv_at(np.linspace(*c.t_range, 8))
+                self._box_cache[s] = np.r_[uv.min(0), uv.max(0)]
+        return self._box_cache
+
     def hidden_fork(self, node: int, hidden_only: bool = True, reach_px: float = 80.0) -> bool:
         """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
 
@@ -172,9 +185,11 @@ class EndPlacer:
         t_edge, sign = self._walk_out(c, node)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
+        lo_uv, hi_uv = uv.min(0) - 2, uv.max(0) + 2
         best = None
-        for s2, c2 in self.curves.items():
-            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
+        for s2, box in self._boxes().items():
+            c2 = self.curves[s2]
+            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px or (box[:2] > hi_uv).any() or (box[2:] < lo_uv).any():
                 continue
             lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
@@ -239,14 +254,14 @@ class EndPlacer:
         t_edge, sign = self._walk_out(c, node)
         uv_edge = c.uv_at(t_edge)[0]
         step = c.uv_at(t_edge + sign)[0] - uv_edge
-        out = step / max(np.hypot(*step), 1e-9)
+        speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
+        out = step / speed
         r = max(c.radius_px, 1.0)
         if self.cfg.oblique_end_ratio > 0:
             # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
             # usually cuts the branch obliquely: such an end is hidden, not a tip
             t_a, _ = self._walk_out(c, node, 0.7 * r)
             t_b, _ = self._walk_out(c, node, -0.7 * r)
-            speed = float(np.hypot(*(c.uv_at(t_edge + 0.5)[0] - c.uv_at(t_edge - 0.5)[0])))
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return
@@ -259,14 +274,10 @@ class EndPlacer:
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
-        if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
-            d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
-            if d_cap is not None:
-                self.uvd[node][2] = d_cap
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
-            # its row run is found in the right view too, and takes that run end's disparity
-            # when the two disagree
+            # its row run is found in the right view too; it takes the mean of the two when they
+            # agree (2 px), else the run end's
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
             if d_end is None:
                 self.hidden.add(int(node))
@@ -281,10 +292,13 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        speed = float(np.hypot(*(c.uv_at(t_edge + 0.5)[0] - c.uv_at(t_edge - 0.5)[0])))
         if abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX):
             self.hidden.add(int(node))
             return
+        if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
+            d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            if d_cap is not None:
+                self.uvd[node][2] = d_cap
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
@@ -305,14 +319,13 @@ class EndPlacer:
         if b - a < 2:
             return None
         rows = np.arange(a, b + 1)
-        runs_l = find_runs(sm.left_mask[a:b + 1], soft=True)
-        runs_r = find_runs(sm.right_mask[a:b + 1], soft=True)
-        il = runs_l.find(rows - a, c.s_at(rows))
+        runs_l, runs_r = self.runs_l, self.runs_r
+        il = runs_l.find(rows, c.s_at(rows))
         ok = il >= 0
-        if ok.sum() < 3 or len(runs_r.row) == 0:
+        if ok.sum() < 3:
             return None
         c_l = runs_l.centre_px[il[ok]]
-        q, rr = runs_r.between(rows[ok] - a, c_l - d_prior - 2.0, c_l - d_prior + 2.0)
+        q, rr = runs_r.between(rows[ok], c_l - d_prior - 2.0, c_l - d_prior + 2.0)
         if len(q) < 3:
             return None
         d = c_l[q] - runs_r.centre_px[rr]
@@ -340,17 +353,19 @@ class EndPlacer:
         row = int(np.rint(uv_edge[1]))
         if not 0 <= row < sm.left_mask.shape[0]:
             return None
-        runs_l = find_runs(sm.left_mask[row:row + 1], soft=True)
-        i = runs_l.find(np.zeros(1, int), np.array([uv_edge[0] - np.sign(out[0])]))[0]
-        runs_r = find_runs(sm.right_mask[row:row + 1], soft=True)
-        if i < 0 or len(runs_r.row) == 0:
+        runs_l, runs_r = self.runs_l, self.runs_r
+        i = runs_l.find(np.array([row]), np.array([uv_edge[0] - np.sign(out[0])]))[0]
+        if i < 0:
+            return None
+        j = np.arange(*np.searchsorted(runs_r.row, [row, row + 1]))    # the right runs of that row
+        if len(j) == 0:
             return None
         right_end = out[0] > 0
         e_l = runs_l.right_px[i] if right_end else runs_l.left_px[i]
-        e_r = runs_r.right_px if right_end else runs_r.left_px
+        e_r = runs_r.right_px[j] if right_end else runs_r.left_px[j]
         d = e_l - e_r
         ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1])
-        ok &= np.abs(runs_r.span_px - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3
+        ok &= np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3
         if not ok.any():
             return None
         d = d[ok]

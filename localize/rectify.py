@@ -47,7 +47,7 @@ class Rectifier:
 
     TILE_PX = (32, 64)      # output tile (rows, cols) of the sparse remap
     BLOCK_PX = 8            # source pixels per cell of the "anything here" map
-    SPARSE_MAX = 0.7        # remap in full when more than this share of the tiles is needed
+    SPARSE_MAX = 0.7        # remap in full when more than this share of the image is needed
 
     @classmethod
     def from_calibration(cls, calib: StereoCalibration) -> Rectifier:
@@ -99,7 +99,7 @@ class Rectifier:
         interp = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
         if image.dtype == np.uint8 and image.shape == m1.shape[:2] and self.tiles:
             need = self._needed_tiles(image, side)
-            if len(need) <= self.SPARSE_MAX * len(self.tiles[side]):
+            if ((need[:, 1] - need[:, 0]) * (need[:, 3] - need[:, 2])).sum() <= self.SPARSE_MAX * image.size:
                 out = np.zeros(image.shape, np.uint8)
                 for y0, y1, x0, x1 in need.tolist():
                     cv2.remap(image, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], interp, dst=out[y0:y1, x0:x1],
@@ -108,7 +108,8 @@ class Rectifier:
         return cv2.remap(image, m1, m2, interp, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
     def _needed_tiles(self, image: np.ndarray, side: int) -> np.ndarray:
-        """Output tiles (y0, y1, x0, x1) whose source box holds a non-zero pixel of ``image``, (N, 4)."""
+        """Output areas (y0, y1, x0, x1), (N, 4): runs of the tiles of one tile row whose source box
+        holds a non-zero pixel of ``image``."""
         b = self.BLOCK_PX
         h, w = image.shape
         hb, wb = -(-h // b), -(-w // b)
@@ -121,7 +122,13 @@ class Rectifier:
         by0, bx0 = t[:, 4] // b, t[:, 6] // b
         by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
         count = cells[by1, bx1] - cells[by0, bx1] - cells[by1, bx0] + cells[by0, bx0]
-        return t[count > 0, :4]
+        need = t[count > 0, :4]
+        if len(need) == 0:
+            return need
+        # neighbouring tiles of one tile row remapped by one call (fewer, wider calls)
+        start = np.flatnonzero(np.r_[True, (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])])
+        end = np.r_[start[1:], len(need)] - 1
+        return np.column_stack([need[start, :3], need[end, 3]])
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
         """Rectified pixel positions -> pixel positions in the original (distorted) image.

@@ -37,7 +37,10 @@ def ridge_radius_map(mask: np.ndarray, window_px: int = 1, scale: int = 1) -> Ra
     dt = cv2.distanceTransform(binary(mask), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     if window_px > 1:
         dt = cv2.dilate(dt, np.ones((window_px, window_px), np.uint8))
-    return RadiusMap(np.maximum(dt - 0.5, 0.0) * scale, scale)
+    r = cv2.max(cv2.subtract(dt, 0.5), 0.0)          # in OpenCV: one pass each at full size
+    if scale != 1:
+        r *= np.float32(scale)
+    return RadiusMap(r, scale)
 
 
 def radius_at(radius_map: RadiusMap | np.ndarray, xy_px: np.ndarray) -> np.ndarray:

@@ -5,7 +5,8 @@ there, and is reported only if the child's own disparity agrees (else two branch
 cross in the image). A tip is where the centre line leaves the mask, one radius back (the
 round cap); an end that the right view's outline ends elsewhere (an occluder's edge), with
 something nearer just beyond it, or running out of the view, is not a tip; a hidden end
-whose centre line runs on into a thicker piece at the same disparity is a fork. A bridge across an occluder stands only if both sides' curves meet.
+whose centre line runs on into a thicker piece at the same disparity is a fork. A bridge
+across an occluder stands only if both sides' curves meet.
 """
 
 from __future__ import annotations
@@ -168,7 +169,7 @@ class EndPlacer:
                 self._box_cache[s] = np.r_[uv.min(0), uv.max(0)]
         return self._box_cache
 
-    def hidden_fork(self, node: int, hidden_only: bool = True, reach_px: float = 80.0) -> bool:
+    def hidden_fork(self, node: int, reach_px: float = 80.0) -> bool:
         """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
 
         The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
@@ -176,7 +177,7 @@ class EndPlacer:
         agrees there with that piece's (:func:`_agree`), the crossing is the fork (with the
         parent's disparity) and the end is placed there. Returns whether it was.
         """
-        if hidden_only and node not in self.hidden:
+        if node not in self.hidden:
             return False
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
@@ -189,7 +190,8 @@ class EndPlacer:
         best = None
         for s2, box in self._boxes().items():
             c2 = self.curves[s2]
-            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px or (box[:2] > hi_uv).any() or (box[2:] < lo_uv).any():
+            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px or (box[:2] > hi_uv).any() or (
+                    box[2:] < lo_uv).any():
                 continue
             lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])

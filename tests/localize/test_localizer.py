@@ -117,7 +117,7 @@ def test_an_obliquely_cut_end_is_not_a_tip_when_asked():
 
 def test_an_end_cut_by_something_nearer_is_not_a_tip():
     calib = ideal_rig()
-    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=8.0)
+    left, right, ml, mr, _ = branch_pair(calib, 1000.0, radius_px=8.0)
     full = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
     assert len([f for f in full.features if f.kind == "endpoint"]) == 2      # both round caps
     # a plain slab 100 mm nearer across the lower part, its edge slanted to the rows: it cuts the

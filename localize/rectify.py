@@ -197,7 +197,9 @@ class LazyRectified:
         self.shape = (h, w)
         self.dtype = image.dtype
         self._tiles: dict[tuple[int, int], np.ndarray] = {}
-        self._grey = None
+        self._grey = None                                   # BGR input: grey where tiles read it
+        self._boxes = rectifier.tile_sources(side, tile_px) if image.ndim == 3 else None
+        self._cols = -(-w // self.tw)
 
     def _tile(self, i: int, j: int) -> np.ndarray:
         if (i, j) not in self._tiles:
@@ -210,8 +212,6 @@ class LazyRectified:
                 # grey only where this tile reads (its source box), into a full-size buffer
                 if self._grey is None:
                     self._grey = np.empty(self.image.shape[:2], np.uint8)
-                    self._boxes = self.rectifier.tile_sources(self.side, (self.th, self.tw))
-                    self._cols = -(-self.shape[1] // self.tw)
                 sy0, sy1, sx0, sx1 = self._boxes[i * self._cols + j, 4:].tolist()
                 if sy1 <= sy0 or sx1 <= sx0:                  # the tile sees nothing of the image
                     self._tiles[i, j] = np.zeros((y1 - y0, x1 - x0), np.uint8)

@@ -43,3 +43,34 @@ def branch_pair(calib: StereoCalibration, depth_mm: float, radius_px: float = 6.
     imgs = [cv2.cvtColor(g, cv2.COLOR_GRAY2BGR) for g in out]
     masks = [((g.astype(int) - background) > (200 - background) / 2).astype(np.uint8) * 255 for g in out]
     return imgs[0], imgs[1], masks[0], masks[1], d
+
+
+def y_pair(calib: StereoCalibration, depth_mm: float, angle_deg: float, parent_radius_px: float = 10.0,
+           child_radius_px: float = 6.0, fork=(320.0, 300.0), background: int = 40,
+           child_depth_mm: float | None = None):
+    """A drawn vertical parent with a thinner child leaving it at ``angle_deg`` (upwards, to the
+    right) from the point ``fork`` on its axis, at constant depth in both views, supersampled.
+    ``child_depth_mm`` puts the child at another depth (then it only crosses the parent).
+
+    Returns (left BGR, right BGR, left mask, right mask, fork (x, y) left px, disparity px).
+    """
+    d = calib.f_px * calib.baseline_mm / depth_mm
+    d_child = calib.f_px * calib.baseline_mm / (child_depth_mm or depth_mm)
+    w, h = calib.image_size
+    ss = 4
+    fork = np.asarray(fork, float)
+    a = np.radians(angle_deg)
+    child_end = fork + 180.0 * np.array([np.sin(a), -np.cos(a)])
+    imgs, masks = [], []
+    for shift, shift_child in ((0.0, 0.0), (d, d_child)):
+        def px(p, dx):
+            return (int(round((p[0] - dx + 0.5) * ss - 0.5)), int(round((p[1] + 0.5) * ss - 0.5)))
+        big = np.full((h * ss, w * ss), background, np.uint8)
+        cv2.line(big, px((fork[0], 40.0), shift), px((fork[0], h - 20.0), shift), 200,
+                 int(round(2 * parent_radius_px * ss)))
+        cv2.line(big, px(fork, shift_child), px(child_end, shift_child), 200, int(round(2 * child_radius_px * ss)))
+        cv2.circle(big, px(child_end, shift_child), int(round(child_radius_px * ss)), 200, -1)
+        grey = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA)
+        imgs.append(cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
+        masks.append(((grey.astype(int) - background) > (200 - background) / 2).astype(np.uint8) * 255)
+    return imgs[0], imgs[1], masks[0], masks[1], fork, d

@@ -12,7 +12,13 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import Skeleton, SparseImage, binary, neighbour_tables, pixels
+from appliance.localize.skeleton import (
+    Skeleton,
+    SparseImage,
+    binary,
+    neighbour_tables,
+    pixels,
+)
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
 

@@ -12,6 +12,7 @@ Bridges become recovered segments of the graph; the ends they join become JOINT 
 from __future__ import annotations
 
 from collections.abc import Callable
+from itertools import pairwise
 from dataclasses import dataclass
 
 import cv2
@@ -154,7 +155,7 @@ def recover_hough(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarr
         off = np.abs(rel @ np.array([-u[1], u[0]]))
         on = np.flatnonzero(off <= 2.0 * s + 1)   # the line runs through the whole image (paper)
         on = on[np.argsort(t[on])]
-        for i, j in zip(on[:-1], on[1:]):
+        for i, j in pairwise(on):
             gap = t[j] - t[i]
             if (i in used or j in used or ends.segment[i] == ends.segment[j] or gap > cfg.max_gap_px
                     or np.dot(ends.dir[i], u) < 0 or np.dot(ends.dir[j], u) > 0):

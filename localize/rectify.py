@@ -17,7 +17,6 @@ import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
 
-
 GREY_TILE_PX = (32, 128)    # LazyRectified's tiles (rows, cols)
 
 

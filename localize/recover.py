@@ -12,8 +12,8 @@ Bridges become recovered segments of the graph; the ends they join become JOINT 
 from __future__ import annotations
 
 from collections.abc import Callable
-from itertools import pairwise
 from dataclasses import dataclass
+from itertools import pairwise
 
 import cv2
 import numpy as np

@@ -12,6 +12,8 @@ Three threads and two bounded queues::
   dropped; when the writer is behind, the pair is not logged. Both are counted and written
   to ``/diagnostics``. A fake (replay) source is never dropped by the localizer queue: a
   replay localizes every recorded pair, so its results are reproducible.
+- With ``opts.workers`` > 1 the pairs are localized in that many processes (the localizer is
+  Python-heavy: threads would share one core); results still leave in capture order.
 - A camera lost mid-run is reopened with back-off (``camera.reconnect_min_s`` doubling up
   to ``camera.reconnect_max_s``); the gap is counted and logged. A camera that cannot be
   opened at start is an error.
@@ -23,10 +25,12 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
+import multiprocessing
 import queue
 import threading
 import time
 from collections import deque
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -40,6 +44,16 @@ from appliance.config.load import config_to_dict
 from appliance.localize import Localizer
 
 _END = object()  # end-of-stream marker in the queues
+_WORKER: dict = {}  # in a localizer worker process only: its Localizer
+
+
+def _start_worker(calib: StereoCalibration, cfg, variant: str) -> None:
+    """Initializer of a localizer worker process: build its Localizer once."""
+    _WORKER["localizer"] = Localizer(calib, cfg, variant=variant)
+
+
+def _localize_in_worker(left, right, stamp_ns: int):
+    return _WORKER["localizer"].localize(left, right, stamp_ns=stamp_ns)
 
 
 def _finish(q: queue.Queue, timeout_s: float = 5.0) -> None:
@@ -102,6 +116,7 @@ class RunOptions:
     frames: int | None = None       # stop after this many pairs; None: until stopped / end of replay
     variant: str = "improved"       # localizer variant: improved | paper
     live_port: int | None = None    # Foxglove WebSocket server on 127.0.0.1:live_port; None: none
+    workers: int = 1                # localizer processes; 1 = in the loop's own thread
     status_period_s: float = 0.5    # how often ``on_status`` is called and diagnostics written
 
 
@@ -307,31 +322,48 @@ class _Loop:
                 _finish(self.log_q)
 
     def _localize_all(self) -> None:
-        while True:
-            item = self.frames_q.get()
-            if item is _END:
-                return
-            frame, received_ns = item
-            result = self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns)
-            if self.replay:                                 # replayed stamps: time from arrival
-                age_ns = time.monotonic_ns() - received_ns
-            else:
-                age_ns = time.time_ns() - frame.stamp_ns
-            self._latency_ms.append(age_ns / 1e6)
-            self._done_ns.append(time.monotonic_ns())
-            s = self.status
-            s.localized += 1
-            s.features, s.branches = len(result.features), len(result.branches)
-            if self.arm is not None:
-                self.arm.submit(result, frame.seq)
-            if self.live is not None:                       # never blocks: its own worker
-                self.live.write_frame(frame)
-                self.live.write_result(result, frame.seq, self.camera_to_base)
-            if self.writer is not None:
-                try:
-                    self.log_q.put_nowait((frame, result))
-                except queue.Full:
-                    s.dropped_log += 1
+        """Localize every pair in order: here, or in ``opts.workers`` processes (results kept in order)."""
+        if self.opts.workers == 1:
+            while (item := self.frames_q.get()) is not _END:
+                frame, received_ns = item
+                self._emit(frame, received_ns,
+                           self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns))
+            return
+        spawn = multiprocessing.get_context("spawn")     # not fork: this process runs threads
+        with ProcessPoolExecutor(self.opts.workers, mp_context=spawn, initializer=_start_worker,
+                                 initargs=(self.calib, self.cfg.localize, self.opts.variant)) as pool:
+            pending: deque = deque()                    # (frame, received_ns, future), oldest first
+            while (item := self.frames_q.get()) is not _END:
+                frame, received_ns = item
+                pending.append((frame, received_ns,
+                                pool.submit(_localize_in_worker, frame.left, frame.right, frame.stamp_ns)))
+                while pending and (len(pending) >= self.opts.workers or pending[0][2].done()):
+                    frame, received_ns, future = pending.popleft()
+                    self._emit(frame, received_ns, future.result())
+            for frame, received_ns, future in pending:
+                self._emit(frame, received_ns, future.result())
+
+    def _emit(self, frame: StereoFrame, received_ns: int, result) -> None:
+        """Hand one result to the outputs (arm, live view, log) and count it."""
+        if self.replay:                                 # replayed stamps: time from arrival
+            age_ns = time.monotonic_ns() - received_ns
+        else:
+            age_ns = time.time_ns() - frame.stamp_ns
+        self._latency_ms.append(age_ns / 1e6)
+        self._done_ns.append(time.monotonic_ns())
+        s = self.status
+        s.localized += 1
+        s.features, s.branches = len(result.features), len(result.branches)
+        if self.arm is not None:
+            self.arm.submit(result, frame.seq)
+        if self.live is not None:                       # never blocks: its own worker
+            self.live.write_frame(frame)
+            self.live.write_result(result, frame.seq, self.camera_to_base)
+        if self.writer is not None:
+            try:
+                self.log_q.put_nowait((frame, result))
+            except queue.Full:
+                s.dropped_log += 1
 
     def _write(self) -> None:
         while True:

@@ -40,6 +40,7 @@ def main() -> None:
     ap.add_argument("--encoding", choices=["jpeg", "png"], default="jpeg")
     ap.add_argument("--no-log", action="store_true")
     ap.add_argument("--paper", action="store_true")
+    ap.add_argument("--workers", type=int, default=1, help="localizer processes")
     args = ap.parse_args()
 
     cfg = load_config(None, {"camera": {"fake_loop": True, "fake_rate_hz": args.rate_hz},
@@ -56,7 +57,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         opts = RunOptions(device=f"fake:{REPO / 'fixtures' / 'scenes'}",
                           log_dir=None if args.no_log else Path(tmp), frames=args.frames,
-                          variant="paper" if args.paper else "improved", status_period_s=1.0)
+                          variant="paper" if args.paper else "improved", status_period_s=1.0,
+                          workers=args.workers)
         status = run_loop(cfg, calib, opts, on_status=on_status)
         elapsed_s = time.monotonic() - t0
         written_mb = sum(p.stat().st_size for p in Path(tmp).glob("*.mcap")) / 1e6
@@ -64,7 +66,7 @@ def main() -> None:
     rss = np.array([s[2] for s in samples])
     third = max(1, len(rss) // 3)
     print(f"pairs {status.localized} in {elapsed_s:.1f} s: {status.localized / elapsed_s:.1f} pairs/s "
-          f"(camera {args.rate_hz:g} Hz), dropped localize {status.dropped_localize} log {status.dropped_log}")
+          f"(camera {args.rate_hz:g} Hz, {args.workers} localizer process(es)), dropped localize {status.dropped_localize} log {status.dropped_log}")
     print(f"latency capture -> result: p50 {status.latency_p50_ms:.1f} ms, p99 {status.latency_p99_ms:.1f} ms "
           "(last 300 pairs)")
     if not args.no_log:

@@ -146,6 +146,18 @@ def test_replay_with_other_settings_reports_the_differences(tmp_path):
     assert any(not d["identical"] and (d["added"] or d["removed"] or d["max_abs_dz_mm"] > 0) for d in diffs)
 
 
+def test_localizer_processes_give_the_same_results_in_order(tmp_path):
+    logs = {}
+    for workers in ("1", "2"):
+        r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / workers),
+                      "--workers", workers, "-q")
+        assert r.returncode == 0, r.stderr
+        logs[workers] = [(seq, json.dumps({**res.to_dict(), "timings_ms": {}, "stamp_ns": 0}, sort_keys=True))
+                         for seq, _, res in read_results(only_log(tmp_path / workers))]
+    assert [seq for seq, _ in logs["2"]] == list(range(N_SCENES))
+    assert logs["1"] == logs["2"]
+
+
 def test_a_lost_camera_is_reopened_and_the_run_goes_on(tmp_path):
     scenes = tmp_path / "scenes"
     scenes.mkdir()

@@ -8,6 +8,7 @@ well; extrapolation beyond the fitted span is linear (for forks and tips).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -21,9 +22,17 @@ class Poly:
     ts: float = 1.0
 
     def __call__(self, t) -> np.ndarray:
-        return np.polyval(self.coef, (np.asarray(t, float) - self.t0) / self.ts)
+        x = (np.asarray(t, float) - self.t0) / self.ts
+        y = np.full(x.shape, self.coef[0], float)
+        for c in self.coef[1:]:          # Horner (np.polyval's checks cost more than the sum here)
+            y = y * x + c
+        return y
 
     def deriv(self) -> Poly:
+        return self._deriv
+
+    @cached_property
+    def _deriv(self) -> Poly:
         if len(self.coef) <= 1:
             return Poly(np.zeros(1), self.t0, self.ts)
         return Poly(np.polyder(self.coef) / self.ts, self.t0, self.ts)

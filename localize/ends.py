@@ -155,10 +155,48 @@ class EndPlacer:
             return
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        if not parents or not child_ok or not _agree(at(child), d):
+        agree = child_ok and _agree(at(child), d)
+        if parents and not agree:         # the child's own crossings next to the parent
+            pts = self.seg_points(child)
+            dist = np.hypot(*(pts - p).T)
+            agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
+        if not parents or not agree:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _runs_agree(self, pts: np.ndarray, d: float, r: float, min_rows: int = 3) -> bool:
+        """Whether a piece's own row crossings at points ``pts`` (N, 2) have disparity ``d``.
+
+        On each row of the points the left crossing (not wider than a piece of radius ``r``
+        across that row) is compared with the right crossings of a similar width in the
+        working range; rows where one of them lies within :func:`_agree` of ``d`` must be at
+        least ``min_rows`` and 60 % of the rows with any (rows merged with the parent in the
+        right view have none). A piece within ~17 deg of the rows: False.
+        """
+        if len(pts) < 2:
+            return False
+        c, e = _line(pts)
+        sin_t = abs(e[1])
+        v = np.arange(np.ceil(pts[:, 1].min()), np.floor(pts[:, 1].max()) + 1)
+        if len(v) < min_rows or sin_t < 0.3:
+            return False
+        rows = v.astype(int)
+        il = self.runs_l.find(rows, c[0] + (v - c[1]) * e[0] / e[1])
+        keep = il >= 0
+        w_l = self.runs_l.span_px[np.maximum(il, 0)]
+        keep &= w_l <= 2.4 * r / sin_t + 3
+        rows, il, w_l = rows[keep], il[keep], w_l[keep]
+        if len(rows) < min_rows:
+            return False
+        c_l = self.runs_l.centre_px[il]
+        dmin, dmax = self.sm.d_range_px
+        q, rr = self.runs_r.between(rows, c_l - dmax, c_l - dmin)
+        similar = np.abs(self.runs_r.span_px[rr] - w_l[q]) <= 0.15 * w_l[q] + 1.5
+        q, rr = q[similar], rr[similar]
+        near_d = np.abs(c_l[q] - self.runs_r.centre_px[rr] - d) <= max(1.0, 0.006 * abs(d))
+        n_cand, n_ok = len(np.unique(q)), len(np.unique(q[near_d]))
+        return n_ok >= min_rows and n_ok >= 0.6 * n_cand
 
     def _boxes(self) -> dict:
         """Bounding boxes (u0, v0, u1, v1) of the fitted pieces' centre lines (cached)."""
@@ -271,8 +309,12 @@ class EndPlacer:
         h, w = self.sm.left_mask.shape
         if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (
                 self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
-            return                                   # the branch leaves the view: no tip seen
-        uv = uv_edge - out * r
+            back = self._cap_cut_by_edge(c, uv_edge, out, r)
+            if back is None:
+                return                               # the branch leaves the view: no tip seen
+        else:
+            back = r
+        uv = uv_edge - out * back
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
@@ -306,6 +348,25 @@ class EndPlacer:
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
+
+    def _cap_cut_by_edge(self, c: BranchCurve, uv_edge: np.ndarray, out: np.ndarray, r: float) -> float | None:
+        """A steep piece that runs to the edge of the view: the distance (px) from its last
+        row back to the centre of its round cap when the cap's chord there is clearly narrower
+        than the branch (the cap is cut by the edge); None when the branch runs on out of view.
+        """
+        if not c.by_row:
+            return None
+        inner = uv_edge - out
+        row = int(np.rint(inner[1]))
+        if not 0 <= row < self.sm.left_mask.shape[0]:
+            return None
+        i = self.runs_l.find(np.array([row]), np.array([inner[0]]))[0]
+        if i < 0:
+            return None
+        chord = self.runs_l.span_px[i] * abs(out[1])
+        if chord >= 1.6 * r:
+            return None
+        return float(np.sqrt(r * r - 0.25 * chord * chord))
 
     def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.

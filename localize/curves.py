@@ -23,8 +23,11 @@ class Poly:
 
     def __call__(self, t) -> np.ndarray:
         x = (np.asarray(t, float) - self.t0) / self.ts
-        y = np.full(x.shape, self.coef[0], float)
-        for c in self.coef[1:]:          # Horner (np.polyval's checks cost more than the sum here)
+        coef = self.coef
+        if len(coef) == 1:
+            return np.full(x.shape, coef[0], float)
+        y = x * coef[0] + coef[1]        # Horner (np.polyval's checks cost more than the sum here)
+        for c in coef[2:]:
             y = y * x + c
         return y
 
@@ -45,13 +48,35 @@ class Poly:
     def fit(cls, t: np.ndarray, y: np.ndarray, degree: int) -> Poly:
         """Least squares (``degree`` lowered to what the samples support)."""
         t, y = np.asarray(t, float), np.asarray(y, float)
-        degree = int(min(degree, max(len(np.unique(t)) - 1, 0)))
-        t0 = float(t.mean()) if len(t) else 0.0
-        ts = float(max(np.abs(t - t0).max(), 1.0)) if len(t) else 1.0
+        n = len(t)
+        if degree > 0 and n and not (t[1:] > t[:-1]).all():       # not strictly increasing: count values
+            st = np.sort(t)
+            degree = int(min(degree, np.count_nonzero(st[1:] != st[:-1])))
+        degree = int(max(min(degree, n - 1), 0))
+        t0 = float(t.sum()) / n if n else 0.0
+        ts = max(float(t.max()) - t0, t0 - float(t.min()), 1.0) if n else 1.0
         x = (t - t0) / ts
-        a = np.vander(x, degree + 1)
-        coef = np.linalg.lstsq(a, y, rcond=None)[0]
-        return cls(coef, t0, ts)
+        return cls(_lstsq_poly(x, y, degree), t0, ts)
+
+
+def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
+    """Least-squares coefficients (highest power first) of a polynomial in ``x`` (scaled to
+    [-1, 1], distinct values > ``degree``) by the normal equations: a (degree + 1)^2 system of
+    power sums, well conditioned on [-1, 1] for degree <= 3."""
+    if degree == 0:
+        return np.array([float(y.sum()) / len(y)]) if len(y) else np.zeros(1)
+    a = np.vander(x, degree + 1)
+    return np.linalg.solve(a.T @ a, a.T @ y)
+
+
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a non-empty 1-D float array (the same value) without its overhead."""
+    n = len(a)
+    k = n // 2
+    if n % 2:
+        return np.partition(a, k)[k]
+    p = np.partition(a, (k - 1, k))
+    return (p[k - 1] + p[k]) / 2
 
 
 def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Poly, np.ndarray]:
@@ -66,7 +91,8 @@ def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad
     poly = Poly.fit(t, y, degree)
     for _ in range(rounds):
         res = y - poly(t)
-        mad = 1.4826 * np.median(np.abs(res[keep] - np.median(res[keep]))) + 1e-3
+        r = res[keep]
+        mad = 1.4826 * _median(np.abs(r - _median(r))) + 1e-3
         new = np.abs(res) <= k_mad * mad + 0.05
         if new.sum() <= degree + 1 or (new == keep).all():
             break
@@ -104,7 +130,9 @@ class BranchCurve:
     def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
-        tc = np.clip(t, lo, hi)
+        tc = np.minimum(np.maximum(t, lo), hi)
+        if (tc == t).all():                             # no extrapolation (NaN: the general path)
+            return poly(tc)
         if slopes is None:
             slope = poly.deriv()(tc)
         else:

@@ -1,0 +1,90 @@
+"""Polynomial curves along branch pieces (localize/curves.py) against numpy's reference routines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from appliance.localize.curves import BranchCurve, Poly, end_slopes, robust_fit
+
+
+@pytest.mark.parametrize("degree", [0, 1, 2, 3])
+def test_fit_is_the_least_squares_polynomial(degree):
+    rng = np.random.default_rng(degree)
+    t = np.sort(rng.uniform(100, 900, 60))
+    y = 3.0 + 0.02 * t - 1e-5 * t ** 2 + rng.normal(0, 0.3, len(t))
+    p = Poly.fit(t, y, degree)
+    x = (t - p.t0) / p.ts
+    ref = np.linalg.lstsq(np.vander(x, degree + 1), y, rcond=None)[0]
+    np.testing.assert_allclose(p.coef, ref, rtol=1e-10, atol=1e-10)
+    assert p.t0 == pytest.approx(t.mean()) and p.ts == pytest.approx(np.abs(t - t.mean()).max())
+    np.testing.assert_allclose(p(t), np.polyval(ref, x), rtol=1e-10, atol=1e-10)
+
+
+def test_fit_lowers_the_degree_to_the_distinct_samples():
+    t = np.array([5.0, 5.0, 9.0, 9.0, 5.0])          # two distinct values: a line at most
+    y = np.array([1.0, 3.0, 6.0, 8.0, 2.0])
+    p = Poly.fit(t, y, 3)
+    assert len(p.coef) == 2
+    np.testing.assert_allclose(p(np.array([5.0, 9.0])), [2.0, 7.0])
+    assert len(Poly.fit(np.array([4.0]), np.array([2.5]), 2).coef) == 1
+    assert Poly.fit(np.array([4.0]), np.array([2.5]), 2)(10.0) == pytest.approx(2.5)
+    assert Poly.fit(np.array([3.0, 1.0, 2.0]), np.array([3.0, 1.0, 2.0]), 2)(7.0) == pytest.approx(7.0)
+
+
+def test_call_and_derivative_match_polyval():
+    p = Poly(np.array([0.5, -2.0, 1.0, 4.0]), t0=10.0, ts=4.0)
+    t = np.linspace(-5, 30, 17)
+    x = (t - 10.0) / 4.0
+    np.testing.assert_allclose(p(t), np.polyval(p.coef, x), rtol=1e-14)
+    np.testing.assert_allclose(p.deriv()(t), np.polyval(np.polyder(p.coef), x) / 4.0, rtol=1e-14)
+    assert p.deriv() is p.deriv()                       # cached
+    assert Poly.constant(2.0)(np.zeros((2, 3))).shape == (2, 3)
+    assert Poly.constant(2.0).deriv()(1.0) == 0.0
+
+
+def reference_robust_keep(t, y, degree, rounds=3, k_mad=3.5):
+    """robust_fit's rule written with np.polyfit and np.median."""
+    keep = np.ones(len(t), bool)
+    coef = np.polyfit(t, y, degree)
+    for _ in range(rounds):
+        res = y - np.polyval(coef, t)
+        mad = 1.4826 * np.median(np.abs(res[keep] - np.median(res[keep]))) + 1e-3
+        new = np.abs(res) <= k_mad * mad + 0.05
+        if new.sum() <= degree + 1 or (new == keep).all():
+            break
+        keep = new
+        coef = np.polyfit(t[keep], y[keep], degree)
+    return keep
+
+
+def test_robust_fit_rejects_outliers_and_matches_the_median_rule():
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 120.0)
+    y = 40.0 + 0.25 * t + rng.normal(0, 0.2, len(t))
+    y[[10, 50, 90]] += np.array([15.0, -20.0, 9.0])   # outliers
+    poly, keep = robust_fit(t, y, 1)
+    assert not keep[[10, 50, 90]].any() and keep.sum() >= 110
+    np.testing.assert_allclose(poly.coef[0] / poly.ts, 0.25, atol=0.01)
+    ref_keep = reference_robust_keep(t, y, 1)
+    np.testing.assert_array_equal(keep, ref_keep)
+    for n in (4, 5):                                   # even and odd sample counts
+        p, k = robust_fit(t[:n], y[:n], 0, rounds=1)
+        assert p(0.0) == pytest.approx(y[:n].mean())
+
+
+def test_curve_extrapolates_along_the_end_slopes():
+    s_poly = Poly.fit(np.array([0.0, 50.0, 100.0]), np.array([10.0, 20.0, 30.0]), 1)
+    d_poly = Poly.fit(np.array([0.0, 100.0]), np.array([40.0, 50.0]), 1)
+    c = BranchCurve(0, True, (0.0, 100.0), s_poly, d_poly, 3.0, 3, d_end_slopes=(0.5, -1.0))
+    np.testing.assert_allclose(c.s_at([-10.0, 50.0, 110.0]), [8.0, 20.0, 32.0])
+    np.testing.assert_allclose(c.d_at([-10.0, 50.0, 110.0]), [35.0, 45.0, 40.0])
+    np.testing.assert_allclose(c.uv_at([50.0]), [[20.0, 50.0]])
+    assert c.uvd(step_px=25.0).shape == (5, 3)
+    assert np.isnan(c.s_at([np.nan])).all()
+
+
+def test_end_slopes_are_line_fits_near_each_end():
+    t = np.arange(0.0, 200.0)
+    y = np.where(t < 100, 2.0 * t, 200.0 - 0.5 * (t - 100))
+    a, b = end_slopes(t, y, reach=60.0)
+    assert a == pytest.approx(2.0) and b == pytest.approx(-0.5)

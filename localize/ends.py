@@ -129,17 +129,28 @@ class EndPlacer:
         else:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
-        xy = _intersect(c1, e1, c2, e2)
-        # the skeleton junction lies where the child's outline leaves the parent's, ahead of the
-        # fork in the child's direction: the fork slides back along the parent further than ahead
         r_par = max(rad[pa], rad[pb])
-        ahead = np.sign(np.dot(c2 - p0, e1)) or 1.0
+        # the child's outline where it leaves the parent, against the parent's line behind the
+        # fork (the parent may bend at the fork) or else through both sides
+        behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
+        xy = None
+        if len(near[behind]) >= 3:
+            cb, eb = _line(near[behind])
+            xy = self._fork_from_child_outline(cb, eb, c2, e2, cb + np.dot(p - cb, eb) * eb, r_par, rad[child])
         if xy is None:
-            xy = p0
-        else:
-            shift = np.clip(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale),
-                            0.5 * r_par + 2 * self.g.scale)
-            xy = p0 + ahead * shift * e1
+            xy = self._fork_from_child_outline(c1, e1, c2, e2, p0, r_par, rad[child])
+        if xy is None:
+            # the skeleton junction lies where the child's outline leaves the parent's, ahead of
+            # the fork in the child's direction: the fork slides back along the parent further
+            # than ahead
+            xy = _intersect(c1, e1, c2, e2)
+            if xy is None:
+                xy = p0
+            else:
+                ahead = np.sign(np.dot(c2 - p0, e1)) or 1.0
+                shift = np.clip(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale),
+                                0.5 * r_par + 2 * self.g.scale)
+                xy = p0 + ahead * shift * e1
         at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
 
         def passes(s):              # a curve's disparity at the fork's row/column is its own there
@@ -164,6 +175,51 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float) -> np.ndarray | None:
+        """The fork from the child's outline where it leaves the parent: None when unclear.
+
+        Lines parallel to the parent's axis, just clear of the parent's outline on the
+        child's side, cross the child in an interval whose middle is the child's axis (its
+        two edges are parallel); the middles on two such lines give the child's axis, whose
+        crossing with the parent's axis is the fork. Intervals not as wide as the child
+        seen at that angle (hidden by a leaf, merged with something) make it unclear.
+        """
+        n = np.array([-e1[1], e1[0]])
+        side = np.sign(np.dot(c2 - p0, n)) or 1.0
+        n = side * n
+        sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
+        if sin_t < 0.2:
+            return None
+        s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * np.dot(e2, e1) / (np.dot(e2, n) or 1e-9))
+        reach = 2.0 * (r_par + 2 * r_child) / sin_t + 20
+        s = np.arange(s0 - reach, s0 + reach, 0.5)
+        mask = self.sm.left_mask
+        h_img, w_img = mask.shape
+        mids = []
+        for h in (r_par + 3.0, r_par + 3.0 + max(1.5 * r_child, 6.0)):
+            base = c1 + h * n
+            uv = np.rint(base + s[:, None] * e1).astype(int)
+            inside = (uv[:, 0] >= 0) & (uv[:, 0] < w_img) & (uv[:, 1] >= 0) & (uv[:, 1] < h_img)
+            on = np.zeros(len(s), bool)
+            on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
+            # where the current child line crosses this offset line
+            s_c = s0 + h * np.dot(e2, e1) / (np.dot(e2, n) or 1e-9)
+            k = int(np.clip(np.searchsorted(s, s_c), 0, len(s) - 1))
+            if not on[k]:
+                return None
+            off = np.flatnonzero(~on)
+            a = off[off < k].max() + 1 if (off < k).any() else None
+            b = off[off > k].min() - 1 if (off > k).any() else None
+            if a is None or b is None:
+                return None
+            width = (b - a + 1) * 0.5
+            if abs(width * sin_t - 2 * r_child) > 0.35 * 2 * r_child + 2:
+                return None
+            mids.append((h, 0.5 * (s[a] + s[b])))
+        (h1, m1), (h2, m2) = mids
+        s_f = m1 - (m2 - m1) * h1 / (h2 - h1)
+        return c1 + s_f * e1
 
     def _runs_agree(self, pts: np.ndarray, d: float, r: float, min_rows: int = 3) -> bool:
         """Whether a piece's own row crossings at points ``pts`` (N, 2) have disparity ``d``.

@@ -12,6 +12,18 @@ import cv2
 import numpy as np
 
 
+def _flat(patch: np.ndarray, min_std: float) -> bool:
+    """``patch.std() < min_std``, deciding by the patch's range where that settles it: n values
+    spanning a range R have a standard deviation between R / sqrt(2 n) and R / 2."""
+    lo, hi = cv2.minMaxLoc(patch)[:2]
+    r = hi - lo
+    if r < 2 * min_std:
+        return True
+    if r * r > 2.02 * patch.size * min_std * min_std:
+        return False
+    return bool(patch.std() < min_std)
+
+
 def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: np.ndarray,
                       d_range_px: tuple[float, float], half_w_px: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel disparity of patches centred on ``uv_px`` (rounded), and their correlation.
@@ -48,24 +60,24 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
     if by1 <= by0 or bx1 <= bx0:
         return d_out, score
     lbox, rbox = left[by0:by1, bx0:bx1], right[by0:by1, bx0:bx1]
-    for i, ((u, v), hh) in enumerate(zip(uv, hhs)):
-        x0, x1 = u - hi - hw, u - lo + hw + 1
-        if v - hh < 0 or v + hh + 1 > h or u - hw < 0 or u + hw + 1 > w or x1 <= 0:
-            continue
+    inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
+        & (uv[:, 0] - lo + hw + 1 > 0)
+    for i in np.flatnonzero(inside).tolist():
+        u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - bx0:u + hw + 1 - bx0]
-        if tmpl.std() < 1.0:
+        if _flat(tmpl, 1.0):
             continue
-        xs = max(x0, 0)
-        strip = rbox[v - hh - by0:v + hh + 1 - by0, xs - bx0:min(x1, w) - bx0]
+        xs = max(uv[i, 0] - hi - hw, 0)
+        strip = rbox[v - hh - by0:v + hh + 1 - by0, xs - bx0:min(u - lo + hw + 1, w) - bx0]
         if strip.shape[1] < tmpl.shape[1] + 2:
             continue
         c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
-        k = int(np.argmax(c))
+        k = int(c.argmax())
         off = 0.0
-        if 0 < k < len(c) - 1:
+        if 0 < k < len(c) - 1:                          # in float32, as the scores
             denom = c[k - 1] - 2 * c[k] + c[k + 1]
             off = 0.5 * (c[k - 1] - c[k + 1]) / denom if denom < 0 else 0.0
-        d_out[i] = u - (xs + k + off + hw)
+        d_out[i] = uv[i, 0] - (xs + k + off + hw)      # numpy/Python scalar types as before (float32 or 64)
         score[i] = c[k]
     return d_out, score
 
@@ -99,7 +111,7 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         if v - hh < 0 or v + hh + 1 > h or u - hh < 0 or u + hh + 1 > w:
             continue
         tmpl = left[v - hh:v + hh + 1, u - hh:u + hh + 1]
-        if tmpl.std() < 2.0:
+        if _flat(tmpl, 2.0):
             continue
         x0 = max(int(u - np.ceil(d_max_px)) - hh, 0)
         strip = right[v - hh:v + hh + 1, x0:u - 1 + hh + 1]

@@ -1,0 +1,74 @@
+"""Texture disparities (localize/texture.py) on images shifted by known amounts."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from appliance.localize.texture import _flat, nearer_in_front, surface_disparity, surface_to_axis
+
+
+def textured(h: int = 120, w: int = 400, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return cv2.GaussianBlur(rng.integers(0, 256, (h, w)).astype(np.uint8), (5, 5), 1.2)
+
+
+def shifted(img: np.ndarray, d_px: float) -> np.ndarray:
+    """The right view of a plane at disparity ``d_px``: right(x) = left(x + d)."""
+    m = np.float32([[1, 0, d_px], [0, 1, 0]])
+    return cv2.warpAffine(img, m, (img.shape[1], img.shape[0]), flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP,
+                          borderMode=cv2.BORDER_REFLECT)
+
+
+@pytest.mark.parametrize("d_true", [40.0, 57.3])
+def test_surface_disparity_finds_the_shift(d_true):
+    left = textured()
+    right = shifted(left, d_true)
+    uv = np.array([[150.0, 60.0], [250.4, 50.0], [390.0, 60.0], [200.0, 2.0]])
+    d, score = surface_disparity(left, right, uv, np.array([4, 4, 4, 4]), (20.0, 80.0), half_w_px=12)
+    assert np.abs(d[:2] - d_true).max() < 0.15 and (score[:2] > 0.95).all()
+    assert np.isnan(d[2:]).all() and (score[2:] == -1).all()     # patch leaves the image
+    # a narrow range around the answer gives the same disparities
+    d2, _ = surface_disparity(left, right, uv[:2], np.array([4, 4]), (d_true - 6, d_true + 6), half_w_px=12)
+    assert np.abs(d2 - d_true).max() < 0.15
+
+
+def test_surface_disparity_at_the_left_border_and_on_flat_patches():
+    left = textured()
+    right = shifted(left, 30.0)
+    left[:, 300:340] = 90                                         # no texture there
+    uv = np.array([[45.0, 60.0], [320.0, 60.0]])                  # strip starts at column 0 / flat patch
+    d, score = surface_disparity(left, right, uv, np.array([3, 3]), (10.0, 60.0), half_w_px=12)
+    assert abs(d[0] - 30.0) < 0.15
+    assert np.isnan(d[1]) and score[1] == -1
+    d, score = surface_disparity(left, right, np.zeros((0, 2)), np.zeros(0, int), (10.0, 60.0))
+    assert d.shape == score.shape == (0,)
+
+
+def test_flat_agrees_with_the_standard_deviation():
+    rng = np.random.default_rng(3)
+    for _ in range(3000):
+        h, w = rng.integers(1, 12, 2)
+        spread = int(rng.integers(0, 40))
+        p = (100 + rng.integers(0, spread + 1, (h, w)) * rng.integers(0, 2, (h, w))).astype(np.uint8)
+        for min_std in (1.0, 2.0):
+            assert _flat(p, min_std) == bool(p.std() < min_std)
+    two = np.array([[0, 2] * 4], np.uint8)                       # std exactly 1
+    assert _flat(two, 1.0) == bool(two.std() < 1.0)
+
+
+def test_nearer_in_front_tells_an_occluder_from_the_background():
+    left = textured(seed=1)
+    near, far = shifted(left, 45.0), shifted(left, 5.0)
+    uv = np.array([[200.0, 60.0]])
+    half = np.array([6])
+    assert nearer_in_front(left, near, uv, np.array([44.0]), half, 80.0)
+    assert not nearer_in_front(left, far, uv, np.array([44.0]), half, 80.0)
+    flat = np.full_like(left, 120)
+    assert not nearer_in_front(flat, near, uv, np.array([44.0]), half, 80.0)
+
+
+def test_surface_to_axis_moves_back_by_one_radius():
+    d = surface_to_axis(np.array([100.0]), radius_px=10.0, f_px=1000.0)
+    assert d[0] == pytest.approx(100.0 / 1.01)
+    assert surface_to_axis(np.array([50.0]), 0.0, 1000.0, offset_px=3.0)[0] == pytest.approx(50.0)

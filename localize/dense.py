@@ -268,6 +268,37 @@ def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None)
     return uvd
 
 
+def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float = 60.0) -> np.ndarray:
+    """A piece's samples (N, 3) from its start node to its end node.
+
+    ``ends`` are the two end nodes' placed (u, v, d) (or None), ``node_xy`` their skeleton
+    positions (2,) (or None). A placed end at the disparity the curve reaches there (2 px or 3 %)
+    is joined to the curve; otherwise (a fork whose parent is another branch, an unplaced
+    end) the curve itself is carried on towards the end's skeleton position, at most
+    ``reach_px``.
+    """
+    uvd = _oriented(c.uvd(), *ends)
+    ends = [e if e is not None and abs(e[2] - c.d_at(c.t_of(e[:2]))[0]) <= max(2.0, 0.03 * e[2]) else None
+            for e in ends]
+    parts = [uvd]
+    lo, hi = c.t_range
+    for k, (e, xy) in enumerate(zip(ends, node_xy)):
+        if e is None:
+            if xy is None:
+                continue
+            t_n = float(c.t_of(xy)[0])
+            t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
+            if abs(t_n - t_near) < 2:
+                continue
+            t = np.linspace(t_near, t_near + np.clip(t_n - t_near, -reach_px, reach_px), 6)[1:]
+            ext = np.column_stack([c.uv_at(t), c.d_at(t)])
+            e = ext[::-1] if k == 0 else ext
+        else:
+            e = e[None]
+        parts.insert(0 if k == 0 else len(parts), e)
+    return np.vstack(parts)
+
+
 def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
@@ -329,13 +360,10 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         features.append(FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node]))
     pieces = []
     for s, c in sorted(curves.items()):
-        uvd = c.uvd()
         a, z = graph.seg_nodes[s]
-        ends = [b.uvd.get(n) for n in (a, z)]
-        uvd = _oriented(uvd, *ends)
-        parts = ([ends[0][None]] if ends[0] is not None else []) + [uvd] + \
-                ([ends[1][None]] if ends[1] is not None else [])
-        pieces.append(PieceUVD(s, np.vstack(parts), c.radius_px, False, (int(a), int(z))))
+        xy = [b.node_xy[n] if n >= 0 else None for n in (a, z)]
+        pieces.append(PieceUVD(s, _piece_uvd(c, [b.uvd.get(n) for n in (a, z)], xy), c.radius_px, False,
+                               (int(a), int(z))))
     for s in bridges:
         a, z = graph.seg_nodes[s]
         if a in b.uvd and z in b.uvd:

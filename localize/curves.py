@@ -22,7 +22,10 @@ class Poly:
     ts: float = 1.0
 
     def __call__(self, t) -> np.ndarray:
-        x = (np.asarray(t, float) - self.t0) / self.ts
+        t = np.asarray(t, float)
+        if t.shape == (1,):                 # one point: the same sums in Python floats (a tenth of the time)
+            return np.array([self.at(float(t[0]))])
+        x = (t - self.t0) / self.ts
         coef = self.coef
         if len(coef) == 1:
             return np.full(x.shape, coef[0], float)
@@ -30,6 +33,21 @@ class Poly:
         for c in coef[2:]:
             y = y * x + c
         return y
+
+    def at(self, t: float) -> float:
+        """``p(t)`` of one parameter."""
+        x = (t - self.t0) / self.ts
+        c = self._coef_list
+        if len(c) == 1:
+            return c[0]
+        y = x * c[0] + c[1]
+        for ci in c[2:]:
+            y = y * x + ci
+        return y
+
+    @cached_property
+    def _coef_list(self) -> list[float]:
+        return self.coef.tolist()
 
     def deriv(self) -> Poly:
         return self._deriv
@@ -130,6 +148,13 @@ class BranchCurve:
     def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
+        if t.shape == (1,):                 # one point: the same sums in Python floats
+            t1 = float(t[0])
+            tc1 = min(max(t1, lo), hi)
+            if tc1 == t1:
+                return np.array([poly.at(tc1)])
+            slope1 = poly.deriv().at(tc1) if slopes is None else (slopes[0] if t1 < lo else slopes[1])
+            return np.array([poly.at(tc1) + slope1 * (t1 - tc1)])
         tc = np.minimum(np.maximum(t, lo), hi)
         if (tc == t).all():                             # no extrapolation (NaN: the general path)
             return poly(tc)

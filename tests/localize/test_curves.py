@@ -88,3 +88,17 @@ def test_end_slopes_are_line_fits_near_each_end():
     y = np.where(t < 100, 2.0 * t, 200.0 - 0.5 * (t - 100))
     a, b = end_slopes(t, y, reach=60.0)
     assert a == pytest.approx(2.0) and b == pytest.approx(-0.5)
+
+
+def test_one_point_gives_bit_for_bit_the_value_of_many():
+    rng = np.random.default_rng(11)
+    for degree in (0, 1, 2, 3):
+        p = Poly(rng.normal(0, 5, degree + 1), t0=float(rng.uniform(0, 500)), ts=float(rng.uniform(1, 300)))
+        t = rng.uniform(-200, 900, 50)
+        many = p(t)
+        assert [p(t[i:i + 1])[0] for i in range(len(t))] == many.tolist()
+        assert [p.at(float(x)) for x in t] == many.tolist()
+        c = BranchCurve(0, True, (100.0, 600.0), p, p, 2.0, 10, d_end_slopes=(0.3, -0.7))
+        for f in (c.s_at, c.d_at):
+            assert [f(t[i:i + 1])[0] for i in range(len(t))] == f(t).tolist()
+            assert [f(float(x))[0] for x in t] == f(t).tolist()

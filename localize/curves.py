@@ -83,6 +83,11 @@ def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
     power sums, well conditioned on [-1, 1] for degree <= 3."""
     if degree == 0:
         return np.array([float(y.sum()) / len(y)]) if len(y) else np.zeros(1)
+    if degree == 1:                     # a line in closed form
+        n, sx, sy = len(x), float(x.sum()), float(y.sum())
+        sxx, sxy = float(x @ x), float(x @ y)
+        det = n * sxx - sx * sx
+        return np.array([(n * sxy - sx * sy) / det, (sxx * sy - sx * sxy) / det])
     a = np.vander(x, degree + 1)
     return np.linalg.solve(a.T @ a, a.T @ y)
 
@@ -192,9 +197,16 @@ class BranchCurve:
 def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float, float]:
     """Slopes dy/dt of straight lines fitted to the samples within ``reach`` of each end of t."""
     t, y = np.asarray(t, float), np.asarray(y, float)
+    lo, hi = float(t.min()), float(t.max())
     out = []
-    for near in (t <= t.min() + reach, t >= t.max() - reach):
-        if near.sum() < 5 or np.ptp(t[near]) < 5:
+    for near in (t <= lo + reach, t >= hi - reach):
+        tn = t[near]
+        if len(tn) < 5 or float(tn.max()) - float(tn.min()) < 5:
             near = np.ones(len(t), bool)
-        out.append(float(np.polyfit(t[near], y[near], 1)[0]) if np.ptp(t[near]) > 0 else 0.0)
+            tn = t
+        if float(tn.max()) > float(tn.min()):                  # least-squares slope
+            dt = tn - float(tn.sum()) / len(tn)
+            out.append(float(dt @ y[near]) / float(dt @ dt))
+        else:
+            out.append(0.0)
     return out[0], out[1]

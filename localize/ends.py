@@ -392,7 +392,8 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX):
+        if abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
+                c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
             return
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
@@ -404,6 +405,19 @@ class EndPlacer:
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
                            np.array([half]), self.sm.d_range_px[1]):
             self.hidden.add(int(node))
+
+    def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
+        """Whether the right view shows a clearly wider branch just past a steep piece's left
+        end, where the piece would run on (another branch touching the tip in the right view
+        only, rather than the piece itself going on behind an occluder in the left view).
+        """
+        rows = np.rint(t_edge + sign * np.arange(1.0, max(2 * r, 4.0))).astype(int)
+        rows = rows[(rows >= 0) & (rows < self.sm.right_mask.shape[0])]
+        if len(rows) == 0:
+            return False
+        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.clip(rows, *c.t_range)).mean()))
+        ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
+        return bool(((ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)).mean() >= 0.8)
 
     def _cap_cut_by_edge(self, c: BranchCurve, uv_edge: np.ndarray, out: np.ndarray, r: float) -> float | None:
         """A steep piece that runs to the edge of the view: the distance (px) from its last

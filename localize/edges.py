@@ -9,9 +9,16 @@ the rectified outline to a small fraction of a pixel.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` made read-only (cached arrays are shared by every caller)."""
+    a.setflags(write=False)
+    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,20 +43,28 @@ class Runs:
     left_px: np.ndarray
     right_px: np.ndarray
 
-    @property
+    @cached_property
     def centre_px(self) -> np.ndarray:
-        return 0.5 * (self.left_px + self.right_px)
+        return _frozen(0.5 * (self.left_px + self.right_px))
 
-    @property
+    @cached_property
     def span_px(self) -> np.ndarray:
-        return self.right_px - self.left_px
+        return _frozen(self.right_px - self.left_px)
+
+    @cached_property
+    def _start_keys(self) -> np.ndarray:
+        return _frozen(self.row * self.width + self.x0)
+
+    @cached_property
+    def _centre_keys(self) -> np.ndarray:
+        return _frozen(self.row * self.width + self.centre_px)
 
     def find(self, row: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Index of the run containing pixel (row, round(x)) for each query, -1 if none."""
         row = np.asarray(row, int)
         xi = np.rint(x).astype(int)
         key = row * self.width + xi
-        i = np.searchsorted(self.row * self.width + self.x0, key, side="right") - 1
+        i = np.searchsorted(self._start_keys, key, side="right") - 1
         ok = (i >= 0)
         i = np.maximum(i, 0)
         ok &= (self.row[i] == row) & (self.x1[i] >= xi) & (self.x0[i] <= xi)
@@ -64,7 +79,7 @@ class Runs:
             Pairs (query index, run index), all candidates of all queries.
         """
         row = np.asarray(row, int)
-        keys = self.row * self.width + self.centre_px
+        keys = self._centre_keys
         a = np.searchsorted(keys, row * self.width + np.asarray(lo_px), side="left")
         b = np.searchsorted(keys, row * self.width + np.asarray(hi_px), side="right")
         n = np.maximum(b - a, 0)

@@ -436,7 +436,7 @@ class EndPlacer:
         chord = self.runs_l.span_px[i] * abs(out[1])
         if chord >= 1.6 * r:
             return None
-        return float(np.sqrt(r * r - 0.25 * chord * chord))
+        return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
 
     def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.

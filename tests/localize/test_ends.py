@@ -5,7 +5,7 @@ import pytest
 from appliance.config import load_config
 from appliance.localize import Localizer
 
-from .shapes import ideal_rig, y_pair
+from .shapes import branch_pair, ideal_rig, y_pair
 
 CFG = load_config().localize
 
@@ -33,3 +33,29 @@ def test_a_child_at_another_depth_is_no_fork():
     assert not [f for f in res.features if f.kind == "bifurcation"]
     z = sorted(np.median(b.polyline_mm[:, 2]) for b in res.branches if len(b.polyline_mm) > 2)
     assert z and abs(z[0] - 850.0) <= 10.0 and abs(z[-1] - 1000.0) <= 10.0
+
+
+def test_pieces_are_not_joined_across_depths():
+    # the crossing "child" ends at the junction placed with the parent's disparity: its piece must
+    # not be drawn on to that point (a straight 3D link from 850 mm to 1000 mm)
+    calib = ideal_rig()
+    left, right, ml, mr, _, _ = y_pair(calib, 1000.0, 45.0, child_depth_mm=850.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    spans = [np.ptp(b.polyline_mm[:, 2]) for b in res.branches if len(b.polyline_mm) > 2]
+    assert spans and max(spans) <= 30.0
+
+
+def test_a_tip_whose_cap_is_cut_by_the_edge_of_the_view_is_a_tip():
+    # the round cap (radius 11 px) runs past the top edge, the tip's centre (8 px below it) is in
+    # view: the chord of the cap at the edge tells it from a branch that leaves the view
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 900.0, radius_px=11.0, top=(300.0, 8.0))
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 100]
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, (300.0, 8.0))) <= 1.0
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
+    # a branch that runs on out of the view has no tip there
+    left, right, ml, mr, d = branch_pair(calib, 900.0, radius_px=11.0, top=(300.0, -30.0))
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 100]

@@ -54,21 +54,22 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
     if len(uv) == 0:
         return d_out, score
     hw = half_w_px
-    # read each image once, over the box all patches and strips need (lazy images rectify it then)
+    # read each image once, over the box its patches (left) or strips (right) need (lazy images rectify it then)
     by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
-    bx0, bx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
-    if by1 <= by0 or bx1 <= bx0:
+    lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
+    rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
+    if by1 <= by0 or lx1 <= lx0 or rx1 <= rx0:
         return d_out, score
-    lbox, rbox = left[by0:by1, bx0:bx1], right[by0:by1, bx0:bx1]
+    lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)
     for i in np.flatnonzero(inside).tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
-        tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - bx0:u + hw + 1 - bx0]
+        tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]
         if _flat(tmpl, 1.0):
             continue
         xs = max(uv[i, 0] - hi - hw, 0)
-        strip = rbox[v - hh - by0:v + hh + 1 - by0, xs - bx0:min(u - lo + hw + 1, w) - bx0]
+        strip = rbox[v - hh - by0:v + hh + 1 - by0, xs - rx0:min(u - lo + hw + 1, w) - rx0]
         if strip.shape[1] < tmpl.shape[1] + 2:
             continue
         c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]

@@ -179,47 +179,52 @@ class EndPlacer:
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float) -> np.ndarray | None:
         """The fork from the child's outline where it leaves the parent: None when unclear.
 
-        Lines parallel to the parent's axis, just clear of the parent's outline on the
-        child's side, cross the child in an interval whose middle is the child's axis (its
-        two edges are parallel); the middles on two such lines give the child's axis, whose
-        crossing with the parent's axis is the fork. Intervals not as wide as the child
-        seen at that angle (hidden by a leaf, merged with something) make it unclear.
+        Lines parallel to the parent's axis (``c1``, ``e1``), just clear of the parent's outline
+        on the child's side, cross the child in an interval whose middle is the child's axis
+        (its two edges are parallel); the middles on two such lines give the child's axis, whose
+        crossing with the parent's axis is the fork. The child's line (``c2``, ``e2``) only
+        tells which crossing is the child's. Intervals not as wide as the child seen at that
+        angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
+        further out is tried then.
         """
         n = np.array([-e1[1], e1[0]])
-        side = np.sign(np.dot(c2 - p0, n)) or 1.0
-        n = side * n
+        n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
         sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
         if sin_t < 0.2:
             return None
-        s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * np.dot(e2, e1) / (np.dot(e2, n) or 1e-9))
-        reach = 2.0 * (r_par + 2 * r_child) / sin_t + 20
+        cot = np.dot(e2, e1) / np.dot(e2, n)
+        s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
+        reach = 2.0 * (r_par + 4 * r_child) / sin_t + 20
         s = np.arange(s0 - reach, s0 + reach, 0.5)
+        step = max(1.5 * r_child, 6.0)
+        for h1 in (r_par + 3.0, r_par + 3.0 + r_child):
+            m1 = self._child_crossing(c1 + h1 * n, e1, s, s0 + h1 * cot, r_child, sin_t)
+            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s, s0 + (h1 + step) * cot, r_child, sin_t)
+            if m1 is not None and m2 is not None:
+                return c1 + (m1 - (m2 - m1) * h1 / step) * e1
+        return None
+
+    def _child_crossing(self, base, e, s, s_c: float, r_child: float, sin_t: float) -> float | None:
+        """Middle (parameter along the line ``base + s e``) of the mask interval at or nearest to
+        ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine ``sin_t``."""
         mask = self.sm.left_mask
-        h_img, w_img = mask.shape
-        mids = []
-        for h in (r_par + 3.0, r_par + 3.0 + max(1.5 * r_child, 6.0)):
-            base = c1 + h * n
-            uv = np.rint(base + s[:, None] * e1).astype(int)
-            inside = (uv[:, 0] >= 0) & (uv[:, 0] < w_img) & (uv[:, 1] >= 0) & (uv[:, 1] < h_img)
-            on = np.zeros(len(s), bool)
-            on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
-            # where the current child line crosses this offset line
-            s_c = s0 + h * np.dot(e2, e1) / (np.dot(e2, n) or 1e-9)
-            k = int(np.clip(np.searchsorted(s, s_c), 0, len(s) - 1))
-            if not on[k]:
-                return None
-            off = np.flatnonzero(~on)
-            a = off[off < k].max() + 1 if (off < k).any() else None
-            b = off[off > k].min() - 1 if (off > k).any() else None
-            if a is None or b is None:
-                return None
-            width = (b - a + 1) * 0.5
-            if abs(width * sin_t - 2 * r_child) > 0.35 * 2 * r_child + 2:
-                return None
-            mids.append((h, 0.5 * (s[a] + s[b])))
-        (h1, m1), (h2, m2) = mids
-        s_f = m1 - (m2 - m1) * h1 / (h2 - h1)
-        return c1 + s_f * e1
+        uv = np.rint(base + s[:, None] * e).astype(int)
+        inside = (uv[:, 0] >= 0) & (uv[:, 0] < mask.shape[1]) & (uv[:, 1] >= 0) & (uv[:, 1] < mask.shape[0])
+        on = np.zeros(len(s), bool)
+        on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
+        cand = np.flatnonzero(on & (np.abs(s - s_c) <= 2 * r_child / sin_t))
+        if len(cand) == 0:
+            return None
+        k = int(cand[np.argmin(np.abs(s[cand] - s_c))])
+        off = np.flatnonzero(~on)
+        before, after = off[off < k], off[off > k]
+        if len(before) == 0 or len(after) == 0:
+            return None
+        a, b = before[-1] + 1, after[0] - 1
+        width = (b - a + 1) * (s[1] - s[0])
+        if abs(width * sin_t - 2 * r_child) > 0.7 * r_child + 2:
+            return None
+        return 0.5 * (s[a] + s[b])
 
     def _runs_agree(self, pts: np.ndarray, d: float, r: float, min_rows: int = 3) -> bool:
         """Whether a piece's own row crossings at points ``pts`` (N, 2) have disparity ``d``.

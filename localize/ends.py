@@ -133,12 +133,12 @@ class EndPlacer:
         # the child's outline where it leaves the parent, against the parent's line behind the
         # fork (the parent may bend at the fork) or else through both sides
         behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
-        xy = None
-        if len(near[behind]) >= 3:
-            cb, eb = _line(near[behind])
-            xy = self._fork_from_child_outline(cb, eb, c2, e2, cb + np.dot(p - cb, eb) * eb, r_par, rad[child])
-        if xy is None:
-            xy = self._fork_from_child_outline(c1, e1, c2, e2, p0, r_par, rad[child])
+        xy, outline = None, None
+        for cl, el in ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)]:
+            xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
+            if xy is not None:
+                outline = (cl, el)
+                break
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further
@@ -167,6 +167,8 @@ class EndPlacer:
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
         agree = child_ok and _agree(at(child), d)
+        if parents and not agree and outline is not None:     # the child's outline in the right view
+            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
         if parents and not agree:         # the child's own crossings next to the parent
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
@@ -176,7 +178,8 @@ class EndPlacer:
         else:
             self.hidden.discard(int(node))
 
-    def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float) -> np.ndarray | None:
+    def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
+                                 mask: np.ndarray | None = None) -> np.ndarray | None:
         """The fork from the child's outline where it leaves the parent: None when unclear.
 
         Lines parallel to the parent's axis (``c1``, ``e1``), just clear of the parent's outline
@@ -185,8 +188,9 @@ class EndPlacer:
         crossing with the parent's axis is the fork. The child's line (``c2``, ``e2``) only
         tells which crossing is the child's. Intervals not as wide as the child seen at that
         angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
-        further out is tried then.
+        further out is tried then. ``mask``: the left view's unless given.
         """
+        mask = self.sm.left_mask if mask is None else mask
         n = np.array([-e1[1], e1[0]])
         n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
         sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
@@ -198,16 +202,33 @@ class EndPlacer:
         s = np.arange(s0 - reach, s0 + reach, 0.5)
         step = max(1.5 * r_child, 6.0)
         for h1 in (r_par + 3.0, r_par + 3.0 + r_child):
-            m1 = self._child_crossing(c1 + h1 * n, e1, s, s0 + h1 * cot, r_child, sin_t)
-            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s, s0 + (h1 + step) * cot, r_child, sin_t)
+            m1 = self._child_crossing(c1 + h1 * n, e1, s, s0 + h1 * cot, r_child, sin_t, mask)
+            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s, s0 + (h1 + step) * cot, r_child, sin_t, mask)
             if m1 is not None and m2 is not None:
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
 
-    def _child_crossing(self, base, e, s, s_c: float, r_child: float, sin_t: float) -> float | None:
-        """Middle (parameter along the line ``base + s e``) of the mask interval at or nearest to
-        ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine ``sin_t``."""
-        mask = self.sm.left_mask
+    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
+        """Whether the child's outline in the right view leaves the parent at the fork too.
+
+        The parent's axis in the right view is the left one moved by its disparity; the fork
+        found there from the child's right outline must be the left fork moved by the parent's
+        disparity (within 1 px or 0.6 %): a child at another depth crosses the parent elsewhere.
+        """
+        def right_of(pt):
+            d = np.mean([self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents])
+            return pt - np.array([d, 0.0]), d
+        r1, d1 = right_of(xy)
+        r2, _ = right_of(xy + 30.0 * e1)
+        er = (r2 - r1) / max(np.hypot(*(r2 - r1)), 1e-9)
+        xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
+                                             self.sm.right_mask)
+        return xy_r is not None and np.hypot(*(xy_r - r1)) <= max(1.0, 0.006 * d1)
+
+    def _child_crossing(self, base, e, s, s_c: float, r_child: float, sin_t: float,
+                        mask: np.ndarray) -> float | None:
+        """Middle (parameter along the line ``base + s e``) of the ``mask`` interval at or nearest
+        to ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine ``sin_t``."""
         uv = np.rint(base + s[:, None] * e).astype(int)
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < mask.shape[1]) & (uv[:, 1] >= 0) & (uv[:, 1] < mask.shape[0])
         on = np.zeros(len(s), bool)

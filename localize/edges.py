@@ -88,32 +88,31 @@ class Runs:
         return query, run
 
 
-def _soft_crossing(soft: np.ndarray, row: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:
-    """Where the soft mask crosses half way between an outside and an inside pixel of a row."""
-    a = soft[row, outside].astype(np.float32)
-    b = soft[row, inside].astype(np.float32)
-    frac = np.clip((127.5 - a) / np.maximum(b - a, 1.0), 0.0, 1.0)
+def _soft_crossing(flat: np.ndarray, row_start: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:
+    """Where the soft mask (``flat``: its pixels row-major, rows starting at ``row_start``) crosses
+    half way between an outside and an inside pixel of a row (coverage in float32)."""
+    a = flat[row_start + outside].astype(np.float32)
+    b = flat[row_start + inside].astype(np.float32)
+    frac = np.minimum(np.maximum((127.5 - a) / np.maximum(b - a, 1.0), 0.0), 1.0)
     return outside + frac * (inside - outside)
 
 
 def _run_bounds(mask: np.ndarray, above: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row, first and last column (int64, row-major order) of the runs of ``mask > above`` (uint8).
+    """Row, first and last column (int64, row-major order) of the runs of ``mask > above`` (uint8, C-contiguous).
 
     The mask is thresholded straight into a zero-padded buffer; the changes between
     neighbouring columns (an xor of the flat buffer with itself shifted by one) are found
     8 bytes at a time (the few non-zero 64-bit words, then their non-zero bytes): a
-    fraction of a full-size ``cv2.findNonZero``. ``mask`` may be a transposed view (it is
-    transposed by OpenCV, much faster than a numpy copy).
+    fraction of a full-size ``cv2.findNonZero``.
     """
     h, w = mask.shape
-    if not mask.flags.c_contiguous:
-        mask = cv2.transpose(mask.T) if mask.T.flags.c_contiguous else np.ascontiguousarray(mask)
     wp = w + 2
     n = h * wp
     m = np.zeros(n, np.uint8)
     cv2.threshold(mask, above, 1, cv2.THRESH_BINARY, dst=m.reshape(h, wp)[:, 1:-1])
-    change = np.zeros((n + 7) // 8 * 8, np.uint8)        # change[i]: padded flat pixels i and i + 1 differ
+    change = np.empty((n + 7) // 8 * 8, np.uint8)        # change[i]: padded flat pixels i and i + 1 differ
     np.bitwise_xor(m[1:], m[:-1], out=change[:n - 1])
+    change[n - 1:] = 0
     words = change.view(np.uint64)
     wi = np.flatnonzero(words != 0)
     bi = np.flatnonzero(words[wi].view(np.uint8) != 0)
@@ -130,16 +129,20 @@ def find_runs(mask: np.ndarray, soft: bool = False) -> Runs:
         Branch mask; with ``soft`` a uint8 coverage 0-255 (e.g. a binary mask remapped with
         linear interpolation): branch where >= 128, and each boundary is placed where the
         coverage crosses 127.5 between its outside and inside pixel; otherwise branch where
-        non-zero and boundaries half a pixel outside the run.
+        non-zero and boundaries half a pixel outside the run. A transposed view (the runs along
+        columns) costs no numpy copy: OpenCV transposes it (~0.05 ms against ~0.6 ms).
     """
     mask = np.asarray(mask)
     h, w = mask.shape
+    if mask.dtype == np.uint8 and not mask.flags.c_contiguous:     # e.g. a transposed view
+        mask = cv2.transpose(mask.T) if mask.T.flags.c_contiguous else np.ascontiguousarray(mask)
     if mask.dtype == np.uint8:
         sr, x0, x1 = _run_bounds(mask, 127 if soft else 0)
     else:
         sr, x0, x1 = _run_bounds(((mask >= 128) if soft else (mask > 0)).view(np.uint8), 0)
     left, right = x0 - 0.5, x1 + 0.5
     if soft and len(sr):
-        left = np.where(x0 > 0, _soft_crossing(mask, sr, np.maximum(x0 - 1, 0), x0), left)
-        right = np.where(x1 < w - 1, _soft_crossing(mask, sr, np.minimum(x1 + 1, w - 1), x1), right)
+        flat, start = mask.reshape(-1), sr * w
+        left = np.where(x0 > 0, _soft_crossing(flat, start, np.maximum(x0 - 1, 0), x0), left)
+        right = np.where(x1 < w - 1, _soft_crossing(flat, start, np.minimum(x1 + 1, w - 1), x1), right)
     return Runs(w, sr, x0, x1, left, right)

@@ -68,7 +68,7 @@ def test_robust_fit_rejects_outliers_and_matches_the_median_rule():
     ref_keep = reference_robust_keep(t, y, 1)
     np.testing.assert_array_equal(keep, ref_keep)
     for n in (4, 5):                                   # even and odd sample counts
-        p, k = robust_fit(t[:n], y[:n], 0, rounds=1)
+        p, _ = robust_fit(t[:n], y[:n], 0, rounds=1)
         assert p(0.0) == pytest.approx(y[:n].mean())
 
 

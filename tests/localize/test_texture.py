@@ -5,7 +5,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from appliance.localize.texture import _flat, nearer_in_front, surface_disparity, surface_to_axis
+from appliance.localize.texture import (
+    _flat,
+    nearer_in_front,
+    surface_disparity,
+    surface_to_axis,
+)
 
 
 def textured(h: int = 120, w: int = 400, seed: int = 0) -> np.ndarray:

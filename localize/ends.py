@@ -134,7 +134,8 @@ class EndPlacer:
         # fork (the parent may bend at the fork) or else through both sides
         behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
         xy, outline = None, None
-        for cl, el in ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)]:
+        lines = ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)] if final else []
+        for cl, el in lines:               # (before the final round a rough place will do)
             xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
             if xy is not None:
                 outline = (cl, el)
@@ -198,12 +199,10 @@ class EndPlacer:
             return None
         cot = np.dot(e2, e1) / np.dot(e2, n)
         s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
-        reach = 2.0 * (r_par + 4 * r_child) / sin_t + 20
-        s = np.arange(s0 - reach, s0 + reach, 0.5)
         step = max(1.5 * r_child, 6.0)
         for h1 in (r_par + 3.0, r_par + 3.0 + r_child):
-            m1 = self._child_crossing(c1 + h1 * n, e1, s, s0 + h1 * cot, r_child, sin_t, mask)
-            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s, s0 + (h1 + step) * cot, r_child, sin_t, mask)
+            m1 = self._child_crossing(c1 + h1 * n, e1, s0 + h1 * cot, r_child, sin_t, mask)
+            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s0 + (h1 + step) * cot, r_child, sin_t, mask)
             if m1 is not None and m2 is not None:
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
@@ -225,10 +224,12 @@ class EndPlacer:
                                              self.sm.right_mask)
         return xy_r is not None and np.hypot(*(xy_r - r1)) <= max(1.0, 0.006 * d1)
 
-    def _child_crossing(self, base, e, s, s_c: float, r_child: float, sin_t: float,
-                        mask: np.ndarray) -> float | None:
-        """Middle (parameter along the line ``base + s e``) of the ``mask`` interval at or nearest
-        to ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine ``sin_t``."""
+    def _child_crossing(self, base, e, s_c: float, r_child: float, sin_t: float, mask: np.ndarray) -> float | None:
+        """Middle (parameter s along the line ``base + s e``) of the ``mask`` interval at or
+        nearest to ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine
+        ``sin_t``."""
+        reach = (4.7 * r_child + 3) / sin_t + 2          # the interval nearest s_c, whole, if as wide
+        s = np.arange(s_c - reach, s_c + reach, 0.5)
         uv = np.rint(base + s[:, None] * e).astype(int)
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < mask.shape[1]) & (uv[:, 1] >= 0) & (uv[:, 1] < mask.shape[0])
         on = np.zeros(len(s), bool)

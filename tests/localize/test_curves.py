@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from appliance.localize.curves import BranchCurve, Poly, end_slopes, robust_fit
+from appliance.localize.curves import BranchCurve, Poly, end_slopes, median, robust_fit
 
 
 @pytest.mark.parametrize("degree", [0, 1, 2, 3])
@@ -102,3 +102,13 @@ def test_one_point_gives_bit_for_bit_the_value_of_many():
         for f in (c.s_at, c.d_at):
             assert [f(t[i:i + 1])[0] for i in range(len(t))] == f(t).tolist()
             assert [f(float(x))[0] for x in t] == f(t).tolist()
+
+
+def test_median_is_numpys_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for n in range(1, 40):
+        a = rng.normal(0, 10, n)
+        assert median(a) == np.median(a)
+        a_copy = a.copy()
+        median(a)
+        np.testing.assert_array_equal(a, a_copy)          # input untouched

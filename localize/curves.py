@@ -152,6 +152,7 @@ class BranchCurve:
     right_runs: np.ndarray | None = None
 
     def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
+        """``poly`` inside the span, beyond it along ``slopes`` (the curve's own at the span's ends by default)."""
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
         if t.shape == (1,):                 # one point: the same sums in Python floats
@@ -159,16 +160,14 @@ class BranchCurve:
             tc1 = min(max(t1, lo), hi)
             if tc1 == t1:
                 return np.array([poly.at(tc1)])
-            slope1 = poly.deriv().at(tc1) if slopes is None else (slopes[0] if t1 < lo else slopes[1])
-            return np.array([poly.at(tc1) + slope1 * (t1 - tc1)])
+            slope = poly.deriv().at(tc1) if slopes is None else slopes[0] if t1 < lo else slopes[1]
+            return np.array([poly.at(tc1) + slope * (t1 - tc1)])
         tc = np.minimum(np.maximum(t, lo), hi)
-        if (tc == t).all():                             # no extrapolation (NaN: the general path)
+        if (tc == t).all():                 # no extrapolation (NaN: the general path)
             return poly(tc)
         if slopes is None:
-            slope = poly.deriv()(tc)
-        else:
-            slope = np.where(t < lo, slopes[0], slopes[1])
-        return poly(tc) + slope * (t - tc)
+            slopes = (poly.deriv().at(lo), poly.deriv().at(hi))
+        return poly(tc) + np.where(t < lo, slopes[0], slopes[1]) * (t - tc)
 
     def s_at(self, t) -> np.ndarray:
         return self._eval(self.s_poly, t)
@@ -179,9 +178,11 @@ class BranchCurve:
 
     def uv_at(self, t) -> np.ndarray:
         """(N, 2) rectified left (u, v) at parameters ``t``."""
-        t = np.atleast_1d(np.asarray(t, float))
-        s = self.s_at(t)
-        return np.column_stack([s, t] if self.by_row else [t, s])
+        t = np.asarray(t, float).reshape(-1)
+        out = np.empty((len(t), 2))
+        out[:, 0 if self.by_row else 1] = self.s_at(t)
+        out[:, 1 if self.by_row else 0] = t
+        return out
 
     def t_of(self, uv) -> np.ndarray:
         """Parameter of points (N, 2) (their v when by row, else their u)."""

@@ -112,3 +112,4 @@ def test_median_is_numpys_bit_for_bit():
         a_copy = a.copy()
         median(a)
         np.testing.assert_array_equal(a, a_copy)          # input untouched
+    assert np.isnan(median(np.zeros(0)))

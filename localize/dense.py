@@ -21,6 +21,7 @@ from appliance.localize.curves import (
     BranchCurve,
     Poly,
     degree_for,
+    median,
     end_slopes,
     robust_fit,
 )
@@ -38,8 +39,8 @@ from appliance.localize.texture import (
 def _angle_deg(pts: np.ndarray) -> float:
     """Angle of a point set's main direction from the horizontal, degrees (0..90)."""
     c = pts - pts.mean(0)
-    _, _, vt = np.linalg.svd(c, full_matrices=False)
-    return float(np.degrees(np.arctan2(abs(vt[0, 1]), abs(vt[0, 0]))))
+    sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
+    return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
 
 
 def _centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -122,7 +123,7 @@ def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: Ster
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
     u_poly, _ = robust_fit(tf, cf, degree, rounds=1)
     slope = u_poly.deriv()(tf)
-    radius = float(np.median(0.5 * wf / np.sqrt(1 + slope ** 2)))
+    radius = float(median(0.5 * wf / np.sqrt(1 + slope ** 2)))
     used = rr[chosen]
     # rows where the branch is partly hidden still show one true edge in both views
     w_poly, _ = robust_fit(tf, w_l[q[chosen]], 1, rounds=2)     # the whole crossing's width, horizontally
@@ -199,7 +200,7 @@ def _consensus_line(t: np.ndarray, d: np.ndarray, n_hyp: int = 96, tol_px: float
     dt = t[j] - t[i]
     ok = np.abs(dt) >= 3
     if not ok.any():
-        return Poly.constant(float(np.median(d)))
+        return Poly.constant(float(median(d)))
     i, j, dt = i[ok], j[ok], dt[ok]
     slope = (d[j] - d[i]) / dt
     inl = np.abs(d[None, :] - (d[i, None] + slope[:, None] * (t[None, :] - t[i, None]))) <= tol_px
@@ -225,7 +226,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     degree = degree_for(len(t), float(t.max() - t.min()))
     v_poly, inl = robust_fit(t, vc, degree)
     slope = v_poly.deriv()(t[inl])
-    radius = float(np.median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
+    radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
     lo, hi = float(t[inl].min()), float(t[inl].max())
     u = np.arange(lo, hi + 1, 4.0)
     uv = np.column_stack([u, v_poly(u)])
@@ -236,7 +237,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         d_surf, score = d0, s0
         u, uv = u[::3], uv[::3]
     else:
-        prior = float(np.median(d0[np.isfinite(d0) & (s0 >= 0.6)]))
+        prior = float(median(d0[np.isfinite(d0) & (s0 >= 0.6)]))
         d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
                                           half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
@@ -321,7 +322,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:
-        runs_lt = find_runs(np.ascontiguousarray(sm.left_mask.T), soft=True)
+        runs_lt = find_runs(sm.left_mask.T, soft=True)
         for s in flat:
             c = _flat_curve(b, s, runs_lt)
             if c is not None:

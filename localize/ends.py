@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import BranchCurve
+from appliance.localize.curves import median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
@@ -87,7 +88,7 @@ class EndPlacer:
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:
         c = self.curves.get(s)
-        return c.radius_px if c is not None else float(np.median(radius_at(self.sm.radius_map, pts)))
+        return c.radius_px if c is not None else float(median(radius_at(self.sm.radius_map, pts)))
 
     def fork(self, node: int, final: bool = False) -> None:
         """A fork: where the child's centre line meets the parent's, with the parent's disparity.
@@ -489,7 +490,7 @@ class EndPlacer:
         if len(q) < 3:
             return None
         d = c_l[q] - runs_r.centre_px[rr]
-        return float(np.median(d))
+        return float(median(d))
 
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
         """Whether the right mask has branch within half a radius of the point's right position."""

@@ -151,9 +151,7 @@ class Localizer:
             graph_r, radius_r = self._graph(br, None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
-            gl = cv2.cvtColor(left, cv2.COLOR_BGR2GRAY) if left.ndim == 3 else left
-            gr = cv2.cvtColor(right, cv2.COLOR_BGR2GRAY) if right.ndim == 3 else right
-            gl, gr = LazyRectified(r, gl, 0), LazyRectified(r, gr, 1)
+            gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
                              float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), r.valid[0])

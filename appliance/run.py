@@ -6,12 +6,14 @@ Three threads and two bounded queues::
                                     ├──> live view (optional; its own worker, newest wins)
                                     └──log(logging.queue_frames)──> MCAP writer
 
+- A camera is never stalled: when the localizer is busy the oldest waiting pair is dropped;
+  when the writer is behind, the pair is not logged. Both are counted and written to
+  ``/diagnostics``. A *replay* (``fake:`` at its recorded or nominal pace, or as fast as
+  possible: ``camera.fake_rate_hz`` <= 0) is never dropped by the localizer queue: it
+  localizes every recorded pair, so its results are reproducible. ``fake:`` at a fixed rate
+  (``fake_rate_hz`` > 0) stands in for a camera and drops like one.
 - Latency is capture stamp -> result for a camera, arrival in the loop -> result for a replay
   (whose stamps are the recording's).
-- A live camera is never stalled: when the localizer is busy the oldest waiting pair is
-  dropped; when the writer is behind, the pair is not logged. Both are counted and written
-  to ``/diagnostics``. A fake (replay) source is never dropped by the localizer queue: a
-  replay localizes every recorded pair, so its results are reproducible.
 - With ``opts.workers`` > 1 the pairs are localized in that many processes (the localizer is
   Python-heavy: threads would share one core); results still leave in capture order.
 - A camera lost mid-run is reopened with back-off (``camera.reconnect_min_s`` doubling up
@@ -157,7 +159,7 @@ class _Loop:
     def __init__(self, cfg, calib, opts, stop, on_status):
         self.cfg, self.calib, self.opts, self.stop, self.on_status = cfg, calib, opts, stop, on_status
         self.status = RunStatus()
-        self.replay = opts.device.startswith("fake:")
+        self.replay = opts.device.startswith("fake:") and cfg.camera.fake_rate_hz <= 0
         self.frames_q: queue.Queue = queue.Queue(maxsize=2)
         self.log_q: queue.Queue = queue.Queue(maxsize=cfg.logging.queue_frames)
         self.localizer = Localizer(calib, cfg.localize, variant=opts.variant)

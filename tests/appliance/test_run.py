@@ -39,7 +39,7 @@ def only_log(folder: Path) -> Path:
 
 
 def start_looping_run(tmp_path: Path, *extra: str) -> subprocess.Popen:
-    cfg = write_config(tmp_path / "loop.yaml", "camera:\n  fake_loop: true\n  fake_rate_hz: 20.0\n"
+    cfg = write_config(tmp_path / "loop.yaml", "camera:\n  fake_loop: true\n"
                                                "logging:\n  flush_interval_s: 0.5\n")
     return subprocess.Popen([APPLIANCE, "run", "--device", f"fake:{SCENES}", "--calib", str(RIG),
                              "--log", str(tmp_path / "logs"), "--config", str(cfg), "-q", *extra],
@@ -99,6 +99,22 @@ def test_sigint_finishes_an_indexed_log(tmp_path):
     assert len(read_results(log)) == pairs
     diagnostics = read_diagnostics(log)
     assert diagnostics and diagnostics[-1]["localized"] <= pairs
+
+
+def test_a_camera_faster_than_the_loop_drops_pairs_and_counts_them(tmp_path):
+    # fake: at a fixed rate stands in for a camera: never stalled; what the writer (lossless PNG,
+    # a queue of one pair) cannot take is counted, never waited for.
+    cfg = write_config(tmp_path / "fast.yaml", "camera:\n  fake_loop: true\n  fake_rate_hz: 200.0\n"
+                                               "logging:\n  image_encoding: png\n  queue_frames: 1\n")
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / "logs"),
+                  "--frames", "60", "--config", str(cfg), "-q")
+    assert r.returncode == 0, r.stderr
+    log = only_log(tmp_path / "logs")
+    final = read_diagnostics(log)[-1]
+    assert final["pairs"] == 60
+    assert final["dropped_localize"] > 0 and final["localized"] + final["dropped_localize"] == 60
+    assert len(read_results(log)) == final["localized"] - final["dropped_log"]
+    assert len(list(iter_stereo_frames(log))) == final["localized"] - final["dropped_log"]
 
 
 def test_sigkill_leaves_a_log_that_recovers_all_but_the_last_second(tmp_path):

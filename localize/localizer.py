@@ -39,9 +39,9 @@ def paper_config(cfg: LocalizeConfig) -> LocalizeConfig:
     return replace(
         cfg,
         skeleton=replace(cfg.skeleton, method="thinning"),
-        prune=replace(cfg.prune, min_length_px=5.0, radius_factor=0.0),
+        prune=replace(cfg.prune, min_length_px=5.0, radius_factor=0.0, keep_border_spurs=False),
         recover=replace(cfg.recover, method="hough"),
-        match=replace(cfg.match, method="features"),
+        match=replace(cfg.match, method="features", max_disparity_gradient=0.0),
     )
 
 
@@ -54,6 +54,30 @@ class _Clock:
         now = time.perf_counter()
         self.timings[stage] = self.timings.get(stage, 0.0) + (now - self._t) * 1e3
         self._t = now
+
+
+def plausible_part(uvd: np.ndarray, max_gradient: float) -> np.ndarray:
+    """The longest part (in the image) of a piece's samples (N, 3) of rectified (u, v, d)
+    along which the disparity changes by at most ``max_gradient`` px per px of the image
+    (steps shorter than 1 px count as 1 px); ``uvd`` itself when no step exceeds it or
+    ``max_gradient`` is 0.
+
+    Along a branch inclined at angle a to the image plane, disparity changes by
+    ``b / Z * tan(a)`` per image px (b baseline, Z depth): 0.5 at 1000 mm needs a branch
+    pointing within ~14 deg of the camera's axis. A larger step is a bad fit or a join to
+    another branch's depth.
+    """
+    if max_gradient <= 0 or len(uvd) < 2:
+        return uvd
+    step = np.diff(uvd, axis=0)
+    ln = np.hypot(step[:, 0], step[:, 1])
+    bad = np.abs(step[:, 2]) > max_gradient * np.maximum(ln, 1.0)
+    if not bad.any():
+        return uvd
+    cuts = np.r_[0, np.flatnonzero(bad) + 1, len(uvd)]
+    cum = np.r_[0.0, np.cumsum(ln)]
+    best = max(zip(cuts[:-1], cuts[1:]), key=lambda ab: cum[ab[1] - 1] - cum[ab[0]])
+    return uvd[best[0]:best[1]]
 
 
 class Localizer:
@@ -111,7 +135,8 @@ class Localizer:
         clock.lap("skeleton")
         radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
         clock.lap("radius")
-        _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius)
+        _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius,
+                         keep_border=c.prune.keep_border_spurs)
         clock.lap("prune")
         graph = recover(graph, c.recover, radius, occluder)
         clock.lap("recover")
@@ -184,6 +209,10 @@ class Localizer:
         for p in m.pieces:
             if not np.isfinite(p.radius_px) or len(p.uvd) < 2 or (p.uvd[:, 2] <= 0).any():
                 continue
+            uvd = plausible_part(p.uvd, self.cfg.match.max_disparity_gradient)
+            if len(uvd) < 2:
+                continue
+            p = replace(p, uvd=uvd)
             poly = triangulate(p.uvd[:, 0], p.uvd[:, 1], p.uvd[:, 2], calib)
             radius_mm = float(p.radius_px * np.median(poly[:, 2]) / f)
             ids = tuple(node_id.get(n, -1) for n in p.nodes)

@@ -133,3 +133,17 @@ def test_an_end_cut_by_something_nearer_is_not_a_tip():
     tips = [f for f in cut.features if f.kind == "endpoint"]
     assert len(tips) == 1 and tips[0].left_px[1] < 100          # only the cap at the top
     assert len(cut.branches) == 1
+
+
+def test_a_piece_is_cut_where_its_disparity_jumps_and_its_longest_plausible_part_kept():
+    from appliance.localize.localizer import plausible_part
+
+    v = np.arange(0.0, 60.0, 2.0)                       # 30 samples down the rows, 2 px apart
+    uvd = np.column_stack([np.full_like(v, 400.0), v, 150.0 + 0.1 * v])   # a tilted branch: kept whole
+    assert plausible_part(uvd, 0.5) is uvd
+    bad = uvd.copy()
+    bad[:5, 2] -= 30.0                                  # a wild start (a bad fit, a join at another depth)
+    bad[25:, 2] += np.arange(5) * 4.0                   # and a runaway end: 2 px of disparity per px
+    part = plausible_part(bad, 0.5)
+    np.testing.assert_array_equal(part, bad[5:26])
+    assert plausible_part(bad, 0.0) is bad              # 0 = off

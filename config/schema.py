@@ -71,6 +71,7 @@ class SkeletonConfig:
 class PruneConfig:
     min_length_px: float = rng(min=0)
     radius_factor: float = rng(min=0)
+    keep_border_spurs: bool = field()
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,7 @@ class MatchConfig:
     require_same_degree: bool = field()
     min_segment_px: float = rng(min=0)
     oblique_end_ratio: float = rng(min=0)
+    max_disparity_gradient: float = rng(min=0)
 
 
 @dataclass(frozen=True)

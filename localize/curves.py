@@ -214,3 +214,136 @@ def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float
         else:
             out.append(0.0)
     return out[0], out[1]
+
+
+@dataclass(frozen=True, eq=False)
+class GroupPolys:
+    """Polynomials of several groups of samples at once (one per branch piece), as :class:`Poly`.
+
+    ``coef`` (G, 4) holds each group's coefficients highest power first, padded with leading
+    zeros to degree 3 (Horner over the padding gives the same sums as over the unpadded
+    coefficients); ``t0``, ``ts`` (G,) the parameter scaling; ``degree`` (G,) int.
+    """
+
+    coef: np.ndarray
+    t0: np.ndarray
+    ts: np.ndarray
+    degree: np.ndarray
+
+    def __call__(self, g: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Values at parameters ``t`` (N,) of samples of groups ``g`` (N,)."""
+        x = (np.asarray(t, float) - self.t0[g]) / self.ts[g]
+        c = self.coef[g]
+        y = x * c[:, 0] + c[:, 1]
+        y = y * x + c[:, 2]
+        return y * x + c[:, 3]
+
+    def deriv(self) -> GroupPolys:
+        d = np.zeros_like(self.coef)
+        d[:, 1:] = self.coef[:, :3] * np.array([3.0, 2.0, 1.0]) / self.ts[:, None]
+        return GroupPolys(d, self.t0, self.ts, np.maximum(self.degree - 1, 0))
+
+    def poly(self, k: int) -> Poly:
+        """Group ``k``'s :class:`Poly`."""
+        return Poly(self.coef[k, 3 - int(self.degree[k]):].copy(), float(self.t0[k]), float(self.ts[k]))
+
+    @classmethod
+    def of(cls, polys: list[Poly]) -> GroupPolys:
+        coef = np.zeros((len(polys), 4))
+        for k, p in enumerate(polys):
+            coef[k, 4 - len(p.coef):] = p.coef
+        return cls(coef, np.array([float(p.t0) for p in polys]), np.array([float(p.ts) for p in polys]),
+                   np.array([len(p.coef) - 1 for p in polys]))
+
+
+def _starts(g: np.ndarray, n_groups: int) -> np.ndarray:
+    """First sample of each group (``g`` non-decreasing; an empty group starts where the next does)."""
+    return np.searchsorted(g, np.arange(n_groups))
+
+
+def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray) -> GroupPolys:
+    """:meth:`Poly.fit` of every group at once (``g`` (N,) non-decreasing group ids; ``degree`` (G,)).
+
+    The normal equations come from per-group power sums (one ``np.add.reduceat``), solved by one
+    batched ``np.linalg.solve`` per degree: the same least squares as :meth:`Poly.fit` up to
+    rounding (~1e-16). Groups without samples get meaningless coefficients.
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    n = np.bincount(g, minlength=n_groups)
+    starts = _starts(g, n_groups)
+    same = g[1:] == g[:-1]
+    deg = np.asarray(degree, int).copy()
+    if not (t[1:] > t[:-1])[same].all():                     # not strictly increasing: count distinct values
+        o = np.lexsort((t, g))
+        st, sg = t[o], g[o]
+        distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
+        deg = np.where(deg > 0, np.minimum(deg, distinct - 1), deg)
+    deg = np.maximum(np.minimum(deg, n - 1), 0)
+    pad = np.append(starts, len(t))[:-1]                      # a zero row after the samples: empty groups read it
+    t_pad = np.append(t, 0.0)
+    t0 = np.add.reduceat(t_pad, pad) / np.maximum(n, 1)
+    t_hi = np.append(t, -np.inf)
+    t_lo = np.append(t, np.inf)
+    ts = np.maximum(np.maximum(np.maximum.reduceat(t_hi, pad) - t0, t0 - np.minimum.reduceat(t_lo, pad)), 1.0)
+    x = (t - t0[g]) / ts[g]
+    p = np.empty((len(t) + 1, 11))
+    p[-1] = 0.0
+    p[:-1, 0] = 1.0
+    p[:-1, 1] = x
+    for k in range(2, 7):
+        p[:-1, k] = p[:-1, k - 1] * x
+    p[:-1, 7:] = p[:-1, :4] * y[:, None]
+    s = np.add.reduceat(p, pad, axis=0)                      # (G, 11): sums of x^0..x^6, y x^0..y x^3
+    coef = np.zeros((n_groups, 4))
+    k0 = deg == 0
+    coef[k0, 3] = s[k0, 7] / np.maximum(n[k0], 1)
+    k1 = deg == 1
+    if k1.any():
+        nn, sx, sy, sxx, sxy = n[k1], s[k1, 1], s[k1, 7], s[k1, 2], s[k1, 8]
+        det = nn * sxx - sx * sx
+        coef[k1, 2] = (nn * sxy - sx * sy) / det
+        coef[k1, 3] = (sxx * sy - sx * sxy) / det
+    for d in (2, 3):
+        kd = np.flatnonzero(deg == d)
+        if len(kd):
+            i = np.arange(d + 1)
+            a = s[kd][:, 2 * d - i[:, None] - i[None, :]]
+            b = s[kd][:, 7 + d - i]
+            coef[kd, 3 - d:] = np.linalg.solve(a, b[:, :, None])[:, :, 0]
+    return GroupPolys(coef, t0, ts, deg)
+
+
+def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
+                      rounds: int = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
+    """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int).
+
+    Returns
+    -------
+    (GroupPolys, inliers bool (N,))
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    degree = np.asarray(degree, int)
+    keep = np.ones(len(t), bool)
+    fit = fit_groups(t, y, g, n_groups, degree)
+    active = np.bincount(g, minlength=n_groups) > 0
+    for _ in range(rounds):
+        res = y - fit(g, t)
+        kr, kg = res[keep], g[keep]
+        bounds = np.searchsorted(kg, np.arange(n_groups + 1))
+        thr = np.full(n_groups, np.inf)
+        for k in np.flatnonzero(active).tolist():
+            r = kr[bounds[k]:bounds[k + 1]]
+            mad = 1.4826 * median(np.abs(r - median(r))) + 1e-3
+            thr[k] = k_mad * mad + 0.05
+        new = np.abs(res) <= thr[g]
+        count = np.bincount(g[new], minlength=n_groups)
+        changed = np.bincount(g[new != keep], minlength=n_groups) > 0
+        active &= (count > degree + 1) & changed
+        if not active.any():
+            break
+        keep = np.where(active[g], new, keep)
+        refit = fit_groups(t[keep], y[keep], g[keep], n_groups, degree)
+        fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
+                           for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
+                                           (refit.coef, refit.t0, refit.ts, refit.degree))))
+    return fit, keep

@@ -19,11 +19,13 @@ import numpy as np
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import (
     BranchCurve,
+    GroupPolys,
     Poly,
     degree_for,
-    median,
     end_slopes,
+    median,
     robust_fit,
+    robust_fit_groups,
 )
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
@@ -66,92 +68,154 @@ def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.
 
 def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: StereoMasks,
               taken: np.ndarray | None = None) -> BranchCurve | None:
-    """Dense row-by-row match of a steep segment; None when it finds too little.
+    """Dense row-by-row match of one steep segment (:func:`fit_steep_many`); None when it finds too little."""
+    return fit_steep_many(graph, [s], runs_l, runs_r, sm, taken).get(s)
 
+
+def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
+    """Group ids (N,) renumbered over the ``alive`` groups (samples of dead groups dropped by the caller)."""
+    return (np.cumsum(alive) - 1)[g]
+
+
+def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+                   taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
+    """Dense row-by-row match of steep segments, all at once: {segment: curve} of those that find enough.
+
+    Every step runs over the samples of all pieces together (a piece id per sample; the fits
+    by :func:`robust_fit_groups`), with the same rules per piece as matching it alone.
     ``taken`` (bool per right run) marks right crossings that belong to another piece.
-    The curve's ``right_runs`` are the right crossings it used.
+    A curve's ``right_runs`` are the right crossings it used.
     """
-    pts = graph.to_full(graph.seg_yx[s])
-    rows, xc = _centre_guess(pts, 1, graph.scale)
-    keep = ~_near_junction(graph, s, np.column_stack([xc, rows]), sm.radius_map)
-    rows, xc = rows[keep].astype(int), xc[keep]
-    if len(rows) < 4:
-        return None
+    rows_p, xc_p, sin_p, seg_p = [], [], [], []
+    for s in segs:
+        pts = graph.to_full(graph.seg_yx[s])
+        rows, xc = _centre_guess(pts, 1, graph.scale)
+        keep = ~_near_junction(graph, s, np.column_stack([xc, rows]), sm.radius_map)
+        if keep.sum() < 4:
+            continue
+        rows_p.append(rows[keep].astype(int)), xc_p.append(xc[keep]), seg_p.append(s)
+        sin_p.append(max(np.sin(np.radians(_angle_deg(pts))), 0.2))
+    if not seg_p:
+        return {}
+    g = np.repeat(np.arange(len(seg_p)), [len(r) for r in rows_p])
+    rows, xc, sin_t = np.concatenate(rows_p), np.concatenate(xc_p), np.array(sin_p)
+    segs = np.array(seg_p)
     il = runs_l.find(rows, xc)
-    rows_all, il_all = rows[il >= 0], il[il >= 0]
-    sin_t = max(np.sin(np.radians(_angle_deg(pts))), 0.2)
     r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
     ok = il >= 0
+    rows_all, il_all, g_all = rows[ok], il[ok], g[ok]
     w_l = np.where(ok, runs_l.span_px[np.maximum(il, 0)], np.inf)
-    ok &= w_l <= 1.5 * (2 * r_loc / sin_t + 1) + 2
-    rows, il, w_l = rows[ok], il[ok], w_l[ok]
-    n = len(rows)
-    if n < 4:
-        return None
+    ok &= w_l <= 1.5 * (2 * r_loc / sin_t[g] + 1) + 2
+    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
+    alive = np.bincount(g, minlength=len(segs)) >= 4
     # a branch's width varies smoothly along it: rows much narrower (partly occluded) or wider
     # (merged with a crossing branch) than the trend are not its centre
-    w_fit, _ = robust_fit(rows.astype(float), w_l, 2, rounds=2)
-    ok = np.abs(w_l - w_fit(rows)) <= 0.1 * w_fit(rows) + 1.5
-    rows, il, w_l = rows[ok], il[ok], w_l[ok]
-    n = len(rows)
-    if n < 4:
-        return None
+    keep = alive[g]
+    rows, il, w_l, g = rows[keep], il[keep], w_l[keep], _regroup(g[keep], alive)
+    keep = alive[g_all]
+    rows_all, il_all, g_all = rows_all[keep], il_all[keep], _regroup(g_all[keep], alive)
+    segs = segs[alive]
+    ng = len(segs)
+    if ng == 0:
+        return {}
+    rf = rows.astype(float)
+    w_fit, _ = robust_fit_groups(rf, w_l, g, ng, np.full(ng, 2), rounds=2)
+    wv = w_fit(g, rf)
+    ok = np.abs(w_l - wv) <= 0.1 * wv + 1.5
+    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
+    n = np.bincount(g, minlength=ng)
+    alive = n >= 4
     c_l = runs_l.centre_px[il]
     dmin, dmax = sm.d_range_px
     q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
     cd = c_l[q] - runs_r.centre_px[rr]
     cw = runs_r.span_px[rr]
-    good = np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5
+    good = (np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5) & alive[g[q]]
     if taken is not None:
         good &= ~taken[rr]
     q, rr, cd, cw = q[good], rr[good], cd[good], cw[good]
-    if len(q) < 4:
-        return None
+    alive &= np.bincount(g[q], minlength=ng) >= 4
+    if not alive.any():
+        return {}
     t = rows.astype(float)
-    degree = degree_for(n, float(t.max() - t.min()))
-    model = _consensus_line(t[q], cd)
+    lo_t, hi_t = np.full(ng, np.inf), np.full(ng, -np.inf)
+    np.minimum.at(lo_t, g, t), np.maximum.at(hi_t, g, t)
+    degree = np.array([degree_for(int(n[k]), float(hi_t[k] - lo_t[k])) if alive[k] else 1 for k in range(ng)])
+    gq = g[q]
+    bounds = np.searchsorted(gq, np.arange(ng + 1))
+    model = GroupPolys.of([_consensus_line(t[q[bounds[k]:bounds[k + 1]]], cd[bounds[k]:bounds[k + 1]])
+                           if alive[k] else Poly.constant(0.0) for k in range(ng)])
     for k, tol in enumerate((2.0, 0.75)):           # per row, the candidate nearest the model
-        res = np.abs(cd - model(t[q]))
+        sel = alive[gq]
+        q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
+        res = np.abs(cd - model(gq, t[q]))
         order = np.lexsort((res, q))
         first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
         chosen = first[res[first] <= tol]
-        if len(chosen) < max(4, 0.25 * n):
-            return None
-        model, inl = robust_fit(t[q[chosen]], cd[chosen], degree, rounds=1 if k == 0 else 3)
+        alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
+        chosen = chosen[alive[gq[chosen]]]
+        if not alive.any():
+            return {}
+        model, inl = robust_fit_groups(t[q[chosen]], cd[chosen], gq[chosen], ng, degree, rounds=1 if k == 0 else 3)
     chosen = chosen[inl]
+    gc = gq[chosen]
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    u_poly, _ = robust_fit(tf, cf, degree, rounds=1)
-    slope = u_poly.deriv()(tf)
-    radius = float(median(0.5 * wf / np.sqrt(1 + slope ** 2)))
-    used = rr[chosen]
+    u_poly, u_inl = robust_fit_groups(tf, cf, gc, ng, degree, rounds=1)
     # rows where the branch is partly hidden still show one true edge in both views
-    w_poly, _ = robust_fit(tf, w_l[q[chosen]], 1, rounds=2)     # the whole crossing's width, horizontally
-    te, de, re = _edge_samples(np.setdiff1d(rows_all, tf.astype(int)), il_all, rows_all, u_poly, w_poly, model,
-                               runs_l, runs_r, taken)
-    if len(te):
-        tf, df = np.r_[tf, te], np.r_[df, de]
-        model, inl = robust_fit(tf, df, degree_for(len(tf), float(np.ptp(tf))))
-        tf, df, used = tf[inl], df[inl], np.r_[used, re]
-    return BranchCurve(s, True, (float(tf.min()), float(tf.max())), u_poly, model, radius, len(tf),
-                       end_slopes(tf, df), used)
+    w_poly, _ = robust_fit_groups(tf, w_l[q[chosen]], gc, ng, np.ones(ng, int), rounds=2)
+    width = int(rows_all.max()) + 1
+    rest = ~np.isin(g_all * width + rows_all, gc * width + tf.astype(int)) & alive[g_all]
+    te, de, re, ge = _edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
+                                   runs_l, runs_r, taken)
+    # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
+    ta, da, ga = np.r_[tf, te], np.r_[df, de], np.r_[gc, ge]
+    o = np.argsort(ga, kind="stable")
+    ta, da, ga = ta[o], da[o], ga[o]
+    has_edges = np.bincount(ge, minlength=ng) > 0
+    sel = has_edges[ga]
+    ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
+    na = np.bincount(gs_, minlength=ng)
+    lo_a, hi_a = np.full(ng, np.inf), np.full(ng, -np.inf)
+    np.minimum.at(lo_a, gs_, ts_), np.maximum.at(hi_a, gs_, ts_)
+    deg2 = np.array([degree_for(int(na[k]), float(hi_a[k] - lo_a[k])) if has_edges[k] else 1 for k in range(ng)])
+    inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
+    bc, be, ba = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge, gs_))
+    # each curve's polynomials refitted alone to its inliers: the same coefficients as fitting the
+    # piece alone, bit for bit (the batched sums differ in rounding, which matters on exact drawings)
+    curves = {}
+    for k in np.flatnonzero(alive).tolist():
+        a, b = bc[k], bc[k + 1]
+        used = rr[chosen[a:b]]
+        if has_edges[k]:
+            keep = inl2[ba[k]:ba[k + 1]]
+            tk, dk = ts_[ba[k]:ba[k + 1]][keep], ds_[ba[k]:ba[k + 1]][keep]
+            d_poly = Poly.fit(tk, dk, int(deg2[k]))
+            used = np.r_[used, re[be[k]:be[k + 1]]]
+        else:
+            tk, dk = tf[a:b], df[a:b]
+            d_poly = Poly.fit(tk, dk, int(degree[k]))
+        ku = u_inl[a:b]
+        u_k = Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k]))
+        radius = float(median(0.5 * wf[a:b] / np.sqrt(1 + u_k.deriv()(tf[a:b]) ** 2)))
+        s = int(segs[k])
+        curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
+                                len(tk), end_slopes(tk, dk), used)
+    return curves
 
 
-def _edge_samples(rows: np.ndarray, il_all: np.ndarray, rows_all: np.ndarray, u_poly: Poly, w_fit: Poly, d_model: Poly,
-                  runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
+def _edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
+                  d_model: GroupPolys, runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
     """Disparity samples from single edges, on rows whose crossing is not whole.
 
-    On such a row the left crossing's edge that lies where the fitted centre line and width
-    put the branch's outline (within 1 px) is a true edge; the same-side edge of the right
-    crossing at the fitted disparity (within 1 px) is its match. Returns rows, disparities and
-    right run indices.
+    On such a row (of piece ``g``, left run ``il``) the left crossing's edge that lies where the
+    fitted centre line and width put the branch's outline (within 1 px) is a true edge; the
+    same-side edge of the right crossing at the fitted disparity (within 1 px) is its match.
+    Returns rows, disparities, right run indices and pieces, per side (left edges first).
     """
-    if len(rows) == 0:
-        return np.zeros(0), np.zeros(0), np.zeros(0, int)
-    il = il_all[np.searchsorted(rows_all, rows)]
     t = rows.astype(float)
-    u, half, d = u_poly(t), 0.5 * w_fit(t), d_model(t)
-    out_t, out_d, out_r = [], [], []
+    u, half, d = u_poly(g, t), 0.5 * w_fit(g, t), d_model(g, t)
+    out = []
     for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
         e_l = edge_l[il]
         ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
@@ -159,8 +223,10 @@ def _edge_samples(rows: np.ndarray, il_all: np.ndarray, rows_all: np.ndarray, u_
         ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
         if taken is not None:
             ok &= ~taken[np.maximum(ir, 0)]
-        out_t.append(t[ok]), out_d.append((e_l - e_r)[ok]), out_r.append(ir[ok])
-    return np.concatenate(out_t), np.concatenate(out_d), np.concatenate(out_r)
+        out.append((t[ok], (e_l - e_r)[ok], ir[ok], g[ok]))
+    te, de, re, ge = (np.concatenate(a) for a in zip(*out))
+    o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
+    return te[o], de[o], re[o], ge[o]
 
 
 def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> None:
@@ -282,7 +348,6 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     ends = [e if e is not None and abs(e[2] - c.d_at(c.t_of(e[:2]))[0]) <= max(2.0, 0.03 * e[2]) else None
             for e in ends]
     parts = [uvd]
-    lo, hi = c.t_range
     for k, (e, xy) in enumerate(zip(ends, node_xy)):
         if e is None:
             if xy is None:
@@ -304,16 +369,12 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
     runs_r = find_runs(sm.right_mask, soft=True)
-    curves, flat = {}, []
+    steep, flat = [], []
     for s, yx in enumerate(graph.seg_yx):
         if graph.seg_recovered[s] or graph.seg_length_px[s] < cfg.min_segment_px or len(yx) < 2:
             continue
-        if _angle_deg(graph.to_full(yx)) < cfg.max_horizontal_deg:
-            flat.append(s)
-            continue
-        c = fit_steep(graph, s, runs_l, runs_r, sm)
-        if c is not None:
-            curves[s] = c
+        (flat if _angle_deg(graph.to_full(yx)) < cfg.max_horizontal_deg else steep).append(s)
+    curves = fit_steep_many(graph, steep, runs_l, runs_r, sm)
     _resolve_shared(curves, graph, runs_l, runs_r, sm)
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind

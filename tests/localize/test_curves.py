@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from appliance.localize.curves import BranchCurve, Poly, end_slopes, median, robust_fit
+from appliance.localize.curves import (
+    BranchCurve,
+    GroupPolys,
+    Poly,
+    end_slopes,
+    median,
+    robust_fit,
+    robust_fit_groups,
+)
 
 
 @pytest.mark.parametrize("degree", [0, 1, 2, 3])
@@ -113,3 +121,29 @@ def test_median_is_numpys_bit_for_bit():
         median(a)
         np.testing.assert_array_equal(a, a_copy)          # input untouched
     assert np.isnan(median(np.zeros(0)))
+
+
+def test_robust_fit_of_groups_is_robust_fit_of_each_group():
+    """Several pieces at once: the same inliers, degrees and values as fitting each alone
+    (an empty group and repeated parameters included)."""
+    rng = np.random.default_rng(3)
+    ts, ys, degrees = [], [], [3, 0, 2, 1, 2]
+    for k, degree in enumerate(degrees):
+        t = np.sort(rng.choice(np.arange(1000.0), 40 + 30 * k, replace=False))
+        if k == 3:
+            t = np.r_[t, t[:10]]                          # repeated rows (edge samples)
+        y = 5.0 + 0.01 * t + 2e-5 * t ** 2 + rng.normal(0, 0.3, len(t))
+        y[:: 9] += 12.0                                   # outliers
+        ts.append(t), ys.append(y)
+    ts.insert(2, np.zeros(0)), ys.insert(2, np.zeros(0)), degrees.insert(2, 1)
+    g = np.repeat(np.arange(len(ts)), [len(t) for t in ts])
+    polys, keep = robust_fit_groups(np.concatenate(ts), np.concatenate(ys), g, len(ts), np.array(degrees))
+    for k, (t, y, degree) in enumerate(zip(ts, ys, degrees)):
+        if not len(t):
+            continue
+        p, kk = robust_fit(t, y, degree)
+        np.testing.assert_array_equal(keep[g == k], kk)
+        assert len(polys.poly(k).coef) == len(p.coef)
+        np.testing.assert_allclose(polys(g[g == k], t), p(t), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(polys.deriv()(g[g == k], t), p.deriv()(t), rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(GroupPolys.of([polys.poly(k)])(np.zeros(len(t), int), t), polys.poly(k)(t))

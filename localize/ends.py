@@ -25,6 +25,9 @@ from appliance.localize.texture import nearer_in_front
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
 END_SHIFT_STEEP_PX = 2.0
 END_SHIFT_FLAT_PX = 6.0
+# a hidden end's centre line meeting a piece at less than this is that branch running on behind
+# the occluder (bent), not a child meeting its parent
+HIDDEN_FORK_MIN_DEG = 20.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -295,9 +298,11 @@ class EndPlacer:
         """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
 
         The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
-        line of a fitted piece at least as thick; if the end's own disparity carried along
-        agrees there with that piece's (:func:`_agree`), the crossing is the fork (with the
-        parent's disparity) and the end is placed there. Returns whether it was.
+        line of a fitted piece at least as thick, at ``HIDDEN_FORK_MIN_DEG`` or more (at a
+        shallower angle it is the branch itself running on, bent, behind the occluder); if the
+        end's own disparity carried along agrees there with that piece's (:func:`_agree`), the
+        crossing is the fork (with the parent's disparity) and the end is placed there.
+        Returns whether it was.
         """
         if node not in self.hidden:
             return False
@@ -328,6 +333,12 @@ class EndPlacer:
             return False
         k, c2 = best
         xy = uv[k]
+        t2 = c2.t_of(xy)[0]
+        e2 = c2.uv_at(t2 + 1.0)[0] - c2.uv_at(t2 - 1.0)[0]
+        e1 = uv[min(k + 1, len(uv) - 1)] - uv[max(k - 1, 0)]
+        sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0]) / max(np.hypot(*e1) * np.hypot(*e2), 1e-9)
+        if sin_t < np.sin(np.radians(HIDDEN_FORK_MIN_DEG)):
+            return False
         d_par = float(c2.d_at(c2.t_of(xy))[0])
         d_child = float(c.d_at(c.t_of(xy))[0])
         if not _agree(d_child, d_par):

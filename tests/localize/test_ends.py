@@ -1,5 +1,6 @@
 """Forks and tips placed on the fitted curves (appliance.localize.ends), on drawn stereo pairs."""
 
+import cv2
 import numpy as np
 import pytest
 from appliance.config import load_config
@@ -59,3 +60,29 @@ def test_a_tip_whose_cap_is_cut_by_the_edge_of_the_view_is_a_tip():
     left, right, ml, mr, d = branch_pair(calib, 900.0, radius_px=11.0, top=(300.0, -30.0))
     res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
     assert not [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 100]
+
+
+def test_a_bent_branch_running_on_behind_an_occluder_is_no_hidden_fork():
+    # a branch bending by 12 deg just below a dark band (an occluder at its own depth: in the
+    # right view it hides other rows): the upper piece's end is hidden, and its centre line
+    # carried on meets the lower piece's bend at 12 deg: the same branch, not a child's fork
+    calib = ideal_rig()
+    d = calib.f_px * calib.baseline_mm / 1000.0
+    w, h = calib.image_size
+    ss = 4
+    views = []
+    for shift, band in ((0.0, (150, 200)), (d, (140, 195))):
+        big = np.full((h * ss, w * ss), 40, np.uint8)
+
+        def px(p):
+            return int(round((p[0] - shift + 0.5) * ss - 0.5)), int(round((p[1] + 0.5) * ss - 0.5))
+        bend = (300.0, 250.0)
+        cv2.line(big, px((300.0, 460.0)), px(bend), 200, 16 * ss)
+        cv2.line(big, px(bend), px((300.0 + 200 * np.tan(np.radians(12)), 50.0)), 200, 8 * ss)
+        cv2.rectangle(big, (0, band[0] * ss), (w * ss, band[1] * ss), 40, -1)
+        g = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA)
+        views += [cv2.cvtColor(g, cv2.COLOR_GRAY2BGR), ((g.astype(int) - 40) > 80).astype(np.uint8) * 255]
+    left, ml, right, mr = views
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not [f for f in res.features if f.kind == "bifurcation"]
+    assert len([f for f in res.features if f.kind == "endpoint"]) == 2      # the two real tips

@@ -15,6 +15,8 @@ than guessed. Forks, tips and bridges are then placed on the curves (:mod:`ends`
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import (
@@ -143,8 +145,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     degree = np.array([degree_for(int(n[k]), float(hi_t[k] - lo_t[k])) if alive[k] else 1 for k in range(ng)])
     gq = g[q]
     bounds = np.searchsorted(gq, np.arange(ng + 1))
-    model = GroupPolys.of([_consensus_line(t[q[bounds[k]:bounds[k + 1]]], cd[bounds[k]:bounds[k + 1]])
-                           if alive[k] else Poly.constant(0.0) for k in range(ng)])
+    model = _consensus_lines(t[q], cd, bounds, alive)
     for k, tol in enumerate((2.0, 0.75)):           # per row, the candidate nearest the model
         sel = alive[gq]
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
@@ -255,23 +256,54 @@ def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Ru
                 curves[s] = c
 
 
+@functools.lru_cache(maxsize=4096)
+def _pairs(n: int, n_hyp: int) -> np.ndarray:
+    """RANSAC's candidate pairs (2, n_hyp) for ``n`` candidates (fixed seed: the same pairs every time)."""
+    out = np.random.default_rng(0).integers(0, n, (2, n_hyp))
+    out.flags.writeable = False
+    return out
+
+
 def _consensus_line(t: np.ndarray, d: np.ndarray, n_hyp: int = 96, tol_px: float = 1.5) -> Poly:
     """The straight line d(t) through the most candidates (RANSAC over candidate pairs, fixed seed).
 
     Candidates of one row belong to different branches crossing it; the piece's own
     disparities are the largest set on one line.
     """
-    rng = np.random.default_rng(0)
-    i, j = rng.integers(0, len(t), (2, n_hyp))
+    return _consensus_lines(t, d, np.array([0, len(t)]), np.ones(1, bool), n_hyp, tol_px).poly(0)
+
+
+def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np.ndarray, n_hyp: int = 96,
+                     tol_px: float = 1.5) -> GroupPolys:
+    """:func:`_consensus_line` of every piece at once: piece k's candidates are ``t, d[bounds[k]:bounds[k + 1]]``
+    (pieces not ``alive`` get a constant 0)."""
+    polys = [Poly.constant(0.0)] * len(alive)
+    live = np.flatnonzero(alive)
+    if len(live) == 0:
+        return GroupPolys.of(polys)
+    ij = np.stack([_pairs(int(bounds[k + 1] - bounds[k]), n_hyp) + bounds[k] for k in live], axis=1)   # (2, G, H)
+    i, j = ij
     dt = t[j] - t[i]
     ok = np.abs(dt) >= 3
-    if not ok.any():
-        return Poly.constant(float(median(d)))
-    i, j, dt = i[ok], j[ok], dt[ok]
-    slope = (d[j] - d[i]) / dt
-    inl = np.abs(d[None, :] - (d[i, None] + slope[:, None] * (t[None, :] - t[i, None]))) <= tol_px
-    best = int(np.argmax(inl.sum(1)))
-    return Poly.fit(t[inl[best]], d[inl[best]], 1)
+    slope = (d[j] - d[i]) / np.where(ok, dt, 1.0)
+    lo, hi = bounds[live], bounds[live + 1]
+    g = np.repeat(np.arange(len(live)), hi - lo)
+    sel = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
+    ts, ds = t[sel], d[sel]
+    i_s, sl_s = i[g].T, slope[g].T                       # (H, N) each sample's piece's hypotheses
+    inl = np.abs(ds[None, :] - (d[i_s] + sl_s * (ts[None, :] - t[i_s]))) <= tol_px
+    starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
+    count = np.add.reduceat(inl, starts, axis=1, dtype=np.int64).T     # (G, H)
+    count[~ok] = -1
+    best = count.argmax(1)
+    for m, k in enumerate(live.tolist()):
+        tk, dk = t[lo[m]:hi[m]], d[lo[m]:hi[m]]
+        if not ok[m].any():
+            polys[k] = Poly.constant(float(median(dk)))
+            continue
+        on = inl[best[m], starts[m]:starts[m] + hi[m] - lo[m]]
+        polys[k] = Poly.fit(tk[on], dk[on], 1)
+    return GroupPolys.of(polys)
 
 
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:

@@ -164,9 +164,9 @@ class BranchCurve:
                 return np.array([poly.at(tc1)])
             slope = poly.deriv().at(tc1) if slopes is None else slopes[0] if t1 < lo else slopes[1]
             return np.array([poly.at(tc1) + slope * (t1 - tc1)])
+        if not t.size or (t.min() >= lo and t.max() <= hi):     # no extrapolation (NaN: the general path)
+            return poly(t)
         tc = np.minimum(np.maximum(t, lo), hi)
-        if (tc == t).all():                 # no extrapolation (NaN: the general path)
-            return poly(tc)
         if slopes is None:
             slopes = (poly.deriv().at(lo), poly.deriv().at(hi))
         return poly(tc) + np.where(t < lo, slopes[0], slopes[1]) * (t - tc)

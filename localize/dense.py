@@ -89,7 +89,9 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     its own span).
     """
     yx = [graph.seg_yx[s] for s in segs]
-    pts = graph.to_full(np.concatenate(yx)) if yx else np.zeros((0, 2))
+    if not sum(len(a) for a in yx):
+        return np.zeros(0), np.zeros(0), np.zeros(0, int)
+    pts = graph.to_full(np.concatenate(yx))
     gp = np.repeat(np.arange(len(segs)), [len(a) for a in yx])
     off = 2.0 ** 16                                   # rows < 2^16: keys exact
     uniq, inv = np.unique(pts[:, 1] + gp * off, return_inverse=True)
@@ -107,7 +109,7 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     xc = np.interp(np.minimum(np.maximum(rows, lo_u[g]), hi_u[g]) + g * off, uniq, s_mean)
     near = np.zeros(len(rows), bool)
     for k in range(2):                                # a junction at either end
-        nodes = graph.seg_nodes[np.asarray(segs, int), k] if len(segs) else np.zeros(0, int)
+        nodes = graph.seg_nodes[np.asarray(segs, int), k]
         junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
         nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0)])
         r = radius_at(radius_map, nxy)

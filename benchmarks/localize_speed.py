@@ -33,13 +33,14 @@ REPO = Path(__file__).resolve().parents[1]
 # (module, attribute path) of the match stage's parts timed by --parts: its steps, then the primitives
 # they share (timed in a second pass); callers look these up at call time (module globals, class
 # attributes), so patching them times every call
-STEPS = [("dense", "fit_steep_many"), ("dense", "fit_steep"), ("dense", "_flat_curve"), ("dense", "find_runs"), ("ends", "EndPlacer.fork"),
-         ("ends", "EndPlacer.tip"), ("ends", "EndPlacer.hidden_fork"), ("ends", "EndPlacer.joint"),
-         ("ends", "EndPlacer.bridge_holds")]
-PRIMITIVES = [("dense", "robust_fit"), ("dense", "robust_fit_groups"), ("dense", "_consensus_line"), ("ends", "robust_fit"), ("dense", "surface_disparity"),
-              ("ends", "nearer_in_front"), ("dense", "find_runs"), ("ends", "find_runs"), ("curves", "Poly.fit"),
-              ("curves", "Poly.__call__"), ("curves", "BranchCurve._eval"), ("edges", "Runs.find"),
-              ("edges", "Runs.between"), ("dense", "end_slopes")]
+STEPS = [("dense", "fit_steep_many"), ("dense", "fit_steep"), ("dense", "_flat_curve"), ("dense", "find_runs"),
+         ("ends", "EndPlacer.fork"), ("ends", "EndPlacer.tip"), ("ends", "EndPlacer.hidden_fork"),
+         ("ends", "EndPlacer.joint"), ("ends", "EndPlacer.bridge_holds")]
+PRIMITIVES = [("dense", "robust_fit"), ("dense", "robust_fit_groups"), ("dense", "_consensus_lines"),
+              ("ends", "robust_fit"), ("dense", "surface_disparity"), ("ends", "nearer_in_front"),
+              ("dense", "find_runs"), ("ends", "find_runs"), ("curves", "Poly.fit"), ("curves", "Poly.__call__"),
+              ("curves", "BranchCurve._eval"), ("edges", "Runs.find"), ("edges", "Runs.between"),
+              ("dense", "end_slopes")]
 
 
 @contextlib.contextmanager

@@ -80,6 +80,21 @@ def plausible_part(uvd: np.ndarray, max_gradient: float) -> np.ndarray:
     return uvd[best[0]:best[1]]
 
 
+def longest_run(uvd: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """The longest run of consecutive samples (N, 3) where ``ok`` (N,) holds (``uvd`` itself
+    when all do; no samples when none does)."""
+    if ok.all():
+        return uvd
+    idx = np.flatnonzero(ok)
+    if len(idx) == 0:
+        return uvd[:0]
+    cuts = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[cuts + 1]]
+    ends = np.r_[idx[cuts], idx[-1]]
+    k = int(np.argmax(ends - starts))
+    return uvd[starts[k]:ends[k] + 1]
+
+
 class Localizer:
     """Branch localization for one calibrated rig.
 
@@ -209,7 +224,9 @@ class Localizer:
         for p in m.pieces:
             if not np.isfinite(p.radius_px) or len(p.uvd) < 2 or (p.uvd[:, 2] <= 0).any():
                 continue
-            uvd = plausible_part(p.uvd, self.cfg.match.max_disparity_gradient)
+            dmin, dmax = self.d_range_px       # as the features: within the working range (5 %)
+            uvd = longest_run(p.uvd, (p.uvd[:, 2] >= 0.95 * dmin) & (p.uvd[:, 2] <= 1.05 * dmax))
+            uvd = plausible_part(uvd, self.cfg.match.max_disparity_gradient)
             if len(uvd) < 2:
                 continue
             p = replace(p, uvd=uvd)

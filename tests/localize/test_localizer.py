@@ -147,3 +147,17 @@ def test_a_piece_is_cut_where_its_disparity_jumps_and_its_longest_plausible_part
     part = plausible_part(bad, 0.5)
     np.testing.assert_array_equal(part, bad[5:26])
     assert plausible_part(bad, 0.0) is bad              # 0 = off
+
+
+def test_a_piece_keeps_only_its_longest_run_inside_the_working_range():
+    from appliance.localize.localizer import longest_run
+
+    calib = ideal_rig()
+    loc = Localizer(calib, CFG)
+    dmin, dmax = loc.d_range_px
+    d = np.r_[np.full(3, 0.5 * dmin), np.full(6, 0.5 * (dmin + dmax)), 2.0 * dmax, np.full(4, dmax)]
+    uvd = np.column_stack([np.full(len(d), 100.0), np.arange(len(d), dtype=float), d])
+    ok = (d >= 0.95 * dmin) & (d <= 1.05 * dmax)
+    np.testing.assert_array_equal(longest_run(uvd, ok), uvd[3:9])
+    assert longest_run(uvd, np.ones(len(d), bool)) is uvd
+    assert len(longest_run(uvd, np.zeros(len(d), bool))) == 0

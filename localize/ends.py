@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve
-from appliance.localize.curves import median
+from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks

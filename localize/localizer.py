@@ -9,6 +9,7 @@ pruning, collinear recovery, dense centre-line matching).
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import replace
 from typing import Literal
@@ -76,7 +77,7 @@ def plausible_part(uvd: np.ndarray, max_gradient: float) -> np.ndarray:
         return uvd
     cuts = np.r_[0, np.flatnonzero(bad) + 1, len(uvd)]
     cum = np.r_[0.0, np.cumsum(ln)]
-    best = max(zip(cuts[:-1], cuts[1:]), key=lambda ab: cum[ab[1] - 1] - cum[ab[0]])
+    best = max(itertools.pairwise(cuts), key=lambda ab: cum[ab[1] - 1] - cum[ab[0]])
     return uvd[best[0]:best[1]]
 
 

@@ -74,8 +74,8 @@ def test_a_bent_branch_running_on_behind_an_occluder_is_no_hidden_fork():
     for shift, band in ((0.0, (150, 200)), (d, (140, 195))):
         big = np.full((h * ss, w * ss), 40, np.uint8)
 
-        def px(p):
-            return int(round((p[0] - shift + 0.5) * ss - 0.5)), int(round((p[1] + 0.5) * ss - 0.5))
+        def px(p, shift=shift):
+            return round((p[0] - shift + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
         bend = (300.0, 250.0)
         cv2.line(big, px((300.0, 460.0)), px(bend), 200, 16 * ss)
         cv2.line(big, px(bend), px((300.0 + 200 * np.tan(np.radians(12)), 50.0)), 200, 8 * ss)

@@ -33,7 +33,7 @@ REPO = Path(__file__).resolve().parents[1]
 # (module, attribute path) of the match stage's parts timed by --parts: its steps, then the primitives
 # they share (timed in a second pass); callers look these up at call time (module globals, class
 # attributes), so patching them times every call
-STEPS = [("dense", "fit_steep_many"), ("dense", "fit_steep"), ("dense", "_flat_curve"), ("dense", "find_runs"),
+STEPS = [("dense", "fit_steep_many"), ("dense", "_flat_curve"), ("dense", "find_runs"),
          ("ends", "EndPlacer.fork"), ("ends", "EndPlacer.tip"), ("ends", "EndPlacer.hidden_fork"),
          ("ends", "EndPlacer.joint"), ("ends", "EndPlacer.bridge_holds")]
 PRIMITIVES = [("dense", "robust_fit"), ("dense", "robust_fit_groups"), ("dense", "_consensus_lines"),

@@ -68,12 +68,6 @@ def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.
     return near
 
 
-def fit_steep(graph: SkeletonGraph, s: int, runs_l: Runs, runs_r: Runs, sm: StereoMasks,
-              taken: np.ndarray | None = None) -> BranchCurve | None:
-    """Dense row-by-row match of one steep segment (:func:`fit_steep_many`); None when it finds too little."""
-    return fit_steep_many(graph, [s], runs_l, runs_r, sm, taken).get(s)
-
-
 def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
     """Group ids (N,) renumbered over the ``alive`` groups (samples of dead groups dropped by the caller)."""
     return (np.cumsum(alive) - 1)[g]
@@ -282,12 +276,12 @@ def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Ru
                 owner[used[~clash]] = s
         if not conflict:
             return
+        again = fit_steep_many(graph, sorted(conflict), runs_l, runs_r, sm, taken=owner >= 0)
         for s in conflict:
-            c = fit_steep(graph, s, runs_l, runs_r, sm, taken=owner >= 0)
-            if c is None:
-                del curves[s]
+            if s in again:
+                curves[s] = again[s]
             else:
-                curves[s] = c
+                del curves[s]
 
 
 @functools.lru_cache(maxsize=4096)
@@ -298,19 +292,15 @@ def _pairs(n: int, n_hyp: int) -> np.ndarray:
     return out
 
 
-def _consensus_line(t: np.ndarray, d: np.ndarray, n_hyp: int = 96, tol_px: float = 1.5) -> Poly:
-    """The straight line d(t) through the most candidates (RANSAC over candidate pairs, fixed seed).
+def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np.ndarray, n_hyp: int = 96,
+                     tol_px: float = 1.5) -> GroupPolys:
+    """Per piece, the straight line d(t) through the most candidates (RANSAC over candidate pairs, fixed seed),
+    all pieces at once: piece k's candidates are ``t, d[bounds[k]:bounds[k + 1]]`` (pieces not ``alive``
+    get a constant 0).
 
     Candidates of one row belong to different branches crossing it; the piece's own
     disparities are the largest set on one line.
     """
-    return _consensus_lines(t, d, np.array([0, len(t)]), np.ones(1, bool), n_hyp, tol_px).poly(0)
-
-
-def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np.ndarray, n_hyp: int = 96,
-                     tol_px: float = 1.5) -> GroupPolys:
-    """:func:`_consensus_line` of every piece at once: piece k's candidates are ``t, d[bounds[k]:bounds[k + 1]]``
-    (pieces not ``alive`` get a constant 0)."""
     polys = [Poly.constant(0.0)] * len(alive)
     live = np.flatnonzero(alive)
     if len(live) == 0:

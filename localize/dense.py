@@ -77,10 +77,9 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     """:func:`_centre_guess` by rows of every segment in ``segs`` at once, points inside a junction
     region at a segment's end (:func:`_near_junction`) left out.
 
-    Returns rows (N,) float, centre columns (N,) and piece index into ``segs`` (N,) (non-decreasing).
-    The same values as per piece, bit for bit (np.interp
-    over pieces side by side: each piece's rows offset by a power of two, its points clamped to
-    its own span).
+    Returns rows (N,) float, centre columns (N,) and piece index into ``segs`` (N,) (non-decreasing):
+    the same values as per piece, bit for bit (one np.interp over the pieces side by side, each
+    piece's rows offset by a power of two and its points clamped to its own span).
     """
     yx = [graph.seg_yx[s] for s in segs]
     if not sum(len(a) for a in yx):
@@ -113,6 +112,15 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     return rows[keep], xc[keep], g[keep]
 
 
+def _degrees(t: np.ndarray, g: np.ndarray, live: np.ndarray) -> np.ndarray:
+    """:func:`degree_for` of each group's samples (``t`` (N,), group ``g`` (N,)); 1 where not ``live`` (G,)."""
+    ng = len(live)
+    n = np.bincount(g, minlength=ng)
+    lo, hi = np.full(ng, np.inf), np.full(ng, -np.inf)
+    np.minimum.at(lo, g, t), np.maximum.at(hi, g, t)
+    return np.array([degree_for(int(n[k]), float(hi[k] - lo[k])) if live[k] else 1 for k in range(ng)])
+
+
 def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
                    taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
     """Dense row-by-row match of steep segments, all at once: {segment: curve} of those that find enough.
@@ -129,7 +137,8 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     keep = alive[g]
     rows, xc, g = rows[keep].astype(int), xc[keep], _regroup(g[keep], alive)
     segs = np.asarray(segs)[alive]
-    sin_t = np.array([max(np.sin(np.radians(_angle_deg(graph.to_full(graph.seg_yx[s])))), 0.2) for s in segs.tolist()])
+    sin_t = np.array([max(np.sin(np.radians(_angle_deg(graph.to_full(graph.seg_yx[s])))), 0.2)
+                      for s in segs.tolist()])
     il = runs_l.find(rows, xc)
     r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
     ok = il >= 0
@@ -168,9 +177,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     if not alive.any():
         return {}
     t = rows.astype(float)
-    lo_t, hi_t = np.full(ng, np.inf), np.full(ng, -np.inf)
-    np.minimum.at(lo_t, g, t), np.maximum.at(hi_t, g, t)
-    degree = np.array([degree_for(int(n[k]), float(hi_t[k] - lo_t[k])) if alive[k] else 1 for k in range(ng)])
+    degree = _degrees(t, g, alive)
     gq = g[q]
     bounds = np.searchsorted(gq, np.arange(ng + 1))
     model = _consensus_lines(t[q], cd, bounds, alive)
@@ -204,10 +211,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     has_edges = np.bincount(ge, minlength=ng) > 0
     sel = has_edges[ga]
     ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
-    na = np.bincount(gs_, minlength=ng)
-    lo_a, hi_a = np.full(ng, np.inf), np.full(ng, -np.inf)
-    np.minimum.at(lo_a, gs_, ts_), np.maximum.at(hi_a, gs_, ts_)
-    deg2 = np.array([degree_for(int(na[k]), float(hi_a[k] - lo_a[k])) if has_edges[k] else 1 for k in range(ng)])
+    deg2 = _degrees(ts_, gs_, has_edges)
     inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
     bc, be, ba = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge, gs_))
     # each curve's polynomials refitted alone to its inliers: the same coefficients as fitting the

@@ -25,13 +25,16 @@ class Poly:
         t = np.asarray(t, float)
         if t.shape == (1,):                 # one point: the same sums in Python floats (a tenth of the time)
             return np.array([self.at(float(t[0]))])
-        x = (t - self.t0) / self.ts
-        coef = self.coef
-        if len(coef) == 1:
-            return np.full(x.shape, coef[0], float)
-        y = x * coef[0] + coef[1]        # Horner (np.polyval's checks cost more than the sum here)
-        for c in coef[2:]:
-            y = y * x + c
+        x = t - self.t0
+        x /= self.ts
+        c = self._coef_list
+        if len(c) == 1:
+            return np.full(x.shape, c[0], float)
+        y = x * c[0]                    # Horner in place (np.polyval's checks cost more than the sum here)
+        y += c[1]
+        for ci in c[2:]:
+            y *= x
+            y += ci
         return y
 
     def at(self, t: float) -> float:

@@ -247,7 +247,7 @@ class EndPlacer:
             return None
         a, b = before[-1] + 1, after[0] - 1
         width = (b - a + 1) * (s[1] - s[0])
-        if abs(width * sin_t - 2 * r_child) > 0.7 * r_child + 2:
+        if abs(width * sin_t - 2 * r_child) > 0.8 * r_child + 2:
             return None
         return 0.5 * (s[a] + s[b])
 

@@ -86,3 +86,18 @@ def test_a_bent_branch_running_on_behind_an_occluder_is_no_hidden_fork():
     res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
     assert not [f for f in res.features if f.kind == "bifurcation"]
     assert len([f for f in res.features if f.kind == "endpoint"]) == 2      # the two real tips
+
+
+def test_a_child_crossing_up_to_0_8_radius_wider_than_the_child_still_places_the_fork():
+    # where a child leaves its parent its outline flares a little (the crotch): the crossing of a
+    # line parallel to the parent may be wider than the child's own width by most of a radius
+    from appliance.localize.ends import EndPlacer
+
+    r = 20.0
+    mask = np.zeros((60, 300), np.uint8)
+    mask[8:13, 100:157] = 255                          # 57 px: 2 r + 0.85 r
+    mask[38:43, 100:160] = 255                         # 60 px: 2 r + r
+    along = np.array([1.0, 0.0])
+    mid = EndPlacer._child_crossing(None, np.array([0.0, 10.0]), along, 128.0, r, 1.0, mask)
+    assert mid is not None and abs(mid - 128.0) <= 0.5
+    assert EndPlacer._child_crossing(None, np.array([0.0, 40.0]), along, 128.0, r, 1.0, mask) is None

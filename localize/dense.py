@@ -122,13 +122,14 @@ def _degrees(t: np.ndarray, g: np.ndarray, live: np.ndarray) -> np.ndarray:
 
 
 def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
-                   taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
+                   angle_deg: dict[int, float], taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
     """Dense row-by-row match of steep segments, all at once: {segment: curve} of those that find enough.
 
     Every step runs over the samples of all pieces together (a piece id per sample; the fits
     by :func:`robust_fit_groups`), with the same rules per piece as matching it alone.
-    ``taken`` (bool per right run) marks right crossings that belong to another piece.
-    A curve's ``right_runs`` are the right crossings it used.
+    ``angle_deg`` holds each segment's angle from the rows (:func:`_angle_deg`); ``taken`` (bool per
+    right run) marks right crossings that belong to another piece. A curve's ``right_runs`` are the
+    right crossings it used.
     """
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
     alive = np.bincount(g, minlength=len(segs)) >= 4
@@ -137,8 +138,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     keep = alive[g]
     rows, xc, g = rows[keep].astype(int), xc[keep], _regroup(g[keep], alive)
     segs = np.asarray(segs)[alive]
-    sin_t = np.array([max(np.sin(np.radians(_angle_deg(graph.to_full(graph.seg_yx[s])))), 0.2)
-                      for s in segs.tolist()])
+    sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs.tolist()])
     il = runs_l.find(rows, xc)
     r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
     ok = il >= 0
@@ -262,7 +262,8 @@ def _edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: Group
     return te[o], de[o], re[o], ge[o]
 
 
-def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Runs, sm: StereoMasks) -> None:
+def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+                    angle_deg: dict[int, float]) -> None:
     """Uniqueness: a right crossing belongs to one piece. Where two pieces matched the same
     crossings (parallel twigs of similar width), the one with fewer samples is matched again
     without them, or dropped."""
@@ -280,7 +281,7 @@ def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Ru
                 owner[used[~clash]] = s
         if not conflict:
             return
-        again = fit_steep_many(graph, sorted(conflict), runs_l, runs_r, sm, taken=owner >= 0)
+        again = fit_steep_many(graph, sorted(conflict), runs_l, runs_r, sm, angle_deg, taken=owner >= 0)
         for s in conflict:
             if s in again:
                 curves[s] = again[s]
@@ -429,13 +430,12 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
     runs_r = find_runs(sm.right_mask, soft=True)
-    steep, flat = [], []
-    for s, yx in enumerate(graph.seg_yx):
-        if graph.seg_recovered[s] or graph.seg_length_px[s] < cfg.min_segment_px or len(yx) < 2:
-            continue
-        (flat if _angle_deg(graph.to_full(yx)) < cfg.max_horizontal_deg else steep).append(s)
-    curves = fit_steep_many(graph, steep, runs_l, runs_r, sm)
-    _resolve_shared(curves, graph, runs_l, runs_r, sm)
+    angle = {s: _angle_deg(graph.to_full(yx)) for s, yx in enumerate(graph.seg_yx)
+             if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2}
+    steep = [s for s, a in angle.items() if a >= cfg.max_horizontal_deg]
+    flat = [s for s, a in angle.items() if a < cfg.max_horizontal_deg]
+    curves = fit_steep_many(graph, steep, runs_l, runs_r, sm, angle)
+    _resolve_shared(curves, graph, runs_l, runs_r, sm, angle)
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind
     for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture

@@ -289,14 +289,18 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     t_lo = np.append(t, np.inf)
     ts = np.maximum(np.maximum(np.maximum.reduceat(t_hi, pad) - t0, t0 - np.minimum.reduceat(t_lo, pad)), 1.0)
     x = (t - t0[g]) / ts[g]
-    p = np.empty((len(t) + 1, 11))
-    p[-1] = 0.0
-    p[:-1, 0] = 1.0
-    p[:-1, 1] = x
-    for k in range(2, 7):
-        p[:-1, k] = p[:-1, k - 1] * x
-    p[:-1, 7:] = p[:-1, :4] * y[:, None]
-    s = np.add.reduceat(p, pad, axis=0)                      # (G, 11): sums of x^0..x^6, y x^0..y x^3
+    dm = int(deg.max()) if n_groups else 0
+    p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
+    p[:, -1] = 0.0
+    p[0, :-1] = 1.0
+    if dm:
+        p[1, :-1] = x
+    for k in range(2, 2 * dm + 1):
+        np.multiply(p[k - 1, :-1], x, out=p[k, :-1])
+    np.multiply(p[:dm + 1, :-1], y, out=p[2 * dm + 1:, :-1])
+    sums = np.add.reduceat(p, pad, axis=1).T
+    s = np.zeros((n_groups, 11))                             # sums of x^0..x^6, then of y x^0..y x^3
+    s[:, :2 * dm + 1], s[:, 7:8 + dm] = sums[:, :2 * dm + 1], sums[:, 2 * dm + 1:]
     coef = np.zeros((n_groups, 4))
     k0 = deg == 0
     coef[k0, 3] = s[k0, 7] / np.maximum(n[k0], 1)

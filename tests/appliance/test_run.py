@@ -83,10 +83,11 @@ def test_run_logs_every_topic_for_every_pair(tmp_path):
     assert check_log(log).intact
 
 
-def test_sigint_finishes_an_indexed_log(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_finishes_an_indexed_log(tmp_path, sig):
     proc = start_looping_run(tmp_path)
     wait_for_pairs(tmp_path / "logs", proc, 3.0)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     log = only_log(tmp_path / "logs")
@@ -149,6 +150,19 @@ def test_replay_reproduces_a_lossless_log_exactly(tmp_path):
     assert report["identical"] == N_SCENES, report["diffs"]
     assert f"{N_SCENES} identical" in r.stdout
     assert len(read_results(only_log(tmp_path / "again"))) == N_SCENES
+
+
+def test_a_log_replays_through_the_run_loop(tmp_path):
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / "first"), "-q")
+    assert r.returncode == 0, r.stderr
+    first = only_log(tmp_path / "first")
+    r = appliance("run", "--device", f"fake:{first}", "--calib", str(RIG), "--log", str(tmp_path / "again"), "-q")
+    assert r.returncode == 0, r.stderr
+    assert f"pairs {N_SCENES}, localized {N_SCENES}" in r.stdout
+    again = only_log(tmp_path / "again")
+    stamps = [f.stamp_ns for f in iter_stereo_frames(first)]
+    assert [f.stamp_ns for f in iter_stereo_frames(again)] == stamps      # the recorded stamps, in order
+    assert len(read_results(again)) == N_SCENES
 
 
 def test_replay_with_other_settings_reports_the_differences(tmp_path):

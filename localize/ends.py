@@ -72,14 +72,33 @@ class EndPlacer:
         self.radius: dict[int, float] = {}
         self.hidden: set[int] = set()
         self._box_cache: dict | None = None
+        # per-piece and per-node quantities asked for again (both fork rounds, a tip's four walks):
+        # keyed with the piece's curve (or None), as flat pieces gain curves between rounds
+        self._points_cache: dict = {}
+        self._walk_cache: dict = {}
+        self._node_r: dict = {}
 
     def seg_points(self, s: int) -> np.ndarray:
-        """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels."""
+        """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
         c = self.curves.get(s)
+        hit = self._points_cache.get(s)
+        if hit is not None and hit[0] is c:
+            return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            return c.uv_at(np.linspace(lo, hi, max(2, int(hi - lo) + 1)))
-        return self.g.to_full(self.g.seg_yx[s])
+            pts = c.uv_at(np.linspace(lo, hi, max(2, int(hi - lo) + 1)))
+        else:
+            pts = self.g.to_full(self.g.seg_yx[s])
+        pts.setflags(write=False)
+        self._points_cache[s] = (c, pts)
+        return pts
+
+    def _node_radius(self, node: int) -> float:
+        """Radius (px) of the distance transform at a node's skeleton pixel (cached)."""
+        r = self._node_r.get(node)
+        if r is None:
+            r = self._node_r[node] = radius_at(self.sm.radius_map, self.node_xy[node])[0]
+        return r
 
     def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
         """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
@@ -105,7 +124,7 @@ class EndPlacer:
         if len(segs) < 3:
             return
         p = self.node_xy[node]
-        r = radius_at(self.sm.radius_map, p)[0]
+        r = self._node_radius(node)
         near = {s: self._near_points(s, p, r) for s in segs}
         dirs = {}
         for s, pts in near.items():
@@ -351,17 +370,24 @@ class EndPlacer:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
         the piece's disparity); and the direction (+-1) of t."""
-        lo, hi = c.t_range
-        t_node = c.t_of(self.node_xy[node])[0]
-        start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
-        reach = 3 * c.radius_px + 3 * self.g.scale + 4
-        t = start + sign * np.arange(0, reach, 0.25)
-        uv = c.uv_at(t)
+        key = (node, id(c))
+        hit = self._walk_cache.get(key)
+        if hit is None or hit[0] is not c:
+            lo, hi = c.t_range
+            t_node = c.t_of(self.node_xy[node])[0]
+            start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
+            reach = 3 * c.radius_px + 3 * self.g.scale + 4
+            t = start + sign * np.arange(0, reach, 0.25)
+            hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None]
+        _, t, sign, uv, normal = hit
         if offset_px:
-            step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
-            step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
-            uv = uv + offset_px * np.column_stack([-step[:, 1], step[:, 0]])
+            if normal is None:
+                step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
+                step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
+                normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
+            uv = uv + offset_px * normal
         if right:
+            uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
         uv = np.rint(uv).astype(int)
         mask = self.sm.right_mask if right else self.sm.left_mask

@@ -71,12 +71,13 @@ class EndPlacer:
         self.uvd: dict[int, np.ndarray] = {}
         self.radius: dict[int, float] = {}
         self.hidden: set[int] = set()
-        self._box_cache: dict | None = None
+        self._box_cache: dict = {}
         # per-piece and per-node quantities asked for again (both fork rounds, a tip's four walks):
         # keyed with the piece's curve (or None), as flat pieces gain curves between rounds
         self._points_cache: dict = {}
         self._walk_cache: dict = {}
         self._node_r: dict = {}
+        self._near_cache: dict = {}
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -125,12 +126,18 @@ class EndPlacer:
             return
         p = self.node_xy[node]
         r = self._node_radius(node)
-        near = {s: self._near_points(s, p, r) for s in segs}
+        near, rad = {}, {}
+        for s in segs:                  # (cached: both fork rounds ask)
+            c = self.curves.get(s)
+            hit = self._near_cache.get((node, s))
+            if hit is None or hit[0] is not c:
+                pts = self._near_points(s, p, r)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts))
+            near[s], rad[s] = hit[1], hit[2]
         dirs = {}
         for s, pts in near.items():
             v = pts.mean(0) - p
             dirs[s] = v / max(np.hypot(*v), 1e-9)
-        rad = {s: self._seg_radius(s, near[s]) for s in segs}
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]
         if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
@@ -223,8 +230,8 @@ class EndPlacer:
         s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
         step = max(1.5 * r_child, 6.0)
         for h1 in (r_par + 3.0, r_par + 3.0 + r_child):
-            m1 = self._child_crossing(c1 + h1 * n, e1, s0 + h1 * cot, r_child, sin_t, mask)
-            m2 = self._child_crossing(c1 + (h1 + step) * n, e1, s0 + (h1 + step) * cot, r_child, sin_t, mask)
+            m1, m2 = self._child_crossings([(c1 + h1 * n, s0 + h1 * cot), (c1 + (h1 + step) * n, s0 + (h1 + step) * cot)],
+                                           e1, r_child, sin_t, mask)
             if m1 is not None and m2 is not None:
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
@@ -249,13 +256,32 @@ class EndPlacer:
     def _child_crossing(self, base, e, s_c: float, r_child: float, sin_t: float, mask: np.ndarray) -> float | None:
         """Middle (parameter s along the line ``base + s e``) of the ``mask`` interval at or
         nearest to ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine
-        ``sin_t``."""
+        ``sin_t``: :meth:`_child_crossings` of one line."""
+        return EndPlacer._child_crossings([(base, s_c)], e, r_child, sin_t, mask)[0]
+
+    @staticmethod
+    def _child_crossings(lines: list, e, r_child: float, sin_t: float, mask: np.ndarray) -> list:
+        """Middles (parameter s along each line ``base + s e``, for each ``(base, s_c)`` of ``lines``)
+        of the ``mask`` interval at or nearest to ``s_c``, where it is as wide as a piece of radius
+        ``r_child`` crossed at sine ``sin_t``; else None. The mask is read once for all lines."""
         reach = (4.7 * r_child + 3) / sin_t + 2          # the interval nearest s_c, whole, if as wide
-        s = np.arange(s_c - reach, s_c + reach, 0.5)
-        uv = np.rint(base + s[:, None] * e).astype(int)
+        ss = [np.arange(s_c - reach, s_c + reach, 0.5) for _, s_c in lines]
+        n = [len(s) for s in ss]
+        s_all = np.concatenate(ss)
+        uv = np.rint(np.repeat(np.array([base for base, _ in lines]), n, axis=0) + s_all[:, None] * e).astype(int)
         inside = (uv[:, 0] >= 0) & (uv[:, 0] < mask.shape[1]) & (uv[:, 1] >= 0) & (uv[:, 1] < mask.shape[0])
-        on = np.zeros(len(s), bool)
-        on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
+        on_all = np.zeros(len(s_all), bool)
+        on_all[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
+        out, i0 = [], 0
+        for (_, s_c), s in zip(lines, ss):
+            on = on_all[i0:i0 + len(s)]
+            i0 += len(s)
+            out.append(EndPlacer._interval_middle(s, on, s_c, r_child, sin_t))
+        return out
+
+    @staticmethod
+    def _interval_middle(s: np.ndarray, on: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:
+        """Middle of the run of ``on`` nearest ``s_c`` (samples ``s``) if as wide as the child crossed at ``sin_t``."""
         cand = np.flatnonzero(on & (np.abs(s - s_c) <= 2 * r_child / sin_t))
         if len(cand) == 0:
             return None
@@ -303,14 +329,14 @@ class EndPlacer:
         n_cand, n_ok = len(np.unique(q)), len(np.unique(q[near_d]))
         return n_ok >= min_rows and n_ok >= 0.6 * n_cand
 
-    def _boxes(self) -> dict:
-        """Bounding boxes (u0, v0, u1, v1) of the fitted pieces' centre lines (cached)."""
-        if self._box_cache is None:
-            self._box_cache = {}
-            for s, c in self.curves.items():
-                uv = c.uv_at(np.linspace(*c.t_range, 8))
-                self._box_cache[s] = np.r_[uv.min(0), uv.max(0)]
-        return self._box_cache
+    def _box(self, s: int) -> np.ndarray:
+        """Bounding box (u0, v0, u1, v1) of a fitted piece's centre line (cached)."""
+        box = self._box_cache.get(s)
+        if box is None:
+            c = self.curves[s]
+            uv = c.uv_at(np.linspace(*c.t_range, 8))
+            box = self._box_cache[s] = np.r_[uv.min(0), uv.max(0)]
+        return box
 
     def hidden_fork(self, node: int, reach_px: float = 80.0) -> bool:
         """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
@@ -333,10 +359,11 @@ class EndPlacer:
         uv = c.uv_at(t)
         lo_uv, hi_uv = uv.min(0) - 2, uv.max(0) + 2
         best = None
-        for s2, box in self._boxes().items():
-            c2 = self.curves[s2]
-            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px or (box[:2] > hi_uv).any() or (
-                    box[2:] < lo_uv).any():
+        for s2, c2 in self.curves.items():
+            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
+                continue
+            box = self._box(s2)
+            if (box[:2] > hi_uv).any() or (box[2:] < lo_uv).any():
                 continue
             lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])

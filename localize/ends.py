@@ -329,13 +329,13 @@ class EndPlacer:
         n_cand, n_ok = len(np.unique(q)), len(np.unique(q[near_d]))
         return n_ok >= min_rows and n_ok >= 0.6 * n_cand
 
-    def _box(self, s: int) -> np.ndarray:
+    def _box(self, s: int) -> tuple[float, float, float, float]:
         """Bounding box (u0, v0, u1, v1) of a fitted piece's centre line (cached)."""
         box = self._box_cache.get(s)
         if box is None:
             c = self.curves[s]
             uv = c.uv_at(np.linspace(*c.t_range, 8))
-            box = self._box_cache[s] = np.r_[uv.min(0), uv.max(0)]
+            box = self._box_cache[s] = (*uv.min(0).tolist(), *uv.max(0).tolist())
         return box
 
     def hidden_fork(self, node: int, reach_px: float = 80.0) -> bool:
@@ -357,13 +357,14 @@ class EndPlacer:
         t_edge, sign = self._walk_out(c, node)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
-        lo_uv, hi_uv = uv.min(0) - 2, uv.max(0) + 2
+        lo_u, lo_v = (uv.min(0) - 2).tolist()
+        hi_u, hi_v = (uv.max(0) + 2).tolist()
         best = None
         for s2, c2 in self.curves.items():
             if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
                 continue
-            box = self._box(s2)
-            if (box[:2] > hi_uv).any() or (box[2:] < lo_uv).any():
+            u0, v0, u1, v1 = self._box(s2)
+            if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
                 continue
             lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])

@@ -108,11 +108,28 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     return m
 
 
+def _block_mean(mask: np.ndarray, factor: int) -> np.ndarray:
+    """Mean of each ``factor`` x ``factor`` block (whole blocks), uint8, shape (H / factor, W / factor).
+
+    A power-of-two factor is taken in halvings: OpenCV's 2x area resize is ~8x faster than
+    one 4x (0.04 against 0.28 ms at 1280x960). Either way a block with any pixel set
+    stays non-zero, and ``rint(mean * factor**2 / 255)`` is the exact count of set pixels.
+    """
+    h, w = mask.shape
+    if factor & (factor - 1):
+        return cv2.resize(mask, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
+    while factor > 1:
+        h, w, factor = h // 2, w // 2, factor // 2
+        mask = cv2.resize(mask, (w, h), interpolation=cv2.INTER_AREA)
+    return mask
+
+
 def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndarray:
     """Remove connected components smaller than ``min_area_px`` (uint8 0/255).
 
     Components are found on a ``factor`` times smaller copy (any branch pixel keeps a
-    small pixel), ten times faster than at full size; areas are counted at full size.
+    small pixel), ten times faster than at full size; areas are counted at full size
+    (exact pixel counts of the blocks).
     Only the small components are cleared (``mask`` itself is returned when none is).
     """
     h, w = mask.shape
@@ -121,13 +138,13 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
         pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
         out = drop_small(pad, min_area_px, factor)
         return mask if out is pad else out[:h, :w]
-    cover = cv2.resize(mask, (ws, hs), interpolation=cv2.INTER_AREA)
+    cover = _block_mean(mask, factor)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
     yx = pixels(cover)                                        # the few covered small pixels (row, col)
     lab = labels[yx[:, 0], yx[:, 1]]
-    area = np.bincount(lab, weights=cover[yx[:, 0], yx[:, 1]] / 255.0 * factor * factor, minlength=n)
+    area = np.bincount(lab, weights=np.rint(cover[yx[:, 0], yx[:, 1]] * (factor * factor / 255.0)), minlength=n)
     small = area < min_area_px
     small[0] = False
     if not small.any():

@@ -438,8 +438,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     _resolve_shared(curves, graph, runs_l, runs_r, sm, angle)
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind
+    flat_set = set(flat)
     for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture
-        b.fork(node)
+        b.fork(node, needed=not flat_set.isdisjoint(b.incident[node]))
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:

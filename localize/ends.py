@@ -78,6 +78,7 @@ class EndPlacer:
         self._walk_cache: dict = {}
         self._node_r: dict = {}
         self._near_cache: dict = {}
+        self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -112,15 +113,20 @@ class EndPlacer:
         c = self.curves.get(s)
         return c.radius_px if c is not None else float(median(radius_at(self.sm.radius_map, pts)))
 
-    def fork(self, node: int, final: bool = False) -> None:
+    def fork(self, node: int, final: bool = False, needed: bool = True) -> None:
         """A fork: where the child's centre line meets the parent's, with the parent's disparity.
 
         The parent is the pair of pieces that continue each other (most opposite directions;
         the clearly thinnest piece is never a parent). The fork is reported only if the
         child's own disparity there agrees with the parent's: otherwise the pieces merely
         cross in the image (at different depths). Until ``final`` a fork waits for a fitted
-        parent.
+        parent. A provisional (not ``final``) place that is not ``needed`` before the final
+        round (no piece of the node gains a curve in between) is placed only if the final
+        round finds no place, keeping it as placing it first would.
         """
+        if not final and not needed:
+            self._deferred.add(node)
+            return
         segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
         if len(segs) < 3:
             return
@@ -193,6 +199,9 @@ class EndPlacer:
         elif child_ok:
             d = float(at(child))
         else:
+            if final and node in self._deferred:
+                self._deferred.discard(node)
+                self.fork(node)                   # the provisional place stands
             return
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]

@@ -101,3 +101,50 @@ def test_a_child_crossing_up_to_0_8_radius_wider_than_the_child_still_places_the
     mid = EndPlacer._child_crossing(None, np.array([0.0, 10.0]), along, 128.0, r, 1.0, mask)
     assert mid is not None and abs(mid - 128.0) <= 0.5
     assert EndPlacer._child_crossing(None, np.array([0.0, 40.0]), along, 128.0, r, 1.0, mask) is None
+
+
+
+def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
+    # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally
+    # only when the final round finds no place: the result must be that of placing every one first
+    # (fixture scene 00, exact masks: one junction keeps its provisional place)
+    from pathlib import Path
+
+    from appliance.calibrate.model import load_calibration
+    from appliance.localize import dense, ends
+    from appliance.synth.truth import load_truth
+
+    scenes = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+    left, right = cv2.imread(str(scenes / "left_00.png")), cv2.imread(str(scenes / "right_00.png"))
+    truth = load_truth(scenes / "truth_00.json")
+    masks = dict(mask_left=truth.mask_left.astype(np.uint8) * 255, mask_right=truth.mask_right.astype(np.uint8) * 255)
+    loc = Localizer(load_calibration(scenes.parent / "rig.yaml"), CFG)
+    kept, placers = [], []
+
+    class Deferring(ends.EndPlacer):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            placers.append(self)
+            self.depth = 0
+
+        def fork(self, node, final=False, needed=True):
+            kept.append(self.depth > 0)         # placed provisionally from inside the final round
+            self.depth += 1
+            super().fork(node, final, needed)
+            self.depth -= 1
+
+    class PlacingEvery(Deferring):             # every junction placed provisionally first
+        def fork(self, node, final=False, needed=True):
+            super().fork(node, final, True)
+
+    results = []
+    for placer in (Deferring, PlacingEvery):
+        monkeypatch.setattr(dense, "EndPlacer", placer)
+        res = loc.localize(left, right, **masks).to_dict()
+        res.pop("timings_ms")
+        results.append(res)
+    assert sum(kept) >= 1
+    assert results[0] == results[1]
+    a, b = placers
+    assert a.hidden == b.hidden and a.radius == b.radius and a.uvd.keys() == b.uvd.keys()
+    assert all(np.array_equal(a.uvd[n], b.uvd[n]) for n in a.uvd)

@@ -117,7 +117,7 @@ def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     scenes = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
     left, right = cv2.imread(str(scenes / "left_00.png")), cv2.imread(str(scenes / "right_00.png"))
     truth = load_truth(scenes / "truth_00.json")
-    masks = dict(mask_left=truth.mask_left.astype(np.uint8) * 255, mask_right=truth.mask_right.astype(np.uint8) * 255)
+    masks = {"mask_left": truth.mask_left.astype(np.uint8) * 255, "mask_right": truth.mask_right.astype(np.uint8) * 255}
     loc = Localizer(load_calibration(scenes.parent / "rig.yaml"), CFG)
     kept, placers = [], []
 

@@ -59,7 +59,6 @@ class SegmentConfig:
     open_px: int = rng(min=0)
     close_px: int = rng(min=0)
     min_area_px: int = rng(min=0)
-    colour_bits: int = rng(min=0, max=8)
 
 
 @dataclass(frozen=True)

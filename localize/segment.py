@@ -7,7 +7,6 @@ its masks are passed to :meth:`Localizer.localize` as ``mask_left``/``mask_right
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -22,8 +21,13 @@ def _kernel(size_px: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size_px, size_px))
 
 
-def _hsv_rule(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """The colour rule itself on a BGR image (see :func:`hsv_bark`); uint8 0/255 masks."""
+def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Raw bark and occluder masks from colour thresholds, uint8 0/255, shape (H, W).
+
+    Bark: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max),
+    saturation <= saturation_max, value in [value_min, value_max]. Occluder (leaf,
+    apple): saturation above saturation_max and value above value_min.
+    """
     hue, sat, val = cv2.split(cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV))   # one-channel tests are 3x faster
     if cfg.hue_min <= cfg.hue_max:
         bark = cv2.inRange(hue, cfg.hue_min, cfg.hue_max)
@@ -35,64 +39,6 @@ def _hsv_rule(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool) -> tuple[np.n
     if occluder:
         occ = cv2.inRange(sat, min(cfg.saturation_max + 1, 255), 255)
         cv2.bitwise_and(occ, cv2.inRange(val, cfg.value_min, 255), dst=occ)
-    return bark, occ
-
-
-BARK, OCCLUDER = 255, 1            # codes in the colour table (the two classes exclude each other)
-
-
-@lru_cache(maxsize=4)              # one table per configuration (SegmentConfig is frozen): ~0.2 s to build
-def colour_table(cfg: SegmentConfig) -> np.ndarray:
-    """The colour rule on a colour index of ``cfg.colour_bits`` (1-8) bits per channel.
-
-    Returns uint8 codes, shape (2**24,): index ``b | g << 8 | r << 16`` of the channels
-    shifted right by ``8 - colour_bits``; value ``BARK`` (255), ``OCCLUDER`` (1) or 0.
-    At 8 bits it is exactly what :func:`_hsv_rule` gives for each colour; with fewer
-    bits each bin of colours takes the class most of its colours have (only the low
-    entries are used: 64 kB at 5 bits, cache-resident).
-    """
-    exact = np.empty(1 << 24, np.uint8)
-    step = 1 << 20
-    for start in range(0, 1 << 24, step):            # slices of 2**20 colours: ~20 MB at a time
-        bgr = np.arange(start, start + step, dtype=np.uint32).view(np.uint8).reshape(1024, 1024, 4)[..., :3]
-        bark, occ = _hsv_rule(np.ascontiguousarray(bgr), cfg, True)
-        code = exact[start:start + step].reshape(1024, 1024)
-        np.copyto(code, bark)
-        code[occ > 0] = OCCLUDER
-    shift = 8 - cfg.colour_bits
-    if shift == 0:
-        return exact
-    n = 1 << cfg.colour_bits
-    bins = exact.reshape(n, 1 << shift, n, 1 << shift, n, 1 << shift)       # (r, ., g, ., b, .)
-    votes = np.stack([(bins == c).sum(axis=(1, 3, 5), dtype=np.int32) for c in (0, OCCLUDER, BARK)])
-    coarse = np.array([0, OCCLUDER, BARK], np.uint8)[votes.argmax(axis=0)]
-    table = np.zeros(1 << 24, np.uint8)
-    q = np.arange(n)
-    table[(q[:, None, None] << 16) | (q[None, :, None] << 8) | q[None, None, :]] = coarse
-    return table
-
-
-def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Raw bark and occluder masks from colour thresholds, uint8 0/255, shape (H, W).
-
-    Bark: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max),
-    saturation <= saturation_max, value in [value_min, value_max]. Occluder (leaf,
-    apple): saturation above saturation_max and value above value_min.
-
-    With ``cfg.colour_bits`` > 0 the rule is looked up per pixel in :func:`colour_table`
-    (the pixel's quantised colour is the index: one BGR->BGRA conversion, a shift, a mask
-    and one ``np.take``; no HSV conversion per frame); 0 converts every frame to HSV.
-    """
-    if cfg.colour_bits == 0:
-        return _hsv_rule(bgr, cfg, occluder)
-    shift = 8 - cfg.colour_bits
-    key = cv2.cvtColor(bgr, cv2.COLOR_BGR2BGRA).view(np.uint32)[..., 0]    # b | g<<8 | r<<16 | 255<<24
-    if shift:
-        np.right_shift(key, shift, out=key)
-    np.bitwise_and(key, 0x10101 * ((1 << cfg.colour_bits) - 1), out=key)
-    code = np.take(colour_table(cfg), key)
-    bark = cv2.compare(code, BARK, cv2.CMP_EQ)
-    occ = cv2.compare(code, OCCLUDER, cv2.CMP_EQ) if occluder else None
     return bark, occ
 
 

@@ -170,7 +170,13 @@ class _Loop:
 
     # -- wiring --------------------------------------------------------------------------
     def run(self) -> RunStatus:
-        driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
+        self.pool = self._start_pool()                  # before the camera: workers take a second to start
+        try:
+            driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
+        except BaseException:
+            if self.pool is not None:
+                self.pool.shutdown(cancel_futures=True)
+            raise
         self.writer = self.live = self.arm = None
         try:
             self._check_size(driver)
@@ -181,6 +187,8 @@ class _Loop:
             for part in (driver, self.writer, self.live):
                 if part is not None:
                     part.close()
+            if self.pool is not None:
+                self.pool.shutdown(cancel_futures=True)
             raise
         threads = [threading.Thread(target=self._guard(self._acquire), args=(driver,), name="acquire",
                                     daemon=True),
@@ -197,6 +205,8 @@ class _Loop:
             self.stop.set()
             for t in threads:
                 t.join(timeout=10)
+            if self.pool is not None:
+                self.pool.shutdown(cancel_futures=True)
             if self.arm is not None:
                 self.arm.close()
             if self.live is not None:
@@ -237,6 +247,17 @@ class _Loop:
                            version=software_version())
         self.status.logging = True
         return writer
+
+    def _start_pool(self) -> ProcessPoolExecutor | None:
+        """The localizer processes, started and ready (each has built its Localizer)."""
+        if self.opts.workers == 1:
+            return None
+        spawn = multiprocessing.get_context("spawn")     # not fork: this process runs threads
+        pool = ProcessPoolExecutor(self.opts.workers, mp_context=spawn, initializer=_start_worker,
+                                   initargs=(self.calib, self.cfg.localize, self.opts.variant))
+        for future in [pool.submit(time.sleep, 0.2) for _ in range(self.opts.workers)]:
+            future.result()                             # one task per process: all of them started
+        return pool
 
     def _open_live(self):
         if self.opts.live_port is None:
@@ -331,19 +352,16 @@ class _Loop:
                 self._emit(frame, received_ns,
                            self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns))
             return
-        spawn = multiprocessing.get_context("spawn")     # not fork: this process runs threads
-        with ProcessPoolExecutor(self.opts.workers, mp_context=spawn, initializer=_start_worker,
-                                 initargs=(self.calib, self.cfg.localize, self.opts.variant)) as pool:
-            pending: deque = deque()                    # (frame, received_ns, future), oldest first
-            while (item := self.frames_q.get()) is not _END:
-                frame, received_ns = item
-                pending.append((frame, received_ns,
-                                pool.submit(_localize_in_worker, frame.left, frame.right, frame.stamp_ns)))
-                while pending and (len(pending) >= self.opts.workers or pending[0][2].done()):
-                    frame, received_ns, future = pending.popleft()
-                    self._emit(frame, received_ns, future.result())
-            for frame, received_ns, future in pending:
+        pending: deque = deque()                        # (frame, received_ns, future), oldest first
+        while (item := self.frames_q.get()) is not _END:
+            frame, received_ns = item
+            pending.append((frame, received_ns,
+                            self.pool.submit(_localize_in_worker, frame.left, frame.right, frame.stamp_ns)))
+            while pending and (len(pending) >= self.opts.workers or pending[0][2].done()):
+                frame, received_ns, future = pending.popleft()
                 self._emit(frame, received_ns, future.result())
+        for frame, received_ns, future in pending:
+            self._emit(frame, received_ns, future.result())
 
     def _emit(self, frame: StereoFrame, received_ns: int, result) -> None:
         """Hand one result to the outputs (arm, live view, log) and count it."""

@@ -110,7 +110,7 @@ def replay_log(path: Path, cfg: Config, calib: StereoCalibration, *, variant: st
     writer = None
     if log_out is not None:
         from appliance.config.load import config_to_dict
-        from appliance.run import software_version
+        from appliance import software_version
 
         writer = LogWriter(log_out, cfg.logging, calibration=calib, config_dict=config_to_dict(cfg),
                            device=f"replay:{path}", version=software_version())

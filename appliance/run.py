@@ -26,7 +26,6 @@ Three threads and two bounded queues::
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
 import multiprocessing
 import queue
 import threading
@@ -39,6 +38,7 @@ from typing import Callable
 
 import numpy as np
 
+from appliance import software_version
 from appliance.acquire import AcquireError, StereoFrame, open_driver
 from appliance.calibrate.model import StereoCalibration
 from appliance.config import Config
@@ -68,14 +68,6 @@ def _finish(q: queue.Queue, timeout_s: float = 5.0) -> None:
         except queue.Empty:
             pass
         q.put_nowait(_END)
-
-
-def software_version() -> str:
-    """The installed appliance version."""
-    try:
-        return importlib.metadata.version("appliance")
-    except importlib.metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "unknown"
 
 
 @dataclass
@@ -162,6 +154,7 @@ class _Loop:
         self.replay = opts.device.startswith("fake:") and cfg.camera.fake_rate_hz <= 0
         self.frames_q: queue.Queue = queue.Queue(maxsize=2)
         self.log_q: queue.Queue = queue.Queue(maxsize=cfg.logging.queue_frames)
+        # built here even with worker processes: a bad calibration or setting fails now, in one line
         self.localizer = Localizer(calib, cfg.localize, variant=opts.variant)
         self.camera_to_base = np.asarray(cfg.arm.camera_to_base, float)
         self._done_ns: deque = deque(maxlen=120)      # result times, for the rate

@@ -39,6 +39,7 @@ from collections import deque
 import numpy as np
 import serial
 
+from appliance import software_version
 from appliance.arm import protocol as P
 from appliance.errors import ApplianceError
 
@@ -49,15 +50,6 @@ COUNTERS = ("submitted", "dropped", "sent", "bytes_sent", "truncated", "heartbea
 
 class ArmLinkError(ApplianceError):
     """The arm-controller port cannot be used (named in the message)."""
-
-
-def _version() -> str:
-    try:
-        import importlib.metadata
-
-        return importlib.metadata.version("appliance")
-    except Exception:  # pragma: no cover - source tree without metadata
-        return "unknown"
 
 
 class ArmLink:
@@ -277,7 +269,7 @@ class ArmLink:
         self._resync = True
         self._counts["connects"] += 1
         try:
-            self._send(P.Hello(_version()))
+            self._send(P.Hello(software_version()))
         except serial.SerialTimeoutException:
             self._counts["write_timeouts"] += 1
             self._resync = True

@@ -1,7 +1,7 @@
 """MCAP field logs: writing, reading, checking and recovering (see docs/logs.md).
 
     with LogWriter("logs", cfg.logging, calibration=calib, config_dict=config_to_dict(cfg),
-                   device=drv.info, version=__version__) as log:
+                   device=drv.info, version=software_version()) as log:
         log.write_frame(frame)
         log.write_result(result, frame.seq, camera_to_base)
 """

@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 import pytest
-import serial
 
 from appliance.arm import protocol as P
 from appliance.arm.link import ArmLink, ArmLinkError

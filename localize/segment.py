@@ -28,17 +28,15 @@ def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tupl
     saturation <= saturation_max, value in [value_min, value_max]. Occluder (leaf,
     apple): saturation above saturation_max and value above value_min.
     """
-    hue, sat, val = cv2.split(cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV))   # one-channel tests are 3x faster
+    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)       # three-channel inRange: no split, ~2x faster
+    lo, hi = (cfg.hue_min, 0, cfg.value_min), (cfg.hue_max, cfg.saturation_max, cfg.value_max)
     if cfg.hue_min <= cfg.hue_max:
-        bark = cv2.inRange(hue, cfg.hue_min, cfg.hue_max)
+        bark = cv2.inRange(hsv, lo, hi)
     else:
-        bark = cv2.inRange(hue, cfg.hue_min, 180) | cv2.inRange(hue, 0, cfg.hue_max)
-    cv2.bitwise_and(bark, cv2.inRange(sat, 0, cfg.saturation_max), dst=bark)
-    cv2.bitwise_and(bark, cv2.inRange(val, cfg.value_min, cfg.value_max), dst=bark)
+        bark = cv2.inRange(hsv, lo, (180, *hi[1:])) | cv2.inRange(hsv, (0, *lo[1:]), hi)
     occ = None
     if occluder:
-        occ = cv2.inRange(sat, min(cfg.saturation_max + 1, 255), 255)
-        cv2.bitwise_and(occ, cv2.inRange(val, cfg.value_min, 255), dst=occ)
+        occ = cv2.inRange(hsv, (0, min(cfg.saturation_max + 1, 255), cfg.value_min), (255, 255, 255))
     return bark, occ
 
 

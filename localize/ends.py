@@ -11,6 +11,7 @@ across an occluder stands only if both sides' curves meet.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import BranchCurve, median
@@ -32,8 +33,10 @@ HIDDEN_FORK_MIN_DEG = 20.0
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Total-least-squares line through points (N, 2): centroid and unit direction."""
     c = pts.mean(0)
-    _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
-    return c, vt[0]
+    q = pts - c
+    sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
+    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)        # the direction of the largest spread
+    return c, np.array([np.cos(a), np.sin(a)])
 
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
@@ -194,8 +197,13 @@ class EndPlacer:
             return np.hypot(*(c.uv_at(c.t_of(xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
         parents = [s for s in parents if passes(s)]
         child_ok = child in self.curves and passes(child)
+        d_par = [at(s) for s in parents]
+        if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
+            # the parent's two sides clearly disagree at the fork (one side's fit is off there):
+            # the middle of the three pieces' disparities
+            d_par = [float(np.median([*d_par, at(child)]))]
         if parents:
-            d = float(np.mean([at(s) for s in parents]))
+            d = float(np.mean(d_par))
         elif child_ok:
             d = float(at(child))
         else:
@@ -227,7 +235,8 @@ class EndPlacer:
         crossing with the parent's axis is the fork. The child's line (``c2``, ``e2``) only
         tells which crossing is the child's. Intervals not as wide as the child seen at that
         angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
-        further out is tried then. ``mask``: the left view's unless given.
+        further out is tried then. The intervals' ends are where the mask's coverage (0-255,
+        bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
         """
         mask = self.sm.left_mask if mask is None else mask
         n = np.array([-e1[1], e1[0]])
@@ -274,36 +283,58 @@ class EndPlacer:
         of the ``mask`` interval at or nearest to ``s_c``, where it is as wide as a piece of radius
         ``r_child`` crossed at sine ``sin_t``; else None. The mask is read once for all lines."""
         reach = (4.7 * r_child + 3) / sin_t + 2          # the interval nearest s_c, whole, if as wide
-        ss = [np.arange(s_c - reach, s_c + reach, 0.5) for _, s_c in lines]
+        ss = [np.arange(s_c - reach, s_c + reach, 1.0) for _, s_c in lines]
         n = [len(s) for s in ss]
         s_all = np.concatenate(ss)
-        uv = np.rint(np.repeat(np.array([base for base, _ in lines]), n, axis=0) + s_all[:, None] * e).astype(int)
-        inside = (uv[:, 0] >= 0) & (uv[:, 0] < mask.shape[1]) & (uv[:, 1] >= 0) & (uv[:, 1] < mask.shape[0])
-        on_all = np.zeros(len(s_all), bool)
-        on_all[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
+        uv = np.repeat(np.array([base for base, _ in lines]), n, axis=0) + s_all[:, None] * e
+        val = EndPlacer._bilinear(mask, uv)
         out, i0 = [], 0
         for (_, s_c), s in zip(lines, ss):
-            on = on_all[i0:i0 + len(s)]
+            v = val[i0:i0 + len(s)]
             i0 += len(s)
-            out.append(EndPlacer._interval_middle(s, on, s_c, r_child, sin_t))
+            out.append(EndPlacer._interval_middle(s, v, s_c, r_child, sin_t))
         return out
 
     @staticmethod
-    def _interval_middle(s: np.ndarray, on: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:
-        """Middle of the run of ``on`` nearest ``s_c`` (samples ``s``) if as wide as the child crossed at ``sin_t``."""
-        cand = np.flatnonzero(on & (np.abs(s - s_c) <= 2 * r_child / sin_t))
-        if len(cand) == 0:
+    def _bilinear(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        """``img`` (H, W) uint8 at points ``uv`` (N, 2) (x, y), bilinear (1/32 px); 0 outside."""
+        m = uv.astype(np.float32).reshape(1, -1, 2)
+        return cv2.remap(img, m, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0]
+
+    @staticmethod
+    def _interval_middle(s: np.ndarray, val: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:
+        """Middle of the interval of ``val`` >= 128 (mask coverage 0-255 at the evenly spaced samples
+        ``s``) nearest ``s_c``, its ends interpolated to where the coverage crosses 128, if it is as
+        wide as the child crossed at ``sin_t``."""
+        on = val >= 128
+        ds = s[1] - s[0]
+        ic = int(np.rint((s_c - s[0]) / ds))
+        w = int(2 * r_child / sin_t / ds)
+        lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, len(s))
+        if lo_i >= hi_i:
             return None
-        k = int(cand[np.argmin(np.abs(s[cand] - s_c))])
-        off = np.flatnonzero(~on)
-        before, after = off[off < k], off[off > k]
-        if len(before) == 0 or len(after) == 0:
+        win = on[lo_i:hi_i]
+        if not win.any():
             return None
-        a, b = before[-1] + 1, after[0] - 1
-        width = (b - a + 1) * (s[1] - s[0])
-        if abs(width * sin_t - 2 * r_child) > 0.8 * r_child + 2:
+        c = min(max(ic - lo_i, 0), len(win) - 1)      # the nearest "on" sample to s_c in the window
+        right = int(win[c:].argmax()) if win[c:].any() else None
+        left = int(win[c::-1].argmax()) if win[c::-1].any() else None
+        if right is None or (left is not None and left <= right):
+            k = lo_i + c - left
+        else:
+            k = lo_i + c + right
+        back = on[k::-1]
+        fwd = on[k:]
+        if back.all() or fwd.all():
             return None
-        return 0.5 * (s[a] + s[b])
+        a = k - int(back.argmin())                  # the last sample off before k
+        b = k + int(fwd.argmin())                   # the first off after k
+        va, vb = float(val[a]), float(val[b])
+        lo = s[a] + ds * (128.0 - va) / max(float(val[a + 1]) - va, 1e-9)
+        hi = s[b] - ds * (128.0 - vb) / max(float(val[b - 1]) - vb, 1e-9)
+        if abs((hi - lo) * sin_t - 2 * r_child) > 0.8 * r_child + 2:
+            return None
+        return 0.5 * (lo + hi)
 
     def _runs_agree(self, pts: np.ndarray, d: float, r: float, min_rows: int = 3) -> bool:
         """Whether a piece's own row crossings at points ``pts`` (N, 2) have disparity ``d``.

@@ -103,6 +103,17 @@ def test_a_child_crossing_up_to_0_8_radius_wider_than_the_child_still_places_the
     assert EndPlacer._child_crossing(None, np.array([0.0, 40.0]), along, 128.0, r, 1.0, mask) is None
 
 
+def test_a_child_crossing_middle_is_sub_pixel_from_the_mask_coverage():
+    # a soft mask (coverage 0-255) covering 100.2 .. 156.2 along a row: the middle is 128.2,
+    # where whole pixels on or off would put it half a pixel off
+    from appliance.localize.ends import EndPlacer
+
+    x = np.arange(300.0)
+    cover = np.clip(np.minimum(x + 0.5, 156.2) - np.maximum(x - 0.5, 100.2), 0.0, 1.0)
+    mask = np.tile(np.rint(255 * cover).astype(np.uint8), (20, 1))
+    mid = EndPlacer._child_crossing(None, np.array([0.0, 10.0]), np.array([1.0, 0.0]), 128.0, 28.0, 1.0, mask)
+    assert mid is not None and abs(mid - 128.2) <= 0.15
+
 
 def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally

@@ -509,15 +509,16 @@ class EndPlacer:
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
             # its row run is found in the right view too; it takes the mean of the two when they
-            # agree (2 px), else the run end's
+            # agree (2 px), else the run end's if the end's outline agrees row by row
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
             if d_end is None:
                 self.hidden.add(int(node))
                 return
             if abs(d_end - self.uvd[node][2]) <= 2.0:
                 self.uvd[node][2] = 0.5 * (d_end + self.uvd[node][2])
-            else:
+            elif self._end_outline_agrees(uv_edge, out, d_end, r):
                 self.uvd[node][2] = d_end
+            # else the right run's end is not the cap's (something touches it there): the texture's stands
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
             return
@@ -635,6 +636,27 @@ class EndPlacer:
             return None
         d = d[ok]
         return float(d[np.argmin(np.abs(d - d_prior))])
+
+    def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
+        """Whether a flat piece's end has the same outline in both views at disparity ``d``.
+
+        On the rows across the end (0.6 radius each side of the centre line) the left run's end
+        and the right run's end (moved by ``d``) must agree within 1.2 px on at least 80 % of at
+        least 3 rows: a round cap ends alike in both views; a right run that runs on into
+        something touching the cap (another branch) ends elsewhere on some rows.
+        """
+        k = max(1, int(0.6 * r))
+        rows = int(np.rint(uv_edge[1])) + np.arange(-k, k + 1)
+        rows = rows[(rows >= 0) & (rows < self.sm.left_mask.shape[0])]
+        sgn = 1.0 if out[0] > 0 else -1.0
+        il = self.runs_l.find(rows, np.full(len(rows), uv_edge[0] - sgn * r))
+        rows, il = rows[il >= 0], il[il >= 0]
+        e_l = self.runs_l.right_px[il] if sgn > 0 else self.runs_l.left_px[il]
+        ir = self.runs_r.find(rows, e_l - d - sgn * r)
+        if (ir >= 0).sum() < 3:
+            return False
+        e_r = self.runs_r.right_px[ir[ir >= 0]] if sgn > 0 else self.runs_r.left_px[ir[ir >= 0]]
+        return bool((np.abs(e_l[ir >= 0] - e_r - d) <= 1.2).mean() >= 0.8)
 
     def bridge_holds(self, s: int) -> bool:
         """A recovered piece joins one branch only if each side's disparity, carried along its

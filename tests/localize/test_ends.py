@@ -115,6 +115,31 @@ def test_a_child_crossing_middle_is_sub_pixel_from_the_mask_coverage():
     assert mid is not None and abs(mid - 128.2) <= 0.15
 
 
+def test_a_flat_end_touched_by_another_branch_in_the_right_view_has_another_outline():
+    # a flat branch (radius 8 px) ending in a round cap at u = 400 (left) and 400 - d (right):
+    # the run ends agree row by row at d; with a slanting branch across the cap in the right view
+    # only, the right run ends (on it) do not agree row by row at the disparity of any one row
+    from types import SimpleNamespace
+
+    from appliance.localize.edges import find_runs
+    from appliance.localize.ends import EndPlacer
+
+    d, r = 150.0, 8.0
+    left = np.zeros((200, 600), np.uint8)
+    cv2.line(left, (200, 100), (392, 100), 255, int(2 * r))
+    cv2.circle(left, (392, 100), int(r), 255, -1)
+    right = np.roll(left, -int(d), axis=1)
+    touched = right.copy()
+    cv2.line(touched, (214, 60), (294, 140), 255, 8)     # slanting across the cap's end
+    uv_edge, out = np.array([400.0, 100.0]), np.array([1.0, 0.0])
+    for mask_r, ok in ((right, True), (touched, False)):
+        runs_r = find_runs(mask_r)
+        e_r = runs_r.right_px[runs_r.find(np.array([100]), np.array([240.0]))[0]]
+        sm = SimpleNamespace(left_mask=left)
+        placer = SimpleNamespace(sm=sm, runs_l=find_runs(left), runs_r=runs_r)
+        assert EndPlacer._end_outline_agrees(placer, uv_edge, out, float(400.5 - e_r), r) is ok
+
+
 def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally
     # only when the final round finds no place: the result must be that of placing every one first

@@ -289,11 +289,10 @@ def _resolve_shared(curves: dict, graph: SkeletonGraph, runs_l: Runs, runs_r: Ru
                 del curves[s]
 
 
-@functools.lru_cache(maxsize=8)
-def _unit_pairs(n_hyp: int) -> np.ndarray:
-    """RANSAC's candidate pairs as fractions in [0, 1) (2, n_hyp) (fixed seed: the same every time);
-    piece k with n candidates uses ``floor(fraction * n)``."""
-    out = np.random.default_rng(0).random((2, n_hyp))
+@functools.lru_cache(maxsize=4096)
+def _pairs(n: int, n_hyp: int) -> np.ndarray:
+    """RANSAC's candidate pairs (2, n_hyp) for ``n`` candidates (fixed seed: the same pairs every time)."""
+    out = np.random.default_rng(0).integers(0, n, (2, n_hyp))
     out.flags.writeable = False
     return out
 
@@ -311,8 +310,7 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     live = np.flatnonzero(alive)
     if len(live) == 0:
         return GroupPolys.of(polys)
-    n = (bounds[live + 1] - bounds[live]).astype(float)
-    ij = (_unit_pairs(n_hyp)[:, None, :] * n[None, :, None]).astype(np.int64) + bounds[live][None, :, None]  # (2, G, H)
+    ij = np.stack([_pairs(int(bounds[k + 1] - bounds[k]), n_hyp) + bounds[k] for k in live], axis=1)   # (2, G, H)
     i, j = ij
     dt = t[j] - t[i]
     ok = np.abs(dt) >= 3

@@ -355,7 +355,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     slope = v_poly.deriv()(t[inl])
     radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
     lo, hi = float(t[inl].min()), float(t[inl].max())
-    u = np.arange(lo, hi + 1, 4.0)
+    u = np.arange(lo, hi + 1, 6.0)
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), max(1, int(0.6 * radius)))
     # a few patches searched over the whole range give a prior; all patches then search near it

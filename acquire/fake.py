@@ -17,8 +17,8 @@ With ``camera.fake_restamp`` the MCAP stamps are instead moved onto the replay c
 ``seq`` counts the delivered pairs from 0. Pairs whose left/right stamps differ by more
 than ``camera.max_stereo_skew_ms`` are dropped and counted, as with live cameras.
 Without ``camera.fake_loop`` iteration ends after the last pair; with it, a folder's images are
-decoded once (up to ``FOLDER_CACHE_BYTES``) and delivered read-only, so a loop over a few pairs
-costs no decoding.
+decoded once, when the driver opens (up to ``FOLDER_CACHE_BYTES``), and delivered read-only, so
+a loop over a few pairs costs no decoding and even its first lap keeps the camera's pace.
 """
 
 from __future__ import annotations
@@ -82,6 +82,9 @@ class FakeDriver(DriverBase):
             self._lap, nominal_hz = self._video, fps
         lap = self._lap()
         first = next(lap, None)
+        if self._lap == self._folder and cfg.fake_loop:
+            for _ in lap:           # decode the whole looping folder now: the first lap is then on time
+                pass
         lap.close()
         if first is None:
             raise DeviceNotFound(f"{self.name}: holds no stereo frames")

@@ -44,9 +44,10 @@ from appliance.calibrate.model import StereoCalibration
 from appliance.config import Config
 from appliance.config.load import config_to_dict
 from appliance.localize import Localizer
+from appliance.shared_frames import SharedFrames, SlotRef, attach, pair_view
 
 _END = object()  # end-of-stream marker in the queues
-_WORKER: dict = {}  # in a localizer worker process only: its Localizer
+_WORKER: dict = {}  # in a localizer worker process only: its Localizer and the shared frames it reads
 
 
 def _start_worker(calib: StereoCalibration, cfg, variant: str) -> None:
@@ -54,8 +55,13 @@ def _start_worker(calib: StereoCalibration, cfg, variant: str) -> None:
     _WORKER["localizer"] = Localizer(calib, cfg, variant=variant)
 
 
-def _localize_in_worker(left, right, stamp_ns: int):
-    return _WORKER["localizer"].localize(left, right, stamp_ns=stamp_ns)
+def _localize_in_worker(pair: SlotRef | tuple[np.ndarray, np.ndarray], stamp_ns: int):
+    """Localize one pair in a worker: read in place from shared memory (a SlotRef), or as sent."""
+    if isinstance(pair, SlotRef):
+        if pair.name not in _WORKER:
+            _WORKER[pair.name] = attach(pair.name)
+        pair = pair_view(_WORKER[pair.name].buf, pair.slot, pair.shape)
+    return _WORKER["localizer"].localize(pair[0], pair[1], stamp_ns=stamp_ns)
 
 
 def _finish(q: queue.Queue, timeout_s: float = 5.0) -> None:
@@ -167,8 +173,7 @@ class _Loop:
         try:
             driver = open_driver(self.opts.device, self.cfg.camera)   # errors at start are fatal
         except BaseException:
-            if self.pool is not None:
-                self.pool.shutdown(cancel_futures=True)
+            self._stop_pool()
             raise
         self.writer = self.live = self.arm = None
         try:
@@ -180,8 +185,7 @@ class _Loop:
             for part in (driver, self.writer, self.live):
                 if part is not None:
                     part.close()
-            if self.pool is not None:
-                self.pool.shutdown(cancel_futures=True)
+            self._stop_pool()
             raise
         threads = [threading.Thread(target=self._guard(self._acquire), args=(driver,), name="acquire",
                                     daemon=True),
@@ -198,8 +202,7 @@ class _Loop:
             self.stop.set()
             for t in threads:
                 t.join(timeout=10)
-            if self.pool is not None:
-                self.pool.shutdown(cancel_futures=True)
+            self._stop_pool()
             if self.arm is not None:
                 self.arm.close()
             if self.live is not None:
@@ -250,7 +253,15 @@ class _Loop:
                                    initargs=(self.calib, self.cfg.localize, self.opts.variant))
         for future in [pool.submit(time.sleep, 0.2) for _ in range(self.opts.workers)]:
             future.result()                             # one task per process: all of them started
+        w, h = self.calib.image_size
+        # at most `workers` pairs in flight (_localize_all): one slot more is never being read
+        self.shared = SharedFrames(self.opts.workers + 1, (h, w, 3))
         return pool
+
+    def _stop_pool(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+            self.shared.close()
 
     def _open_live(self):
         if self.opts.live_port is None:
@@ -348,8 +359,8 @@ class _Loop:
         pending: deque = deque()                        # (frame, received_ns, future), oldest first
         while (item := self.frames_q.get()) is not _END:
             frame, received_ns = item
-            pending.append((frame, received_ns,
-                            self.pool.submit(_localize_in_worker, frame.left, frame.right, frame.stamp_ns)))
+            pair = self.shared.put(frame.left, frame.right) or (frame.left, frame.right)
+            pending.append((frame, received_ns, self.pool.submit(_localize_in_worker, pair, frame.stamp_ns)))
             while pending and (len(pending) >= self.opts.workers or pending[0][2].done()):
                 frame, received_ns, future = pending.popleft()
                 self._emit(frame, received_ns, future.result())

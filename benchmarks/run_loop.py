@@ -51,7 +51,7 @@ def main() -> None:
 
     def on_status(s):
         samples.append((time.monotonic() - t0, s.localized, rss_mb()))
-        print(f"\r{s.localized}/{args.frames} pairs  {s.rate_hz:5.1f} pairs/s  "
+        print(f"\r{s.localized}/{args.frames} pairs  {s.rate_hz:5.1f} pairs/s  dropped {s.dropped_localize}  "
               f"p50 {s.latency_p50_ms:6.1f} ms  rss {samples[-1][2]:6.0f} MB", end="", flush=True)
 
     with tempfile.TemporaryDirectory() as tmp:

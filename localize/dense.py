@@ -355,14 +355,15 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     slope = v_poly.deriv()(t[inl])
     radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
     lo, hi = float(t[inl].min()), float(t[inl].max())
-    u = np.arange(lo, hi + 1, 4.0)
+    u = np.arange(lo, hi + 1, 6.0)
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), max(1, int(0.6 * radius)))
     # a few patches searched over the whole range give a prior; all patches then search near it
-    d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[::3], half_h[::3], sm.d_range_px, half_w_px=12)
+    coarse = np.unique(np.linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
+    d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         d_surf, score = d0, s0
-        u, uv = u[::3], uv[::3]
+        u, uv = u[coarse], uv[coarse]
     else:
         prior = float(median(d0[np.isfinite(d0) & (s0 >= 0.6)]))
         d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),

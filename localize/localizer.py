@@ -28,7 +28,7 @@ from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover
 from appliance.localize.rectify import LazyRectified, Rectifier
 from appliance.localize.result import Branch, Feature, LocalizationResult
-from appliance.localize.segment import as_mask, segment_color
+from appliance.localize.segment import as_mask, occluder_at, segment_color
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.triangulate import disparity_range_px, triangulate
 
@@ -120,28 +120,21 @@ class Localizer:
         """Rectified branch coverage of both images (uint8 0-255), and the left image's
         occluder test for recovery (None without the colour recogniser)."""
         seg = self.cfg.segment
-        occluder = None
+        occluded = None
         if mask_left is not None or mask_right is not None:
             if mask_left is None or mask_right is None:
                 raise LocalizeError("masks: give both the left and the right mask, or neither")
             ml = as_mask(mask_left, left.shape[:2], "left mask")
             mr = as_mask(mask_right, right.shape[:2], "right mask")
         else:
-            ml, occluder = segment_color(left, seg, occluder=self.cfg.recover.method == "collinear")
-            mr, _ = segment_color(right, seg, occluder=False)
+            ml, hsv = segment_color(left, seg)
+            mr, _ = segment_color(right, seg)
+            if self.cfg.recover.method == "collinear":
+                def occluded(xy_rect: np.ndarray) -> np.ndarray:
+                    return occluder_at(hsv, self.rectifier.to_original(xy_rect, 0), seg)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries
-        occluded = None
-        if occluder is not None:
-            h, w = occluder.shape
-
-            def occluded(xy_rect: np.ndarray) -> np.ndarray:
-                p = np.rint(r.to_original(xy_rect, 0)).astype(int)
-                ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
-                out = np.zeros(len(p), bool)
-                out[ok] = occluder[p[ok, 1], p[ok, 0]] > 0
-                return out
         return ml, mr, occluded
 
     def _graph(self, mask: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:

@@ -21,23 +21,29 @@ def _kernel(size_px: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size_px, size_px))
 
 
-def hsv_bark(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Raw bark and occluder masks from colour thresholds, uint8 0/255, shape (H, W).
+def hsv_bark(hsv: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
+    """Raw bark mask from colour thresholds of an HSV image (OpenCV scale), uint8 0/255, shape (H, W).
 
     Bark: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max),
-    saturation <= saturation_max, value in [value_min, value_max]. Occluder (leaf,
-    apple): saturation above saturation_max and value above value_min.
+    saturation <= saturation_max, value in [value_min, value_max].
     """
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)       # three-channel inRange: no split, ~2x faster
     lo, hi = (cfg.hue_min, 0, cfg.value_min), (cfg.hue_max, cfg.saturation_max, cfg.value_max)
     if cfg.hue_min <= cfg.hue_max:
-        bark = cv2.inRange(hsv, lo, hi)
-    else:
-        bark = cv2.inRange(hsv, lo, (180, *hi[1:])) | cv2.inRange(hsv, (0, *lo[1:]), hi)
-    occ = None
-    if occluder:
-        occ = cv2.inRange(hsv, (0, min(cfg.saturation_max + 1, 255), cfg.value_min), (255, 255, 255))
-    return bark, occ
+        return cv2.inRange(hsv, lo, hi)       # three channels at once: no split, ~2x faster
+    return cv2.inRange(hsv, lo, (180, *hi[1:])) | cv2.inRange(hsv, (0, *lo[1:]), hi)
+
+
+def occluder_at(hsv: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
+    """Whether the pixels at ``xy_px`` (N, 2) (x, y; rounded) are a leaf or an apple: saturation
+    above ``saturation_max`` and value at least ``value_min``; False outside the image. Tested at
+    the few points recovery asks about rather than over the whole image."""
+    h, w = hsv.shape[:2]
+    p = np.rint(np.asarray(xy_px, float).reshape(-1, 2)).astype(int)
+    ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
+    px = hsv[p[ok, 1], p[ok, 0]].astype(int)
+    out = np.zeros(len(p), bool)
+    out[ok] = (px[:, 1] > cfg.saturation_max) & (px[:, 2] >= cfg.value_min)
+    return out
 
 
 def clean_mask(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
@@ -99,10 +105,11 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     return out
 
 
-def segment_color(bgr: np.ndarray, cfg: SegmentConfig, occluder: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """The embedded recogniser: (branch mask, occluder mask or None), uint8 0/255, shape (H, W)."""
-    bark, occ = hsv_bark(bgr, cfg, occluder)
-    return clean_mask(bark, cfg), occ
+def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The embedded recogniser: the branch mask, uint8 0/255 (H, W), and the HSV image it was
+    taken from (H, W, 3) (for :func:`occluder_at`)."""
+    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+    return clean_mask(hsv_bark(hsv, cfg), cfg), hsv
 
 
 def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:

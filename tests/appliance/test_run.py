@@ -182,6 +182,7 @@ def test_localizer_processes_give_the_same_results_in_order(tmp_path):
         r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / workers),
                       "--workers", workers, "-q")
         assert r.returncode == 0, r.stderr
+        assert "resource_tracker" not in r.stderr and "leaked" not in r.stderr    # shared frames freed once
         logs[workers] = [(seq, json.dumps({**res.to_dict(), "timings_ms": {}, "stamp_ns": 0}, sort_keys=True))
                          for seq, _, res in read_results(only_log(tmp_path / workers))]
     assert [seq for seq, _ in logs["2"]] == list(range(N_SCENES))

@@ -22,3 +22,17 @@ def test_drop_small_removes_specks_and_keeps_branches(size):
     branch[h - 2:, :3] = 0
     assert np.array_equal(out, branch)                         # the branch is untouched, pixel for pixel
     assert drop_small(m, 5) is m                               # nothing to drop: the mask itself
+
+
+def test_colour_recogniser_finds_bark_and_tells_leaves_at_points():
+    from appliance.config import load_config
+    from appliance.localize.segment import occluder_at, segment_color
+
+    cfg = load_config().localize.segment
+    img = np.full((120, 160, 3), (235, 206, 135), np.uint8)     # sky (BGR)
+    cv2.rectangle(img, (70, 0), (90, 119), (40, 60, 90), -1)     # brown-grey bark, a vertical branch
+    cv2.circle(img, (30, 60), 15, (40, 170, 60), -1)             # a green leaf
+    mask, hsv = segment_color(img, cfg)
+    assert mask[:, 72:88].all() and not mask[:, :65].any() and not mask[:, 95:].any()
+    got = occluder_at(hsv, np.array([[30, 60], [80, 60], [150, 10], [-5, 60], [30, 200]]), cfg)
+    assert got.tolist() == [True, False, False, False, False]

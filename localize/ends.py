@@ -577,7 +577,10 @@ class EndPlacer:
         Each rectified row cuts the cap (a sphere) in a circle; the middles of the left and
         right crossings of that row both project that circle's centre, a point within the
         cap. Median over the cap's rows (one radius back from the end) of the middle
-        disparities near ``d_prior`` (2 px); None with fewer than 3 rows.
+        disparities near ``d_prior`` (2 px); None with fewer than 3 rows. A row whose left
+        crossing reaches clearly further (1.5 px) on one side of the fitted centre line than on
+        the other is merged there with something touching the branch: it gives the disparity
+        of its other edge instead (near ``d_prior``: 2.5 px).
         """
         sm = self.sm
         a, b = sorted((int(np.rint(t_edge - sign * r)), int(np.rint(t_edge))))
@@ -586,15 +589,29 @@ class EndPlacer:
             return None
         rows = np.arange(a, b + 1)
         runs_l, runs_r = self.runs_l, self.runs_r
-        il = runs_l.find(rows, c.s_at(rows))
+        s_rows = c.s_at(rows)
+        il = runs_l.find(rows, s_rows)
         ok = il >= 0
         if ok.sum() < 3:
             return None
-        c_l = runs_l.centre_px[il[ok]]
-        q, rr = runs_r.between(rows[ok], c_l - d_prior - 2.0, c_l - d_prior + 2.0)
-        if len(q) < 3:
+        rows, s_rows, il = rows[ok], s_rows[ok], il[ok]
+        lo_l, hi_l = runs_l.left_px[il], runs_l.right_px[il]
+        w_lo, w_hi = s_rows - lo_l, hi_l - s_rows           # each side's reach from the centre line
+        sym = np.abs(w_lo - w_hi) <= 1.5
+        c_l = runs_l.centre_px[il[sym]]
+        q, rr = runs_r.between(rows[sym], c_l - d_prior - 2.0, c_l - d_prior + 2.0)
+        d = [c_l[q] - runs_r.centre_px[rr]]
+        # a row merged on one side with something touching the branch: the other edge's disparity
+        for side, lo_side in ((~sym & (w_lo < w_hi), True), (~sym & (w_lo >= w_hi), False)):
+            if side.any():
+                e_l = lo_l[side] if lo_side else hi_l[side]
+                ir = runs_r.find(rows[side], e_l - d_prior + (1.5 if lo_side else -1.5))
+                e_r = np.where(ir >= 0, runs_r.left_px[ir] if lo_side else runs_r.right_px[ir], np.nan)
+                de = e_l - e_r
+                d.append(de[np.abs(de - d_prior) <= 2.5])
+        d = np.concatenate(d)
+        if len(d) < 3:
             return None
-        d = c_l[q] - runs_r.centre_px[rr]
         return float(median(d))
 
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:

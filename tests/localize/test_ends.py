@@ -140,6 +140,32 @@ def test_a_flat_end_touched_by_another_branch_in_the_right_view_has_another_outl
         assert EndPlacer._end_outline_agrees(placer, uv_edge, out, float(400.5 - e_r), r) is ok
 
 
+def test_a_tip_touched_on_one_side_takes_its_disparity_from_the_other_edge():
+    # a vertical branch (radius 9 px) whose round cap is touched on its right side by something
+    # 3 px nearer in disparity: the rows across the cap are merged with it on that side, the
+    # middles of the merged runs are 1.5 px off, the left edges are the branch's own
+    calib = ideal_rig()
+    d = calib.f_px * calib.baseline_mm / 900.0
+    w, h = calib.image_size
+    ss, r = 4, 9.0
+    views = []
+    for shift, bar_shift in ((0.0, 0.0), (d, d + 3.0)):
+        big = np.full((h * ss, w * ss), 40, np.uint8)
+
+        def px(p, dx):
+            return round((p[0] - dx + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
+        cv2.line(big, px((300.0, 440.0), shift), px((300.0, 100.0), shift), 200, int(2 * r * ss))
+        cv2.rectangle(big, px((300.0 + r - 1.0, 93.0), bar_shift), px((300.0 + r + 9.0, 130.0), bar_shift), 200, -1)
+        g = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA)
+        views += [cv2.cvtColor(g, cv2.COLOR_GRAY2BGR), ((g.astype(int) - 40) > 80).astype(np.uint8) * 255]
+    left, ml, right, mr = views
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, (300.0, 100.0))) <= 1.5
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
+
+
 def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally
     # only when the final round finds no place: the result must be that of placing every one first

@@ -211,9 +211,16 @@ class EndPlacer:
                 self._deferred.discard(node)
                 self.fork(node)                   # the provisional place stands
             return
+        agree = False
+        if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
+            # a flat parent's disparity (from its texture) may be a px or two off; the child's
+            # outline leaving it in the right view tells the fork's own (along the rows)
+            d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
+            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0:
+                d, agree = d_out, True
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        agree = child_ok and _agree(at(child), d)
+        agree = agree or child_ok and _agree(at(child), d)
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
         if parents and not agree:         # the child's own crossings next to the parent
@@ -270,6 +277,20 @@ class EndPlacer:
         xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
         return xy_r is not None and np.hypot(*(xy_r - r1)) <= max(1.0, 0.006 * d1)
+
+    def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
+        """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the
+        rows) from the child's outline in the right view: the fork found there on the parent's
+        axis (the left one moved by ``d``, along the rows) lies on the same row, moved by the
+        fork's own disparity. None when unclear or not on the row (1 px)."""
+        if abs(e1[0]) < 0.9:
+            return None
+        r1 = xy - np.array([d, 0.0])
+        xy_r = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
+                                             self.sm.right_mask)
+        if xy_r is None or abs(xy_r[1] - xy[1]) > 1.0:
+            return None
+        return float(xy[0] - xy_r[0])
 
     def _child_crossing(self, base, e, s_c: float, r_child: float, sin_t: float, mask: np.ndarray) -> float | None:
         """Middle (parameter s along the line ``base + s e``) of the ``mask`` interval at or

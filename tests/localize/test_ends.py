@@ -166,6 +166,37 @@ def test_a_tip_touched_on_one_side_takes_its_disparity_from_the_other_edge():
     assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
 
 
+def test_a_fork_on_a_flat_parent_takes_its_disparity_from_the_child_outline_in_the_right_view():
+    # a horizontal parent (radius 10 px) with a child (6 px) leaving it at 60 deg, disparity
+    # 120 px: from a parent's disparity 2 or 2.5 px off (a flat piece's texture), the child's
+    # outline in the right view gives the fork's own
+    from types import SimpleNamespace
+
+    from appliance.localize.ends import EndPlacer
+
+    w, h, ss, d = 640, 480, 4, 120.0
+    fork, a = np.array([400.0, 300.0]), np.radians(60.0)
+    e2 = np.array([np.cos(a), -np.sin(a)])
+    masks = []
+    for shift in (0.0, d):
+        big = np.zeros((h * ss, w * ss), np.uint8)
+
+        def px(p, shift=shift):
+            return round((p[0] - shift + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
+        cv2.line(big, px((150.0, 300.0)), px((600.0, 300.0)), 255, 20 * ss)
+        cv2.line(big, px(fork), px(fork + 150.0 * e2), 255, 12 * ss)
+        masks.append(cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA))
+    placer = SimpleNamespace(sm=SimpleNamespace(left_mask=masks[0], right_mask=masks[1]),
+                             _child_crossings=EndPlacer._child_crossings)
+    placer._fork_from_child_outline = lambda *a, **k: EndPlacer._fork_from_child_outline(placer, *a, **k)
+    along, c2 = np.array([1.0, 0.0]), fork + 40.0 * e2
+    xy = EndPlacer._fork_from_child_outline(placer, np.array([300.0, 300.0]), along, c2, e2, fork, 10.0, 6.0)
+    assert xy is not None and np.hypot(*(xy - fork)) <= 0.5
+    for prior in (d + 2.0, d - 2.5):
+        d_fork = EndPlacer._flat_fork_disparity(placer, xy, along, c2, e2, prior, 10.0, 6.0)
+        assert d_fork is not None and abs(d_fork - d) <= 0.3
+
+
 def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally
     # only when the final round finds no place: the result must be that of placing every one first

@@ -527,6 +527,7 @@ class EndPlacer:
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
         self.radius[node] = c.radius_px
+        cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
             # its row run is found in the right view too; it takes the mean of the two when they
@@ -538,6 +539,10 @@ class EndPlacer:
             if abs(d_end - self.uvd[node][2]) <= 2.0:
                 self.uvd[node][2] = 0.5 * (d_end + self.uvd[node][2])
             elif self._end_outline_agrees(uv_edge, out, d_end, r):
+                # an occluder's edge lies in front of the branch it cuts: an end further away
+                # than the texture says is the cap's own (the texture's is off, and so is the
+                # end shift below, measured with it)
+                cap_behind = d_end < self.uvd[node][2]
                 self.uvd[node][2] = d_end
             # else the right run's end is not the cap's (something touches it there): the texture's stands
         if not self._seen_right(self.uvd[node], r):
@@ -546,7 +551,7 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
+        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
             return

@@ -83,7 +83,10 @@ class FakeDriver(DriverBase):
         lap = self._lap()
         first = next(lap, None)
         if self._lap == self._folder and cfg.fake_loop:
-            for _ in lap:           # decode the whole looping folder now: the first lap is then on time
+            try:                    # decode the whole looping folder now: the first lap is then on time
+                for _ in lap:
+                    pass
+            except DeviceLost:      # an unreadable image: the camera is lost when the lap reaches it
                 pass
         lap.close()
         if first is None:

@@ -319,8 +319,10 @@ class EndPlacer:
     @staticmethod
     def _bilinear(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """``img`` (H, W) uint8 at points ``uv`` (N, 2) (x, y), bilinear (1/32 px); 0 outside."""
-        m = uv.astype(np.float32).reshape(1, -1, 2)
-        return cv2.remap(img, m, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0]
+        m = uv.astype(np.float32)
+        return np.concatenate([            # (OpenCV maps up to 32767 wide)
+            cv2.remap(img, m[i:i + 16384].reshape(1, -1, 2), None, cv2.INTER_LINEAR,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0] for i in range(0, max(len(m), 1), 16384)])
 
     @staticmethod
     def _interval_middle(s: np.ndarray, val: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:

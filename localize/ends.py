@@ -122,7 +122,8 @@ class EndPlacer:
         The parent is the pair of pieces that continue each other (most opposite directions;
         the clearly thinnest piece is never a parent). The fork is reported only if the
         child's own disparity there agrees with the parent's: otherwise the pieces merely
-        cross in the image (at different depths). Until ``final`` a fork waits for a fitted
+        cross in the image (at different depths), and only if the child's outline leaving the
+        parent is clear in the left view. Until ``final`` a fork waits for a fitted
         parent. A provisional (not ``final``) place that is not ``needed`` before the final
         round (no piece of the node gains a curve in between) is placed only if the final
         round finds no place, keeping it as placing it first would.
@@ -227,7 +228,9 @@ class EndPlacer:
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
-        if not parents or not agree:
+        if not parents or not agree or outline is None:
+            # (without the child's outline the fork's place is only the slide back along the
+            # parent, mostly 10-100 px off: withheld)
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))

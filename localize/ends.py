@@ -511,14 +511,6 @@ class EndPlacer:
         speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
         out = step / speed
         r = max(c.radius_px, 1.0)
-        if self.cfg.oblique_end_ratio > 0:
-            # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
-            # usually cuts the branch obliquely: such an end is hidden, not a tip
-            t_a, _ = self._walk_out(c, node, 0.7 * r)
-            t_b, _ = self._walk_out(c, node, -0.7 * r)
-            if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
-                self.hidden.add(int(node))
-                return
         beyond = np.rint(uv_edge + 2.5 * out).astype(int)
         h, w = self.sm.left_mask.shape
         if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (
@@ -564,6 +556,16 @@ class EndPlacer:
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
             if d_cap is not None:
                 self.uvd[node][2] = d_cap
+        if self.cfg.oblique_end_ratio > 0:
+            # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
+            # usually cuts the branch obliquely (in both views alike when the leaf sits on the
+            # branch): such an end is hidden, not a tip. The sides are 0.4 radius off the axis
+            # (further out, a tapering tip or a radius a little too large ends a side early)
+            t_a, _ = self._walk_out(c, node, 0.4 * r)
+            t_b, _ = self._walk_out(c, node, -0.4 * r)
+            if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
+                self.hidden.add(int(node))
+                return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],

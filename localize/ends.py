@@ -634,7 +634,7 @@ class EndPlacer:
         d = [c_l[q] - runs_r.centre_px[rr]]
         # a row merged on one side with something touching the branch: the other edge's disparity
         for side, lo_side in ((~sym & (w_lo < w_hi), True), (~sym & (w_lo >= w_hi), False)):
-            if side.any():
+            if side.any() and len(runs_r.row):
                 e_l = lo_l[side] if lo_side else hi_l[side]
                 ir = runs_r.find(rows[side], e_l - d_prior + (1.5 if lo_side else -1.5))
                 e_r = np.where(ir >= 0, runs_r.left_px[ir] if lo_side else runs_r.right_px[ir], np.nan)

@@ -254,8 +254,8 @@ class _Loop:
         for future in [pool.submit(time.sleep, 0.2) for _ in range(self.opts.workers)]:
             future.result()                             # one task per process: all of them started
         w, h = self.calib.image_size
-        # at most `workers` pairs in flight (_localize_all): one slot more is never being read
-        self.shared = SharedFrames(self.opts.workers + 1, (h, w, 3))
+        # at most `workers` + 1 pairs in flight (_localize_all): one slot more is never being read
+        self.shared = SharedFrames(self.opts.workers + 2, (h, w, 3))
         return pool
 
     def _stop_pool(self) -> None:
@@ -361,7 +361,9 @@ class _Loop:
             frame, received_ns = item
             pair = self.shared.put(frame.left, frame.right) or (frame.left, frame.right)
             pending.append((frame, received_ns, self.pool.submit(_localize_in_worker, pair, frame.stamp_ns)))
-            while pending and (len(pending) >= self.opts.workers or pending[0][2].done()):
+            # one pair more than workers may wait in the pool: a pair that takes a worker longer
+            # (the machine is busy) then delays the next instead of dropping it
+            while pending and (len(pending) > self.opts.workers or pending[0][2].done()):
                 frame, received_ns, future = pending.popleft()
                 self._emit(frame, received_ns, future.result())
         for frame, received_ns, future in pending:

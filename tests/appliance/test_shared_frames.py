@@ -3,22 +3,16 @@
 from __future__ import annotations
 
 import multiprocessing
+import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from appliance.shared_frames import SharedFrames, attach, pair_view
+from appliance.shared_frames import SharedFrames
 
-_OPEN: dict = {}
-
-
-def _sums(ref):
-    """In a worker: the two images' sums, read in place."""
-    if ref.name not in _OPEN:
-        _OPEN[ref.name] = attach(ref.name)
-    pair = pair_view(_OPEN[ref.name].buf, ref.slot, ref.shape)
-    return ref.slot, int(pair[0].sum()), int(pair[1].sum())
+sys.path.insert(0, str(Path(__file__).parent))   # shm_worker.py, importable in spawned workers too
+from shm_worker import sums  # noqa: E402
 
 
 def test_workers_read_each_pair_in_its_slot_and_the_block_is_freed():
@@ -30,7 +24,7 @@ def test_workers_read_each_pair_in_its_slot_and_the_block_is_freed():
         pending = []
         for _ in range(7):
             left, right = (rng.integers(0, 256, shape, dtype=np.uint8) for _ in range(2))
-            pending.append((pool.submit(_sums, frames.put(left, right)), int(left.sum()), int(right.sum())))
+            pending.append((pool.submit(sums, frames.put(left, right)), int(left.sum()), int(right.sum())))
             if len(pending) == 2:                      # at most two in flight, as the run loop
                 future, *want = pending.pop(0)
                 assert list(future.result()[1:]) == want

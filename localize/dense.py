@@ -131,6 +131,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     right run) marks right crossings that belong to another piece. A curve's ``right_runs`` are the
     right crossings it used.
     """
+    segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
     alive = np.bincount(g, minlength=len(segs)) >= 4
     if not alive.any():
@@ -234,7 +235,156 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         s = int(segs[k])
         curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
                                 len(tk), end_slopes(tk, dk), used)
+    if taken is None:
+        curves.update(_carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
     return curves
+
+
+def edge_to_axis(u_px: np.ndarray, d_px: np.ndarray, half_px: np.ndarray, side: float, f_px: float,
+                 cx_px: float, offset_px: float = 0.0) -> np.ndarray:
+    """Disparity (N,) of a branch's axis from the disparity ``d_px`` of one of its silhouette edges.
+
+    Each camera sees a cylinder's outline where its own lines of sight graze it, not at the same
+    surface points: along a row (a circle of half-width ``half_px`` around the centre column
+    ``u_px``, in the row's epipolar plane) the left (``side`` -1) or right (+1) edge's disparity
+    differs from the axis' by up to ~0.5 px for thick branches, with opposite signs on the two
+    sides. ``cx_px``: left principal point column; ``offset_px``: ``cx_left - cx_right``.
+    Everything in units of the axis' depth, so no baseline is needed.
+    """
+    x = (np.asarray(u_px, float) - cx_px) / f_px
+    rho_l = np.sqrt(1 + x * x)
+    r = np.asarray(half_px, float) / (f_px * rho_l)          # radius / depth
+    d = np.asarray(d_px, float) - offset_px
+    beta = d / f_px                                          # baseline / depth (first guess: the edge's)
+    for _ in range(2):
+        xr = x - beta
+        rho_r = np.sqrt(1 + xr * xr)
+        e_l = np.tan(np.arctan(x) + side * np.arcsin(np.minimum(r / rho_l, 0.99)))
+        e_r = np.tan(np.arctan(xr) + side * np.arcsin(np.minimum(r / rho_r, 0.99)))
+        beta = beta - (f_px * (e_l - e_r) - d) / f_px       # edge disparity (model) - measured
+    return beta * f_px + offset_px
+
+
+def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """A matched steep curve's centre column and disparity carried over rows (N,) beyond its span: the
+    straight lines fitted to its last ``reach_px`` of rows on that side; None if the rows overlap its span
+    or lie further than ``reach_px`` from it."""
+    lo, hi = c.t_range
+    if rows.max() < lo:
+        end, t = lo, np.linspace(lo, min(hi, lo + reach_px), 8)
+    elif rows.min() > hi:
+        end, t = hi, np.linspace(max(lo, hi - reach_px), hi, 8)
+    else:
+        return None
+    if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
+        return None
+    y = np.stack([c.s_at(t), c.d_at(t)])                  # (2, 8) centre column, disparity
+    y0 = y.mean(1)
+    if t[-1] - t[0] < 5:
+        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1])
+    dt = t - t.mean()
+    slope = (y @ dt) / float(dt @ dt)                      # least-squares lines
+    out = y0[:, None] + slope[:, None] * (rows - t.mean())
+    return out[0], out[1]
+
+
+def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs,
+                sm: StereoMasks, reach_px: float = 120.0) -> dict[int, BranchCurve]:
+    """Steep pieces that found no whole crossings (cut by occluders on one side, at other depths in
+    each view), matched by single edges against the branch they continue.
+
+    A matched steep curve whose straight continuation (:func:`_donor_model`) runs along the dead
+    piece's skeleton (within its radius + 2 px) gives each row the branch's centre, width and
+    disparity; the left crossing's edge where that outline lies (1.5 px) and the right crossing's
+    same-side edge at that disparity (2 px, then 0.75 px of the piece's own line) are a sample.
+    A piece keeps a curve when at least 4 rows and 40 % of its rows give samples.
+    """
+    out = {}
+    cx = 0.5 * (sm.left_mask.shape[1] - 1)
+    donors = [c for c in curves.values() if c.by_row]
+    if not donors:
+        return out
+    spans = np.array([c.t_range for c in donors])
+    for s in dead:
+        yx = graph.seg_yx[s]
+        if len(yx) < 2 or (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24 or \
+                (graph.node_kind[[n for n in graph.seg_nodes[s] if n >= 0]] == ENDPOINT).any():
+            continue
+        rows, xc = _centre_guess(graph.to_full(yx), 1, graph.scale)
+        if len(rows) < 24:
+            continue
+        r0, r1 = float(rows[0]), float(rows[-1])
+        gap = np.maximum(spans[:, 0] - r1, r0 - spans[:, 1])      # rows between the piece and each donor
+        best = None
+        for k in np.flatnonzero((gap > 0) & (gap <= reach_px)).tolist():
+            c = donors[k]
+            near = 0 if spans[k, 0] > r1 else -1                    # the piece's row nearest the donor
+            if abs(c.s_at(rows[near:][:1])[0] - xc[near]) > c.radius_px + 10:
+                continue
+            m = _donor_model(c, rows, reach_px)
+            if m is None:
+                continue
+            err = float(np.median(np.abs(m[0] - xc)))
+            if err <= 0.5 * c.radius_px + 2 and (best is None or err < best[0]):
+                best = (err, c, m)
+        if best is None:
+            continue
+        _, c, (u, d) = best
+        ri = rows.astype(int)
+        il = runs_l.find(ri, u)
+        il = np.where(il >= 0, il, runs_l.find(ri, xc))
+        ok = il >= 0
+        if ok.sum() < 4:
+            continue
+        ri, t, u, d, il = ri[ok], rows[ok], u[ok], d[ok], il[ok]
+        du = float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)     # the donor's line: a constant slope
+        half = np.full(len(t), c.radius_px * np.sqrt(1 + du * du))
+        tol = max(3.0, 0.25 * c.radius_px)
+        need = max(4, 0.4 * len(rows))
+        edges, ok_side, irs = [], [], []
+        for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px),
+                                     (1.0, runs_l.right_px, runs_r.right_px)):
+            e_l = edge_l[il]
+            ir = runs_r.find(ri, e_l - d - side * 1.0)
+            good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
+            d_ax = np.full(len(t), np.nan)
+            if good.any():
+                d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
+                                          sm.offset_px)
+            good &= np.abs(d_ax - d) <= 2.0
+            edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
+        if (ok_side[0] | ok_side[1]).sum() < need:
+            continue
+        both = ok_side[0] & ok_side[1]
+        if both.sum() >= 3:                     # the width where both edges show, else the donor's
+            half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
+        ts, ds, cs, rs = [], [], [], []
+        for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
+            ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
+            cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
+        ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
+        if len(np.unique(ts)) < max(4, 0.4 * len(rows)):
+            continue
+        d_line, inl = robust_fit(ts, ds, 1)
+        inl &= np.abs(ds - d_line(ts)) <= 0.75
+        if len(np.unique(ts[inl])) < max(4, 0.4 * len(rows)):
+            continue
+        tk, dk = ts[inl], ds[inl]
+        span = float(tk.max() - tk.min())
+        degree = min(degree_for(len(tk), span), 2)
+        u_poly, _ = robust_fit(tk, cs[inl], degree)
+        if span < 60:                       # short: the donor's slope, the piece's own offset
+            slope = float((d[-1] - d[0]) / (t[-1] - t[0])) if t[-1] > t[0] else 0.0
+            off, inl_d = robust_fit(tk, dk - slope * tk, 0)
+            d_poly = Poly(np.array([slope, float(off(tk[:1])[0])]))
+            slopes = (slope, slope)
+        else:
+            d_poly, inl_d = robust_fit(tk, dk, degree)
+            slopes = end_slopes(tk[inl_d], dk[inl_d])
+        tk = tk[inl_d]
+        out[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_poly, d_poly, c.radius_px, len(tk),
+                             slopes, np.unique(rs[inl][inl_d]))
+    return out
 
 
 def _edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
@@ -333,6 +483,79 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
         on = inl[best[m], starts[m]:starts[m] + hi[m] - lo[m]]
         polys[k] = Poly.fit(tk[on], dk[on], 1)
     return GroupPolys.of(polys)
+
+
+def _column_runs(mask: np.ndarray, cols: np.ndarray, rows: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
+    """Centre row and height (K,) of the run of a soft mask's column ``cols`` (K,) int containing row ``rows``
+    (K,) int, its ends where the coverage crosses 127.5 (as :func:`edges.find_runs`); NaN where that pixel is
+    not on the mask, or the run reaches ``reach`` px from it or the image's border."""
+    h, w = mask.shape
+    k = len(cols)
+    nan = np.full(k, np.nan)
+    if k == 0:
+        return nan, nan.copy()
+    rr = rows[:, None] + np.arange(-reach, reach + 1)
+    inside_img = (rr >= 0) & (rr < h) & ((cols >= 0) & (cols < w))[:, None]
+    win = np.zeros(rr.shape, np.float32)
+    win[inside_img] = mask[rr[inside_img], np.broadcast_to(cols[:, None], rr.shape)[inside_img]]
+    win[~inside_img] = 255.0                               # the border: no edge there (invalid below)
+    inside = win >= 127.5
+    c = reach
+    up = np.argmax(~inside[:, c::-1], axis=1)              # steps up to the first outside pixel
+    dn = np.argmax(~inside[:, c:], axis=1)
+    ok = inside[:, c] & (up > 0) & (dn > 0) & inside_img.all(1)
+    i = np.arange(k)
+    o_up, o_dn = c - up, c + dn
+
+    def cross(o, step):                                     # outside pixel o, inside pixel o + step
+        a, b = win[i, o], win[i, np.clip(o + step, 0, 2 * reach)]
+        return o + np.clip((127.5 - a) / np.maximum(b - a, 1.0), 0.0, 1.0) * step
+
+    top, bot = cross(o_up, 1), cross(o_dn, -1)
+    centre = np.where(ok, rows + 0.5 * (top + bot) - c, np.nan)
+    return centre, np.where(ok, bot - top, np.nan)
+
+
+def _outline_disparity(t: np.ndarray, vc: np.ndarray, hgt: np.ndarray, slope: np.ndarray, right_mask: np.ndarray,
+                       d0: float, d_range: tuple[float, float], min_slope: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
+    """Axis disparities of a flat piece's columns from its centre line's offset in the right view.
+
+    Rectified rows are epipolar lines, so the right view's centre line is the left one moved by
+    the disparity along the rows: where the piece is not level (slope ``dv/du`` of at least
+    ``min_slope``), the right centre line at column ``u - d`` lies ``slope * (d_true - d)`` rows
+    from the left one's at ``u``. Starting at ``d0``, a few such steps; columns whose right run
+    is not as high as the left one (occluded, merged) are left out.
+
+    Parameters: left columns ``t`` (N,), centre rows ``vc`` (N,), heights ``hgt`` (N,) px,
+    ``slope`` (N,). Returns columns and their disparities (M,) (empty when too few columns agree).
+    """
+    use = np.abs(slope) >= min_slope
+    reach = int(np.ceil(np.nanmax(hgt) if len(hgt) else 1)) + 2
+    d = float(d0)
+    empty = (np.zeros(0), np.zeros(0))
+    for _ in range(4):
+        ur = t - d
+        c0 = np.floor(ur)
+        f = ur - c0
+        rows = np.rint(vc).astype(int)
+        cen0, h0 = _column_runs(right_mask, c0.astype(int), rows, reach)
+        cen1, h1 = _column_runs(right_mask, c0.astype(int) + 1, rows, reach)
+        vr, hr = (1 - f) * cen0 + f * cen1, (1 - f) * h0 + f * h1
+        ok = use & np.isfinite(vr) & (np.abs(hr - hgt) <= 0.15 * hgt + 1.5) & (np.abs(h1 - h0) <= 2.0)
+        if ok.sum() < max(4, 0.3 * len(t)):
+            return empty
+        dk = d + (vr - vc) / np.where(use, slope, 1.0)
+        d_new = float(median(dk[ok]))
+        if not (d_range[0] - 5 <= d_new <= d_range[1] + 5):
+            return empty
+        done = abs(d_new - d) < 0.02
+        d = d_new
+        if done:
+            break
+    good = ok & (np.abs(dk - d) <= 1.0)
+    if good.sum() < max(4, 0.3 * len(t)):
+        return empty
+    return t[good], dk[good]
 
 
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:

@@ -80,6 +80,36 @@ class Poly:
         return cls(_lstsq_poly(x, y, degree), t0, ts)
 
 
+@dataclass(frozen=True, eq=False)
+class Spliced:
+    """:class:`Poly` ``base`` on ``[lo, hi]``, continued by the polynomials ``below`` (t < lo) and
+    ``above`` (t > hi) where given (a piece carried on past an occluder keeps its own fit)."""
+
+    base: Poly
+    lo: float
+    hi: float
+    below: Poly | None = None
+    above: Poly | None = None
+
+    def __call__(self, t) -> np.ndarray:
+        t = np.asarray(t, float)
+        if t.shape == (1,):
+            return np.array([self.at(float(t[0]))])
+        out = np.asarray(self.base(t), float)
+        for part, sel in ((self.below, t < self.lo), (self.above, t > self.hi)):
+            if part is not None and sel.any():
+                out = np.where(sel, part(t), out)
+        return out
+
+    def at(self, t: float) -> float:
+        part = self.below if t < self.lo else self.above if t > self.hi else None
+        return (part or self.base).at(t)
+
+    def deriv(self) -> Spliced:
+        return Spliced(self.base.deriv(), self.lo, self.hi, self.below and self.below.deriv(),
+                       self.above and self.above.deriv())
+
+
 def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
     """Least-squares coefficients (highest power first) of a polynomial in ``x`` (scaled to
     [-1, 1], distinct values > ``degree``) by the normal equations: a (degree + 1)^2 system of

@@ -23,6 +23,7 @@ from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
     Poly,
+    Spliced,
     degree_for,
     end_slopes,
     median,
@@ -236,6 +237,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
                                 len(tk), end_slopes(tk, dk), used)
     if taken is None:
+        _grow(graph, curves, runs_l, runs_r, sm)
         curves.update(_carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
     return curves
 
@@ -265,10 +267,10 @@ def edge_to_axis(u_px: np.ndarray, d_px: np.ndarray, half_px: np.ndarray, side: 
     return beta * f_px + offset_px
 
 
-def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.ndarray, np.ndarray] | None:
+def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.ndarray, np.ndarray, float] | None:
     """A matched steep curve's centre column and disparity carried over rows (N,) beyond its span: the
-    straight lines fitted to its last ``reach_px`` of rows on that side; None if the rows overlap its span
-    or lie further than ``reach_px`` from it."""
+    straight lines fitted to its last ``reach_px`` of rows on that side, and that end's row. None if the
+    rows overlap its span or lie further than ``reach_px`` from it."""
     lo, hi = c.t_range
     if rows.max() < lo:
         end, t = lo, np.linspace(lo, min(hi, lo + reach_px), 8)
@@ -281,11 +283,149 @@ def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.
     y = np.stack([c.s_at(t), c.d_at(t)])                  # (2, 8) centre column, disparity
     y0 = y.mean(1)
     if t[-1] - t[0] < 5:
-        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1])
+        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1]), end
     dt = t - t.mean()
     slope = (y @ dt) / float(dt @ dt)                      # least-squares lines
     out = y0[:, None] + slope[:, None] * (rows - t.mean())
-    return out[0], out[1]
+    return out[0], out[1], end
+
+
+def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> float:
+    """Half width along the rows of a steep curve at its ``end`` (it tapers): the median of the left
+    crossings of its last ``n_rows`` rows that lie within half of what its radius gives (not merged,
+    not cut short); else the radius'."""
+    lo, hi = c.t_range
+    t = np.arange(end, min(hi, end + n_rows) + 1.0) if end == lo else np.arange(max(lo, end - n_rows), end + 1.0)
+    u = c.s_at(t)
+    i = runs_l.find(t.astype(int), u)
+    w = np.where(i >= 0, runs_l.span_px[np.maximum(i, 0)], np.nan)
+    ref = 2 * c.radius_px * np.sqrt(1 + (float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)) ** 2)
+    ok = np.abs(w - ref) <= 0.5 * ref
+    return 0.5 * (float(median(w[ok])) if ok.sum() >= 5 else ref)
+
+
+def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, half: np.ndarray, runs_l: Runs,
+                runs_r: Runs, sm: StereoMasks, need: float):
+    """Samples of a branch along rows (N,) whose centre column ``u`` and disparity ``d`` (N,) are carried
+    over from a matched piece, with its half width along the rows ``half`` (N,) (the skeleton's centre
+    ``xc`` (N,) finds the left crossing where ``u`` falls off the mask).
+
+    The left crossing's edge where the branch's outline lies (``max(3, half / 4)`` px) and the right
+    crossing's same-side edge at that disparity (2 px, moved onto the axis by :func:`edge_to_axis`) are a
+    sample; its centre is the middle of the row's two edges where both are, else the edge less the half
+    width (rescaled to the rows where both show). Returns rows, disparities, centres and right runs, or None
+    when fewer than ``need`` rows give samples (or fewer than ``need`` stay within 0.75 px of a line).
+    """
+    cx = 0.5 * (sm.left_mask.shape[1] - 1)
+    ri = rows.astype(int)
+    il = runs_l.find(ri, u)
+    il = np.where(il >= 0, il, runs_l.find(ri, xc))
+    ok = il >= 0
+    if ok.sum() < need:
+        return None
+    ri, t, u, d, il, half = ri[ok], rows[ok], u[ok], d[ok], il[ok], half[ok]
+    tol = max(3.0, 0.25 * float(half.mean()))
+    edges, ok_side, irs = [], [], []
+    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
+        e_l = edge_l[il]
+        ir = runs_r.find(ri, e_l - d - side * 1.0)
+        good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
+        d_ax = np.full(len(t), np.nan)
+        if good.any():
+            d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
+                                      sm.offset_px)
+        good &= np.abs(d_ax - d) <= 2.0
+        edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
+    if (ok_side[0] | ok_side[1]).sum() < need:
+        return None
+    both = ok_side[0] & ok_side[1]
+    if both.sum() >= 3:                     # the width where both edges show, else the piece's
+        half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
+    ts, ds, cs, rs = [], [], [], []
+    for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
+        ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
+        cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
+    ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
+    d_line, inl = robust_fit(ts, ds, 1)
+    inl &= np.abs(ds - d_line(ts)) <= 0.75
+    if len(np.unique(ts[inl])) < need:
+        return None
+    return ts[inl], ds[inl], cs[inl], rs[inl]
+
+
+def _grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+          step_px: int = 40, reach_px: float = 120.0) -> None:
+    """Matched steep curves carried on along their own skeleton rows beyond their fitted span, where
+    an occluder cuts the branch on one side (no whole crossings there): window by window of
+    ``step_px`` rows, each from the straight continuation of the curve so far (:func:`_donor_model`,
+    :func:`_edge_track`), while the skeleton stays within half a radius + 2 px of it and 40 % of a
+    window's rows give samples. The curve is then refitted to itself (one sample per row of its
+    span) and the new samples. Rows near a junction are left out, as in the first fit."""
+    segs = sorted(s for s, c in curves.items() if c.by_row)
+    rows_all, xc_all, g_all = _row_centres(graph, segs, sm.radius_map)
+    bounds = np.searchsorted(g_all, np.arange(len(segs) + 1))
+    for k, s in enumerate(segs):
+        c = curves[s]
+        rows, xc = rows_all[bounds[k]:bounds[k + 1]], xc_all[bounds[k]:bounds[k + 1]]
+        lo, hi = c.t_range
+        if not ((rows > hi + 1).sum() >= 8 or (rows < lo - 1).sum() >= 8):
+            continue
+        new = []
+        cur = c
+        ends = [(float(graph.to_full(graph.node_yx[n])[0, 1]), int(graph.node_kind[n])) for n in graph.seg_nodes[s]
+                if n >= 0]
+        for sign in (1.0, -1.0):
+            if any(k in (ENDPOINT, JOINT) and sign * (v - 0.5 * (lo + hi)) > 0 for v, k in ends):
+                continue                    # towards a free end or a bridged gap (a tip, an occluder): left alone
+            beyond = rows > hi + 1 if sign > 0 else rows < lo - 1
+            r_s, x_s = rows[beyond], xc[beyond]
+            if sign < 0:
+                r_s, x_s = r_s[::-1], x_s[::-1]
+            for w0 in range(0, len(r_s), step_px):
+                wr, wx = r_s[w0:w0 + step_px], x_s[w0:w0 + step_px]
+                if len(wr) < 8:
+                    break
+                o = np.argsort(wr)
+                wr, wx = wr[o], wx[o]
+                m = _donor_model(cur, wr, reach_px)
+                if m is None or float(np.median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
+                    break
+                half = np.full(len(wr), _end_half(cur, m[2], runs_l))
+                track = _edge_track(wr, wx, m[0], m[1], half, runs_l, runs_r, sm, max(4, 0.4 * len(wr)))
+                if track is None:
+                    break
+                new.append(track)
+                cur = _refit(c, new)
+        if new:
+            curves[s] = cur
+
+
+def _refit(c: BranchCurve, new: list) -> BranchCurve:
+    """``c`` carried on by the samples ``new`` (a list of :func:`_edge_track` results) beyond its span: its
+    own polynomials inside the span, on each side a line (a quadratic past 60 rows) fitted to the new
+    samples and the curve's last 20 rows (:class:`curves.Spliced`)."""
+    lo, hi = c.t_range
+    tn, dn, cn, rn = (np.concatenate(a) for a in zip(*new))
+    s_base = c.s_poly.base if isinstance(c.s_poly, Spliced) else c.s_poly
+    d_base = c.d_poly.base if isinstance(c.d_poly, Spliced) else c.d_poly
+    parts = {}
+    slopes = list(c.d_end_slopes) if c.d_end_slopes is not None else [d_base.deriv().at(lo), d_base.deriv().at(hi)]
+    t_lo, t_hi = lo, hi
+    for k, sel, edge in ((0, tn < lo, lo), (1, tn > hi, hi)):
+        if not sel.any():
+            continue
+        tb = np.arange(max(lo, edge - 20), edge + 1.0) if k else np.arange(edge, min(hi, edge + 20) + 1.0)
+        t = np.r_[tb, tn[sel]]
+        u, d = np.r_[c.s_at(tb), cn[sel]], np.r_[c.d_at(tb), dn[sel]]
+        degree = 1 if float(np.ptp(tn[sel])) < 60 else 2
+        parts[k] = (Poly.fit(t, u, degree), Poly.fit(t, d, degree))
+        slopes[k] = end_slopes(t, d)[k]
+        t_lo, t_hi = (float(tn[sel].min()), t_hi) if k == 0 else (t_lo, float(tn[sel].max()))
+    below, above = parts.get(0, (None, None)), parts.get(1, (None, None))
+    used = rn if c.right_runs is None else np.union1d(c.right_runs, rn)
+    return BranchCurve(c.segment, True, (t_lo, t_hi), Spliced(s_base, lo, hi, below[0], above[0]),
+                       Spliced(d_base, lo, hi, below[1], above[1]), c.radius_px, c.n_samples + len(tn),
+                       tuple(slopes), used)
 
 
 def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs,
@@ -294,13 +434,11 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
     each view), matched by single edges against the branch they continue.
 
     A matched steep curve whose straight continuation (:func:`_donor_model`) runs along the dead
-    piece's skeleton (within its radius + 2 px) gives each row the branch's centre, width and
-    disparity; the left crossing's edge where that outline lies (1.5 px) and the right crossing's
-    same-side edge at that disparity (2 px, then 0.75 px of the piece's own line) are a sample.
-    A piece keeps a curve when at least 4 rows and 40 % of its rows give samples.
+    piece's skeleton (within half its radius + 2 px) gives each row the branch's centre, width and
+    disparity for :func:`_edge_track`. A piece keeps a curve when at least 4 rows and 40 % of its
+    rows give samples; a piece with a free end (a tip or an occluder's edge) is left alone.
     """
     out = {}
-    cx = 0.5 * (sm.left_mask.shape[1] - 1)
     donors = [c for c in curves.values() if c.by_row]
     if not donors:
         return out
@@ -329,52 +467,17 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
                 best = (err, c, m)
         if best is None:
             continue
-        _, c, (u, d) = best
-        ri = rows.astype(int)
-        il = runs_l.find(ri, u)
-        il = np.where(il >= 0, il, runs_l.find(ri, xc))
-        ok = il >= 0
-        if ok.sum() < 4:
+        _, c, (u, d, end) = best
+        half = np.full(len(rows), _end_half(c, end, runs_l))
+        track = _edge_track(rows, xc, u, d, half, runs_l, runs_r, sm, max(4, 0.4 * len(rows)))
+        if track is None:
             continue
-        ri, t, u, d, il = ri[ok], rows[ok], u[ok], d[ok], il[ok]
-        du = float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)     # the donor's line: a constant slope
-        half = np.full(len(t), c.radius_px * np.sqrt(1 + du * du))
-        tol = max(3.0, 0.25 * c.radius_px)
-        need = max(4, 0.4 * len(rows))
-        edges, ok_side, irs = [], [], []
-        for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px),
-                                     (1.0, runs_l.right_px, runs_r.right_px)):
-            e_l = edge_l[il]
-            ir = runs_r.find(ri, e_l - d - side * 1.0)
-            good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
-            d_ax = np.full(len(t), np.nan)
-            if good.any():
-                d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
-                                          sm.offset_px)
-            good &= np.abs(d_ax - d) <= 2.0
-            edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
-        if (ok_side[0] | ok_side[1]).sum() < need:
-            continue
-        both = ok_side[0] & ok_side[1]
-        if both.sum() >= 3:                     # the width where both edges show, else the donor's
-            half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
-        ts, ds, cs, rs = [], [], [], []
-        for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
-            ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
-            cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
-        ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
-        if len(np.unique(ts)) < max(4, 0.4 * len(rows)):
-            continue
-        d_line, inl = robust_fit(ts, ds, 1)
-        inl &= np.abs(ds - d_line(ts)) <= 0.75
-        if len(np.unique(ts[inl])) < max(4, 0.4 * len(rows)):
-            continue
-        tk, dk = ts[inl], ds[inl]
+        tk, dk, ck, rk = track
         span = float(tk.max() - tk.min())
         degree = min(degree_for(len(tk), span), 2)
-        u_poly, _ = robust_fit(tk, cs[inl], degree)
+        u_poly, _ = robust_fit(tk, ck, degree)
         if span < 60:                       # short: the donor's slope, the piece's own offset
-            slope = float((d[-1] - d[0]) / (t[-1] - t[0])) if t[-1] > t[0] else 0.0
+            slope = float((d[-1] - d[0]) / (rows[-1] - rows[0])) if rows[-1] > rows[0] else 0.0
             off, inl_d = robust_fit(tk, dk - slope * tk, 0)
             d_poly = Poly(np.array([slope, float(off(tk[:1])[0])]))
             slopes = (slope, slope)
@@ -383,7 +486,7 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
             slopes = end_slopes(tk[inl_d], dk[inl_d])
         tk = tk[inl_d]
         out[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_poly, d_poly, c.radius_px, len(tk),
-                             slopes, np.unique(rs[inl][inl_d]))
+                             slopes, np.unique(rk[inl_d]))
     return out
 
 
@@ -483,79 +586,6 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
         on = inl[best[m], starts[m]:starts[m] + hi[m] - lo[m]]
         polys[k] = Poly.fit(tk[on], dk[on], 1)
     return GroupPolys.of(polys)
-
-
-def _column_runs(mask: np.ndarray, cols: np.ndarray, rows: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
-    """Centre row and height (K,) of the run of a soft mask's column ``cols`` (K,) int containing row ``rows``
-    (K,) int, its ends where the coverage crosses 127.5 (as :func:`edges.find_runs`); NaN where that pixel is
-    not on the mask, or the run reaches ``reach`` px from it or the image's border."""
-    h, w = mask.shape
-    k = len(cols)
-    nan = np.full(k, np.nan)
-    if k == 0:
-        return nan, nan.copy()
-    rr = rows[:, None] + np.arange(-reach, reach + 1)
-    inside_img = (rr >= 0) & (rr < h) & ((cols >= 0) & (cols < w))[:, None]
-    win = np.zeros(rr.shape, np.float32)
-    win[inside_img] = mask[rr[inside_img], np.broadcast_to(cols[:, None], rr.shape)[inside_img]]
-    win[~inside_img] = 255.0                               # the border: no edge there (invalid below)
-    inside = win >= 127.5
-    c = reach
-    up = np.argmax(~inside[:, c::-1], axis=1)              # steps up to the first outside pixel
-    dn = np.argmax(~inside[:, c:], axis=1)
-    ok = inside[:, c] & (up > 0) & (dn > 0) & inside_img.all(1)
-    i = np.arange(k)
-    o_up, o_dn = c - up, c + dn
-
-    def cross(o, step):                                     # outside pixel o, inside pixel o + step
-        a, b = win[i, o], win[i, np.clip(o + step, 0, 2 * reach)]
-        return o + np.clip((127.5 - a) / np.maximum(b - a, 1.0), 0.0, 1.0) * step
-
-    top, bot = cross(o_up, 1), cross(o_dn, -1)
-    centre = np.where(ok, rows + 0.5 * (top + bot) - c, np.nan)
-    return centre, np.where(ok, bot - top, np.nan)
-
-
-def _outline_disparity(t: np.ndarray, vc: np.ndarray, hgt: np.ndarray, slope: np.ndarray, right_mask: np.ndarray,
-                       d0: float, d_range: tuple[float, float], min_slope: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
-    """Axis disparities of a flat piece's columns from its centre line's offset in the right view.
-
-    Rectified rows are epipolar lines, so the right view's centre line is the left one moved by
-    the disparity along the rows: where the piece is not level (slope ``dv/du`` of at least
-    ``min_slope``), the right centre line at column ``u - d`` lies ``slope * (d_true - d)`` rows
-    from the left one's at ``u``. Starting at ``d0``, a few such steps; columns whose right run
-    is not as high as the left one (occluded, merged) are left out.
-
-    Parameters: left columns ``t`` (N,), centre rows ``vc`` (N,), heights ``hgt`` (N,) px,
-    ``slope`` (N,). Returns columns and their disparities (M,) (empty when too few columns agree).
-    """
-    use = np.abs(slope) >= min_slope
-    reach = int(np.ceil(np.nanmax(hgt) if len(hgt) else 1)) + 2
-    d = float(d0)
-    empty = (np.zeros(0), np.zeros(0))
-    for _ in range(4):
-        ur = t - d
-        c0 = np.floor(ur)
-        f = ur - c0
-        rows = np.rint(vc).astype(int)
-        cen0, h0 = _column_runs(right_mask, c0.astype(int), rows, reach)
-        cen1, h1 = _column_runs(right_mask, c0.astype(int) + 1, rows, reach)
-        vr, hr = (1 - f) * cen0 + f * cen1, (1 - f) * h0 + f * h1
-        ok = use & np.isfinite(vr) & (np.abs(hr - hgt) <= 0.15 * hgt + 1.5) & (np.abs(h1 - h0) <= 2.0)
-        if ok.sum() < max(4, 0.3 * len(t)):
-            return empty
-        dk = d + (vr - vc) / np.where(use, slope, 1.0)
-        d_new = float(median(dk[ok]))
-        if not (d_range[0] - 5 <= d_new <= d_range[1] + 5):
-            return empty
-        done = abs(d_new - d) < 0.02
-        d = d_new
-        if done:
-            break
-    good = ok & (np.abs(dk - d) <= 1.0)
-    if good.sum() < max(4, 0.3 * len(t)):
-        return empty
-    return t[good], dk[good]
 
 
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:

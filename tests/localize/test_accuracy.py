@@ -55,7 +55,7 @@ def test_improved_method_against_truth(improved):
     assert improved.depth_err_mm["median"] <= 1.3
     assert improved.depth_err_mm["p95"] <= 6.5
     assert improved.depth_err_px["median"] <= 0.25
-    assert improved.branch_coverage >= 0.75
+    assert improved.branch_coverage >= 0.80        # 0.84 with pieces carried on past occluders (dense.py)
     assert improved.branch_precision >= 0.8
     assert improved.radius_err_mm["median"] <= 1.0
 
@@ -78,5 +78,5 @@ def test_improved_with_the_colour_recogniser():
     assert s.recall >= 0.55
     assert s.precision >= 0.8
     assert s.depth_err_mm["median"] <= 3.0
-    assert s.branch_coverage >= 0.69
+    assert s.branch_coverage >= 0.72                # reached 0.77 with pieces carried on past occluders
     assert s.branch_precision >= 0.75

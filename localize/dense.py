@@ -134,6 +134,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     """
     segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
+    centres = (segs0, rows, xc, g)
     alive = np.bincount(g, minlength=len(segs)) >= 4
     if not alive.any():
         return {}
@@ -237,7 +238,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
                                 len(tk), end_slopes(tk, dk), used)
     if taken is None:
-        _grow(graph, curves, runs_l, runs_r, sm)
+        _grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(_carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
     return curves
 
@@ -354,18 +355,20 @@ def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, 
 
 
 def _grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
-          step_px: int = 40, reach_px: float = 120.0) -> None:
+          centres: tuple, step_px: int = 40, reach_px: float = 120.0) -> None:
     """Matched steep curves carried on along their own skeleton rows beyond their fitted span, where
     an occluder cuts the branch on one side (no whole crossings there): window by window of
     ``step_px`` rows, each from the straight continuation of the curve so far (:func:`_donor_model`,
     :func:`_edge_track`), while the skeleton stays within half a radius + 2 px of it and 40 % of a
     window's rows give samples. The curve is then refitted to itself (one sample per row of its
-    span) and the new samples. Rows near a junction are left out, as in the first fit."""
-    segs = sorted(s for s, c in curves.items() if c.by_row)
-    rows_all, xc_all, g_all = _row_centres(graph, segs, sm.radius_map)
+    span) and the new samples. Rows near a junction are left out, as in the first fit: ``centres`` holds
+    the pieces and :func:`_row_centres` of that fit."""
+    segs, rows_all, xc_all, g_all = centres
     bounds = np.searchsorted(g_all, np.arange(len(segs) + 1))
     for k, s in enumerate(segs):
-        c = curves[s]
+        c = curves.get(s)
+        if c is None or not c.by_row:
+            continue
         rows, xc = rows_all[bounds[k]:bounds[k + 1]], xc_all[bounds[k]:bounds[k + 1]]
         lo, hi = c.t_range
         if not ((rows > hi + 1).sum() >= 8 or (rows < lo - 1).sum() >= 8):
@@ -388,7 +391,7 @@ def _grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, ru
                 o = np.argsort(wr)
                 wr, wx = wr[o], wx[o]
                 m = _donor_model(cur, wr, reach_px)
-                if m is None or float(np.median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
+                if m is None or float(median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
                     break
                 half = np.full(len(wr), _end_half(cur, m[2], runs_l))
                 track = _edge_track(wr, wx, m[0], m[1], half, runs_l, runs_r, sm, max(4, 0.4 * len(wr)))
@@ -462,7 +465,7 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
             m = _donor_model(c, rows, reach_px)
             if m is None:
                 continue
-            err = float(np.median(np.abs(m[0] - xc)))
+            err = float(median(np.abs(m[0] - xc)))
             if err <= 0.5 * c.radius_px + 2 and (best is None or err < best[0]):
                 best = (err, c, m)
         if best is None:

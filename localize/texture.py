@@ -63,6 +63,16 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)
+    # a short search (<= 33 positions), patches of one height whose strips are whole: all at once (the
+    # same scores as matchTemplate's TM_CCOEFF_NORMED, in float64); the rest one by one
+    whole = inside & (uv[:, 0] - hi - hw >= 0) & (uv[:, 0] - lo + hw + 1 <= w)
+    if whole.sum() >= 2 and hi - lo <= 32:
+        hh0 = int(np.bincount(hhs[whole]).argmax())
+        batch = np.flatnonzero(whole & (hhs == hh0))
+        if len(batch) >= 2:
+            _batch_ncc(lbox, rbox, uv[batch], hh0, hw, lo, hi, (by0, lx0, rx0), batch, d_out, score)
+            inside = inside.copy()
+            inside[batch] = False
     for i in np.flatnonzero(inside).tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]
@@ -81,6 +91,40 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
         d_out[i] = uv[i, 0] - (xs + k + off + hw)      # numpy/Python scalar types as before (float32 or 64)
         score[i] = c[k]
     return d_out, score
+
+
+def _batch_ncc(lbox: np.ndarray, rbox: np.ndarray, uv: np.ndarray, hh: int, hw: int, lo: int, hi: int,
+               origin: tuple[int, int, int], idx: np.ndarray, d_out: np.ndarray, score: np.ndarray) -> None:
+    """:func:`surface_disparity`'s search for patches (N, 2) int of one half height ``hh`` whose
+    strips lie whole inside the image, vectorised; writes ``d_out[idx]`` and ``score[idx]``.
+    ``origin``: the boxes' first row and the left and right boxes' first columns."""
+    by0, lx0, rx0 = origin
+    n_h, n_w, n_pos = 2 * hh + 1, 2 * hw + 1, hi - lo + 1
+    r = (uv[:, 1] - hh - by0)[:, None, None] + np.arange(n_h)[None, :, None]
+    tmpl = lbox[r, (uv[:, 0] - hw - lx0)[:, None, None] + np.arange(n_w)].astype(np.float64)
+    strip = rbox[r, (uv[:, 0] - hi - hw - rx0)[:, None, None] + np.arange(n_pos + n_w - 1)].astype(np.float64)
+    tz = tmpl - tmpl.mean(axis=(1, 2), keepdims=True)
+    t_norm = np.sqrt(np.einsum("nhw,nhw->n", tz, tz))
+    flat = t_norm / np.sqrt(n_h * n_w) < 1.0                 # _flat(tmpl, 1.0): no texture
+    num = np.empty((len(uv), n_pos))
+    for k in range(n_pos):                                   # (a few positions: one product each)
+        num[:, k] = np.einsum("nhw,nhw->n", tz, strip[:, :, k:k + n_w])
+    c1 = np.concatenate([np.zeros((len(uv), 1)), np.cumsum(strip.sum(1), 1)], 1)
+    c2 = np.concatenate([np.zeros((len(uv), 1)), np.cumsum((strip * strip).sum(1), 1)], 1)
+    s1, s2 = c1[:, n_w:] - c1[:, :-n_w], c2[:, n_w:] - c2[:, :-n_w]
+    var = np.maximum(s2 - s1 * s1 / (n_h * n_w), 0.0)
+    den = t_norm[:, None] * np.sqrt(var)
+    c = np.where(den > 1e-9, num / np.where(den > 1e-9, den, 1.0), 0.0)
+    k = c.argmax(1)
+    rows = np.arange(len(uv))
+    km, kp = np.maximum(k - 1, 0), np.minimum(k + 1, n_pos - 1)
+    denom = c[rows, km] - 2 * c[rows, k] + c[rows, kp]
+    interior = (k > 0) & (k < n_pos - 1) & (denom < 0)
+    off = np.where(interior, 0.5 * (c[rows, km] - c[rows, kp]) / np.where(interior, denom, -1.0), 0.0)
+    d = uv[:, 0] - ((uv[:, 0] - hi - hw) + k + off + hw)
+    keep = ~flat
+    d_out[idx[keep]] = d[keep]
+    score[idx[keep]] = c[rows, k][keep]
 
 
 def surface_to_axis(d_px: np.ndarray, radius_px: float, f_px: float, offset_px: float = 0.0) -> np.ndarray:

@@ -77,3 +77,22 @@ def test_surface_to_axis_moves_back_by_one_radius():
     d = surface_to_axis(np.array([100.0]), radius_px=10.0, f_px=1000.0)
     assert d[0] == pytest.approx(100.0 / 1.01)
     assert surface_to_axis(np.array([50.0]), 0.0, 1000.0, offset_px=3.0)[0] == pytest.approx(50.0)
+
+
+def test_patches_searched_together_score_as_one_by_one():
+    # a short search over whole strips runs all patches at once: the same disparities and scores
+    # as matchTemplate patch by patch (one patch per call), a flat patch left out alike
+    left = textured(160, 500, seed=3)
+    left[100:130, 300:340] = 90                                  # no texture there
+    right = np.roll(left, -41, axis=1)
+    rng = np.random.default_rng(5)
+    uv = np.column_stack([rng.integers(60, 480, 25), rng.integers(20, 140, 25)]).astype(float)
+    uv[0] = (320, 115)
+    hh = np.full(len(uv), 6)
+    d, s = surface_disparity(left, right, uv, hh, (35, 47), half_w_px=12)
+    for i in range(len(uv)):
+        d1, s1 = surface_disparity(left, right, uv[i:i + 1], hh[i:i + 1], (35, 47), half_w_px=12)
+        assert np.isnan(d[i]) == np.isnan(d1[0])
+        if not np.isnan(d1[0]):
+            assert abs(d[i] - d1[0]) < 1e-3 and abs(s[i] - s1[0]) < 1e-4
+    assert np.isnan(d[0]) and np.nanmax(np.abs(d - 41)) < 0.05

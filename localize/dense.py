@@ -591,6 +591,26 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     return GroupPolys.of(polys)
 
 
+def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:
+    """Whether a flat piece's coarse texture disparities ``d`` at columns ``u`` (N,) agree: at least half
+    of them (and 2) within ``tol_px`` of one value, or, from 4 on, at least half (and 3) within
+    ``tol_line_px`` of a line through two of them (a piece's disparity changes along it). One agrees."""
+    n = len(d)
+    if n <= 1:
+        return True
+    need = max(2, -(-n // 2))
+    if int((np.abs(d[:, None] - d[None, :]) <= tol_px).sum(1).max()) >= need:
+        return True
+    if n < 4:
+        return False
+    i, j = np.triu_indices(n, 1)
+    du = u[j] - u[i]
+    ok = du != 0
+    slope = (d[j] - d[i])[ok] / du[ok]
+    fit = d[i][ok][:, None] + slope[:, None] * (u[None, :] - u[i][ok][:, None])
+    return bool(ok.any()) and int((np.abs(d[None, :] - fit) <= tol_line_px).sum(1).max()) >= max(3, need)
+
+
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     """A flat piece: centre line v(u) from the columns; disparity from the bark texture, or
     else from the forks/joints at its ends."""
@@ -621,7 +641,10 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         d_surf, score = d0, s0
         u, uv = u[coarse], uv[coarse]
     else:
-        prior = float(median(d0[np.isfinite(d0) & (s0 >= 0.6)]))
+        sure = np.isfinite(d0) & (s0 >= 0.6)
+        if not _coarse_agree(u[coarse][sure], d0[sure]):
+            return None                     # the bark matches at several disparities: not guessed
+        prior = float(median(d0[sure]))
         d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
                                           half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)

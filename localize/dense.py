@@ -130,7 +130,9 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     by :func:`robust_fit_groups`), with the same rules per piece as matching it alone.
     ``angle_deg`` holds each segment's angle from the rows (:func:`_angle_deg`); ``taken`` (bool per
     right run) marks right crossings that belong to another piece. A curve's ``right_runs`` are the
-    right crossings it used.
+    right crossings it used. Without ``taken`` (the first fit), the curves are then carried on past
+    occluders along their own rows (:func:`_grow`) and onto pieces that found nothing
+    (:func:`_carry_over`).
     """
     segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
@@ -250,8 +252,8 @@ def edge_to_axis(u_px: np.ndarray, d_px: np.ndarray, half_px: np.ndarray, side: 
     Each camera sees a cylinder's outline where its own lines of sight graze it, not at the same
     surface points: along a row (a circle of half-width ``half_px`` around the centre column
     ``u_px``, in the row's epipolar plane) the left (``side`` -1) or right (+1) edge's disparity
-    differs from the axis' by up to ~0.5 px for thick branches, with opposite signs on the two
-    sides. ``cx_px``: left principal point column; ``offset_px``: ``cx_left - cx_right``.
+    differs from the axis' by up to ~1.5 px for thick branches off the image's centre, with
+    opposite signs on the two sides (a branch tilted in the image is taken as its row section). ``cx_px``: left principal point column; ``offset_px``: ``cx_left - cx_right``.
     Everything in units of the axis' depth, so no baseline is needed.
     """
     x = (np.asarray(u_px, float) - cx_px) / f_px
@@ -317,7 +319,7 @@ def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, 
     width (rescaled to the rows where both show). Returns rows, disparities, centres and right runs, or None
     when fewer than ``need`` rows give samples (or fewer than ``need`` stay within 0.75 px of a line).
     """
-    cx = 0.5 * (sm.left_mask.shape[1] - 1)
+    cx = 0.5 * (sm.left_mask.shape[1] - 1)    # the principal point taken at the centre (a few % of the effect)
     ri = rows.astype(int)
     il = runs_l.find(ri, u)
     il = np.where(il >= 0, il, runs_l.find(ri, xc))

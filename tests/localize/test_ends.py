@@ -200,7 +200,7 @@ def test_a_fork_on_a_flat_parent_takes_its_disparity_from_the_child_outline_in_t
 def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     # junctions none of whose pieces gain a curve between the fork rounds are placed provisionally
     # only when the final round finds no place: the result must be that of placing every one first
-    # (fixture scene 00, exact masks: one junction keeps its provisional place)
+    # (fixture scene 02, exact masks: two junctions keep their provisional place)
     from pathlib import Path
 
     from appliance.calibrate.model import load_calibration
@@ -208,8 +208,8 @@ def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     from appliance.synth.truth import load_truth
 
     scenes = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
-    left, right = cv2.imread(str(scenes / "left_00.png")), cv2.imread(str(scenes / "right_00.png"))
-    truth = load_truth(scenes / "truth_00.json")
+    left, right = cv2.imread(str(scenes / "left_02.png")), cv2.imread(str(scenes / "right_02.png"))
+    truth = load_truth(scenes / "truth_02.json")
     masks = {"mask_left": truth.mask_left.astype(np.uint8) * 255, "mask_right": truth.mask_right.astype(np.uint8) * 255}
     loc = Localizer(load_calibration(scenes.parent / "rig.yaml"), CFG)
     kept, placers = [], []

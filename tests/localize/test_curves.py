@@ -8,6 +8,7 @@ from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
     Poly,
+    Spliced,
     end_slopes,
     median,
     robust_fit,
@@ -147,3 +148,14 @@ def test_robust_fit_of_groups_is_robust_fit_of_each_group():
         np.testing.assert_allclose(polys(g[g == k], t), p(t), rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(polys.deriv()(g[g == k], t), p.deriv()(t), rtol=1e-12, atol=1e-12)
         np.testing.assert_array_equal(GroupPolys.of([polys.poly(k)])(np.zeros(len(t), int), t), polys.poly(k)(t))
+
+
+def test_spliced_keeps_its_base_inside_and_its_parts_outside():
+    base, below, above = Poly(np.array([2.0, 1.0])), Poly(np.array([5.0])), Poly(np.array([-1.0, 50.0]))
+    s = Spliced(base, 0.0, 10.0, below, above)
+    t = np.array([-3.0, 0.0, 4.0, 10.0, 12.0])
+    want = np.array([5.0, 1.0, 9.0, 21.0, 38.0])
+    assert np.allclose(s(t), want)
+    assert all(s.at(float(x)) == pytest.approx(w) for x, w in zip(t, want))
+    assert np.allclose(s.deriv()(t), [0.0, 2.0, 2.0, 2.0, -1.0])
+    assert np.allclose(Spliced(base, 0.0, 10.0)(t), base(t))          # no parts: the base everywhere

@@ -1,0 +1,312 @@
+"""Rows matched by one edge, where a branch's crossing of the row is not whole.
+
+An occluder (a leaf, an apple, another branch at another depth) that cuts a steep branch on one
+side leaves rows whose crossings differ between the views: their middles are not the axis', but
+the uncut side's edge is the same outline in both views. This module matches such rows edge by
+edge: on rows of a fitted piece (:func:`_edge_samples`), past a fitted piece's span along its own
+skeleton rows (:func:`_grow`), and on pieces that found no curve but continue a matched one
+(:func:`_carry_over`); :func:`edge_to_axis` moves one edge's disparity onto the axis (each camera
+sees a thick branch's outline at other surface points).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from appliance.localize.curves import (
+    BranchCurve,
+    GroupPolys,
+    Poly,
+    Spliced,
+    degree_for,
+    end_slopes,
+    median,
+    robust_fit,
+)
+from appliance.localize.edges import Runs
+from appliance.localize.graph import ENDPOINT, JOINT, SkeletonGraph
+from appliance.localize.matching import StereoMasks
+
+
+def _centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
+    t, s = pts[:, axis], pts[:, 1 - axis]
+    uniq, inv = np.unique(t, return_inverse=True)
+    s_mean = np.bincount(inv, s) / np.bincount(inv)
+    half = (scale - 1) / 2
+    ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
+    return ts, np.interp(ts, uniq, s_mean)
+
+
+def edge_to_axis(u_px: np.ndarray, d_px: np.ndarray, half_px: np.ndarray, side: float, f_px: float,
+                 cx_px: float, offset_px: float = 0.0) -> np.ndarray:
+    """Disparity (N,) of a branch's axis from the disparity ``d_px`` of one of its silhouette edges.
+
+    Each camera sees a cylinder's outline where its own lines of sight graze it, not at the same
+    surface points: along a row (a circle of half-width ``half_px`` around the centre column
+    ``u_px``, in the row's epipolar plane) the left (``side`` -1) or right (+1) edge's disparity
+    differs from the axis' by up to ~1.5 px for thick branches off the image's centre, with
+    opposite signs on the two sides (a branch tilted in the image is taken as its row section). ``cx_px``: left principal point column; ``offset_px``: ``cx_left - cx_right``.
+    Everything in units of the axis' depth, so no baseline is needed.
+    """
+    x = (np.asarray(u_px, float) - cx_px) / f_px
+    rho_l = np.sqrt(1 + x * x)
+    r = np.asarray(half_px, float) / (f_px * rho_l)          # radius / depth
+    d = np.asarray(d_px, float) - offset_px
+    beta = d / f_px                                          # baseline / depth (first guess: the edge's)
+    for _ in range(2):
+        xr = x - beta
+        rho_r = np.sqrt(1 + xr * xr)
+        e_l = np.tan(np.arctan(x) + side * np.arcsin(np.minimum(r / rho_l, 0.99)))
+        e_r = np.tan(np.arctan(xr) + side * np.arcsin(np.minimum(r / rho_r, 0.99)))
+        beta = beta - (f_px * (e_l - e_r) - d) / f_px       # edge disparity (model) - measured
+    return beta * f_px + offset_px
+
+
+def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """A matched steep curve's centre column and disparity carried over rows (N,) beyond its span: the
+    straight lines fitted to its last ``reach_px`` of rows on that side, and that end's row. None if the
+    rows overlap its span or lie further than ``reach_px`` from it."""
+    lo, hi = c.t_range
+    if rows.max() < lo:
+        end, t = lo, np.linspace(lo, min(hi, lo + reach_px), 8)
+    elif rows.min() > hi:
+        end, t = hi, np.linspace(max(lo, hi - reach_px), hi, 8)
+    else:
+        return None
+    if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
+        return None
+    y = np.stack([c.s_at(t), c.d_at(t)])                  # (2, 8) centre column, disparity
+    y0 = y.mean(1)
+    if t[-1] - t[0] < 5:
+        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1]), end
+    dt = t - t.mean()
+    slope = (y @ dt) / float(dt @ dt)                      # least-squares lines
+    out = y0[:, None] + slope[:, None] * (rows - t.mean())
+    return out[0], out[1], end
+
+
+def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> float:
+    """Half width along the rows of a steep curve at its ``end`` (it tapers): the median of the left
+    crossings of its last ``n_rows`` rows that lie within half of what its radius gives (not merged,
+    not cut short); else the radius'."""
+    lo, hi = c.t_range
+    t = np.arange(end, min(hi, end + n_rows) + 1.0) if end == lo else np.arange(max(lo, end - n_rows), end + 1.0)
+    u = c.s_at(t)
+    i = runs_l.find(t.astype(int), u)
+    w = np.where(i >= 0, runs_l.span_px[np.maximum(i, 0)], np.nan)
+    ref = 2 * c.radius_px * np.sqrt(1 + (float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)) ** 2)
+    ok = np.abs(w - ref) <= 0.5 * ref
+    return 0.5 * (float(median(w[ok])) if ok.sum() >= 5 else ref)
+
+
+def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, half: np.ndarray, runs_l: Runs,
+                runs_r: Runs, sm: StereoMasks, need: float):
+    """Samples of a branch along rows (N,) whose centre column ``u`` and disparity ``d`` (N,) are carried
+    over from a matched piece, with its half width along the rows ``half`` (N,) (the skeleton's centre
+    ``xc`` (N,) finds the left crossing where ``u`` falls off the mask).
+
+    The left crossing's edge where the branch's outline lies (``max(3, half / 4)`` px) and the right
+    crossing's same-side edge at that disparity (2 px, moved onto the axis by :func:`edge_to_axis`) are a
+    sample; its centre is the middle of the row's two edges where both are, else the edge less the half
+    width (rescaled to the rows where both show). Returns rows, disparities, centres and right runs, or None
+    when fewer than ``need`` rows give samples (or fewer than ``need`` stay within 0.75 px of a line).
+    """
+    cx = 0.5 * (sm.left_mask.shape[1] - 1)    # the principal point taken at the centre (a few % of the effect)
+    ri = rows.astype(int)
+    il = runs_l.find(ri, u)
+    il = np.where(il >= 0, il, runs_l.find(ri, xc))
+    ok = il >= 0
+    if ok.sum() < need:
+        return None
+    ri, t, u, d, il, half = ri[ok], rows[ok], u[ok], d[ok], il[ok], half[ok]
+    tol = max(3.0, 0.25 * float(half.mean()))
+    edges, ok_side, irs = [], [], []
+    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
+        e_l = edge_l[il]
+        ir = runs_r.find(ri, e_l - d - side * 1.0)
+        good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
+        d_ax = np.full(len(t), np.nan)
+        if good.any():
+            d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
+                                      sm.offset_px)
+        good &= np.abs(d_ax - d) <= 2.0
+        edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
+    if (ok_side[0] | ok_side[1]).sum() < need:
+        return None
+    both = ok_side[0] & ok_side[1]
+    if both.sum() >= 3:                     # the width where both edges show, else the piece's
+        half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
+    ts, ds, cs, rs = [], [], [], []
+    for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
+        ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
+        cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
+    ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
+    d_line, inl = robust_fit(ts, ds, 1)
+    inl &= np.abs(ds - d_line(ts)) <= 0.75
+    if len(np.unique(ts[inl])) < need:
+        return None
+    return ts[inl], ds[inl], cs[inl], rs[inl]
+
+
+def _grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+          centres: tuple, step_px: int = 40, reach_px: float = 120.0) -> None:
+    """Matched steep curves carried on along their own skeleton rows beyond their fitted span, where
+    an occluder cuts the branch on one side (no whole crossings there): window by window of
+    ``step_px`` rows, each from the straight continuation of the curve so far (:func:`_donor_model`,
+    :func:`_edge_track`), while the skeleton stays within half a radius + 2 px of it and 40 % of a
+    window's rows give samples. The curve is then refitted to itself (one sample per row of its
+    span) and the new samples. Rows near a junction are left out, as in the first fit: ``centres`` holds
+    the pieces and :func:`appliance.localize.dense._row_centres` of that fit."""
+    segs, rows_all, xc_all, g_all = centres
+    bounds = np.searchsorted(g_all, np.arange(len(segs) + 1))
+    for k, s in enumerate(segs):
+        c = curves.get(s)
+        if c is None or not c.by_row:
+            continue
+        rows, xc = rows_all[bounds[k]:bounds[k + 1]], xc_all[bounds[k]:bounds[k + 1]]
+        lo, hi = c.t_range
+        if not ((rows > hi + 1).sum() >= 8 or (rows < lo - 1).sum() >= 8):
+            continue
+        new = []
+        cur = c
+        ends = [(float(graph.to_full(graph.node_yx[n])[0, 1]), int(graph.node_kind[n])) for n in graph.seg_nodes[s]
+                if n >= 0]
+        for sign in (1.0, -1.0):
+            if any(k in (ENDPOINT, JOINT) and sign * (v - 0.5 * (lo + hi)) > 0 for v, k in ends):
+                continue                    # towards a free end or a bridged gap (a tip, an occluder): left alone
+            beyond = rows > hi + 1 if sign > 0 else rows < lo - 1
+            r_s, x_s = rows[beyond], xc[beyond]
+            if sign < 0:
+                r_s, x_s = r_s[::-1], x_s[::-1]
+            for w0 in range(0, len(r_s), step_px):
+                wr, wx = r_s[w0:w0 + step_px], x_s[w0:w0 + step_px]
+                if len(wr) < 8:
+                    break
+                o = np.argsort(wr)
+                wr, wx = wr[o], wx[o]
+                m = _donor_model(cur, wr, reach_px)
+                if m is None or float(median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
+                    break
+                half = np.full(len(wr), _end_half(cur, m[2], runs_l))
+                track = _edge_track(wr, wx, m[0], m[1], half, runs_l, runs_r, sm, max(4, 0.4 * len(wr)))
+                if track is None:
+                    break
+                new.append(track)
+                cur = _refit(c, new)
+        if new:
+            curves[s] = cur
+
+
+def _refit(c: BranchCurve, new: list) -> BranchCurve:
+    """``c`` carried on by the samples ``new`` (a list of :func:`_edge_track` results) beyond its span: its
+    own polynomials inside the span, on each side a line (a quadratic past 60 rows) fitted to the new
+    samples and the curve's last 20 rows (:class:`curves.Spliced`)."""
+    lo, hi = c.t_range
+    tn, dn, cn, rn = (np.concatenate(a) for a in zip(*new))
+    s_base = c.s_poly.base if isinstance(c.s_poly, Spliced) else c.s_poly
+    d_base = c.d_poly.base if isinstance(c.d_poly, Spliced) else c.d_poly
+    parts = {}
+    slopes = list(c.d_end_slopes) if c.d_end_slopes is not None else [d_base.deriv().at(lo), d_base.deriv().at(hi)]
+    t_lo, t_hi = lo, hi
+    for k, sel, edge in ((0, tn < lo, lo), (1, tn > hi, hi)):
+        if not sel.any():
+            continue
+        tb = np.arange(max(lo, edge - 20), edge + 1.0) if k else np.arange(edge, min(hi, edge + 20) + 1.0)
+        t = np.r_[tb, tn[sel]]
+        u, d = np.r_[c.s_at(tb), cn[sel]], np.r_[c.d_at(tb), dn[sel]]
+        degree = 1 if float(np.ptp(tn[sel])) < 60 else 2
+        parts[k] = (Poly.fit(t, u, degree), Poly.fit(t, d, degree))
+        slopes[k] = end_slopes(t, d)[k]
+        t_lo, t_hi = (float(tn[sel].min()), t_hi) if k == 0 else (t_lo, float(tn[sel].max()))
+    below, above = parts.get(0, (None, None)), parts.get(1, (None, None))
+    used = rn if c.right_runs is None else np.union1d(c.right_runs, rn)
+    return BranchCurve(c.segment, True, (t_lo, t_hi), Spliced(s_base, lo, hi, below[0], above[0]),
+                       Spliced(d_base, lo, hi, below[1], above[1]), c.radius_px, c.n_samples + len(tn),
+                       tuple(slopes), used)
+
+
+def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs,
+                sm: StereoMasks, reach_px: float = 120.0) -> dict[int, BranchCurve]:
+    """Steep pieces that found no whole crossings (cut by occluders on one side, at other depths in
+    each view), matched by single edges against the branch they continue.
+
+    A matched steep curve whose straight continuation (:func:`_donor_model`) runs along the dead
+    piece's skeleton (within half its radius + 2 px) gives each row the branch's centre, width and
+    disparity for :func:`_edge_track`. A piece keeps a curve when at least 4 rows and 40 % of its
+    rows give samples; a piece with a free end (a tip or an occluder's edge) is left alone.
+    """
+    out = {}
+    donors = [c for c in curves.values() if c.by_row]
+    if not donors:
+        return out
+    spans = np.array([c.t_range for c in donors])
+    for s in dead:
+        yx = graph.seg_yx[s]
+        if len(yx) < 2 or (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24 or \
+                (graph.node_kind[[n for n in graph.seg_nodes[s] if n >= 0]] == ENDPOINT).any():
+            continue
+        rows, xc = _centre_guess(graph.to_full(yx), 1, graph.scale)
+        if len(rows) < 24:
+            continue
+        r0, r1 = float(rows[0]), float(rows[-1])
+        gap = np.maximum(spans[:, 0] - r1, r0 - spans[:, 1])      # rows between the piece and each donor
+        best = None
+        for k in np.flatnonzero((gap > 0) & (gap <= reach_px)).tolist():
+            c = donors[k]
+            near = 0 if spans[k, 0] > r1 else -1                    # the piece's row nearest the donor
+            if abs(c.s_at(rows[near:][:1])[0] - xc[near]) > c.radius_px + 10:
+                continue
+            m = _donor_model(c, rows, reach_px)
+            if m is None:
+                continue
+            err = float(median(np.abs(m[0] - xc)))
+            if err <= 0.5 * c.radius_px + 2 and (best is None or err < best[0]):
+                best = (err, c, m)
+        if best is None:
+            continue
+        _, c, (u, d, end) = best
+        half = np.full(len(rows), _end_half(c, end, runs_l))
+        track = _edge_track(rows, xc, u, d, half, runs_l, runs_r, sm, max(4, 0.4 * len(rows)))
+        if track is None:
+            continue
+        tk, dk, ck, rk = track
+        span = float(tk.max() - tk.min())
+        degree = min(degree_for(len(tk), span), 2)
+        u_poly, _ = robust_fit(tk, ck, degree)
+        if span < 60:                       # short: the donor's slope, the piece's own offset
+            slope = float((d[-1] - d[0]) / (rows[-1] - rows[0])) if rows[-1] > rows[0] else 0.0
+            off, inl_d = robust_fit(tk, dk - slope * tk, 0)
+            d_poly = Poly(np.array([slope, float(off(tk[:1])[0])]))
+            slopes = (slope, slope)
+        else:
+            d_poly, inl_d = robust_fit(tk, dk, degree)
+            slopes = end_slopes(tk[inl_d], dk[inl_d])
+        tk = tk[inl_d]
+        out[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_poly, d_poly, c.radius_px, len(tk),
+                             slopes, np.unique(rk[inl_d]))
+    return out
+
+
+def _edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
+                  d_model: GroupPolys, runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
+    """Disparity samples from single edges, on rows whose crossing is not whole.
+
+    On such a row (of piece ``g``, left run ``il``) the left crossing's edge that lies where the
+    fitted centre line and width put the branch's outline (within 1 px) is a true edge; the
+    same-side edge of the right crossing at the fitted disparity (within 1 px) is its match.
+    Returns rows, disparities, right run indices and pieces, per side (left edges first).
+    """
+    t = rows.astype(float)
+    u, half, d = u_poly(g, t), 0.5 * w_fit(g, t), d_model(g, t)
+    out = []
+    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
+        e_l = edge_l[il]
+        ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
+        e_r = edge_r[np.maximum(ir, 0)]
+        ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
+        if taken is not None:
+            ok &= ~taken[np.maximum(ir, 0)]
+        out.append((t[ok], (e_l - e_r)[ok], ir[ok], g[ok]))
+    te, de, re, ge = (np.concatenate(a) for a in zip(*out))
+    o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
+    return te[o], de[o], re[o], ge[o]

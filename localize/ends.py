@@ -472,8 +472,11 @@ class EndPlacer:
             start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
             reach = 3 * c.radius_px + 3 * self.g.scale + 4
             t = start + sign * np.arange(0, reach, 0.25)
-            hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None]
-        _, t, sign, uv, normal = hit
+            hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None, {}]
+        _, t, sign, uv, normal, done = hit
+        res = done.get((offset_px, right))          # (the plain walk: both tip and hidden_fork ask)
+        if res is not None:
+            return res
         if offset_px:
             if normal is None:
                 step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
@@ -483,15 +486,18 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        uv = np.rint(uv).astype(int)
+        uv = np.rint(uv).astype(np.intp)
         mask = self.sm.right_mask if right else self.sm.left_mask
         h, w = mask.shape
-        inside = (uv[:, 0] >= 0) & (uv[:, 0] < w) & (uv[:, 1] >= 0) & (uv[:, 1] < h)
-        on = np.zeros(len(t), bool)
-        on[inside] = mask[uv[inside, 1], uv[inside, 0]] >= 128
-        off = np.flatnonzero(~on)
-        last = (off[0] - 1) if len(off) else len(t) - 1
-        return float(t[max(last, 0)] + sign * 0.5), sign
+        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
+        # read a clipped pixel, then count as off)
+        inside = (uv.view(np.uintp) < (w, h)).all(1)
+        on = np.take(mask.reshape(-1), uv[:, 1] * w + uv[:, 0], mode="clip") >= 128
+        on &= inside
+        k = int(on.argmin())                        # the first point off the mask (if any is)
+        last = k - 1 if not on[k] else len(t) - 1
+        res = done[offset_px, right] = (float(t[max(last, 0)] + sign * 0.5), sign)
+        return res
 
     def tip(self, node: int) -> None:
         """A tip: the end of the mask along the centre line, less the round cap (one radius).

@@ -11,6 +11,8 @@ across an occluder stands only if both sides' curves meet.
 
 from __future__ import annotations
 
+from bisect import bisect_left
+
 import cv2
 import numpy as np
 from appliance.config.schema import MatchConfig
@@ -339,22 +341,23 @@ class EndPlacer:
         lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, len(s))
         if lo_i >= hi_i:
             return None
-        win = on[lo_i:hi_i]
-        if not win.any():
+        win = np.flatnonzero(on[lo_i:hi_i]).tolist()      # (indices, ascending)
+        if not win:
             return None
-        c = min(max(ic - lo_i, 0), len(win) - 1)      # the nearest "on" sample to s_c in the window
-        right = int(win[c:].argmax()) if win[c:].any() else None
-        left = int(win[c::-1].argmax()) if win[c::-1].any() else None
+        c = min(max(ic - lo_i, 0), hi_i - lo_i - 1)      # the nearest "on" sample to s_c in the window
+        j = bisect_left(win, c)
+        right = win[j] - c if j < len(win) else None
+        left = 0 if right == 0 else c - win[j - 1] if j > 0 else None
         if right is None or (left is not None and left <= right):
             k = lo_i + c - left
         else:
             k = lo_i + c + right
-        back = on[k::-1]
-        fwd = on[k:]
-        if back.all() or fwd.all():
+        off = np.flatnonzero(~on).tolist()
+        j = bisect_left(off, k)                     # (on[k]: k is not among them)
+        if j == 0 or j == len(off):
             return None
-        a = k - int(back.argmin())                  # the last sample off before k
-        b = k + int(fwd.argmin())                   # the first off after k
+        a = off[j - 1]                              # the last sample off before k
+        b = off[j]                                  # the first off after k
         va, vb = float(val[a]), float(val[b])
         lo = s[a] + ds * (128.0 - va) / max(float(val[a + 1]) - va, 1e-9)
         hi = s[b] - ds * (128.0 - vb) / max(float(val[b - 1]) - vb, 1e-9)
@@ -392,7 +395,9 @@ class EndPlacer:
         similar = np.abs(self.runs_r.span_px[rr] - w_l[q]) <= 0.15 * w_l[q] + 1.5
         q, rr = q[similar], rr[similar]
         near_d = np.abs(c_l[q] - self.runs_r.centre_px[rr] - d) <= max(1.0, 0.006 * abs(d))
-        n_cand, n_ok = len(np.unique(q)), len(np.unique(q[near_d]))
+        qd = q[near_d]                                   # (ascending: distinct rows where they change)
+        n_cand = int(np.count_nonzero(q[1:] != q[:-1])) + 1 if len(q) else 0
+        n_ok = int(np.count_nonzero(qd[1:] != qd[:-1])) + 1 if len(qd) else 0
         return n_ok >= min_rows and n_ok >= 0.6 * n_cand
 
     def _box(self, s: int) -> tuple[float, float, float, float]:

@@ -484,7 +484,8 @@ class EndPlacer:
             return res
         if offset_px:
             if normal is None:
-                step = c.uv_at(t + 0.5) - c.uv_at(t - 0.5)
+                ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))      # (one call: the same values)
+                step = ab[:len(t)] - ab[len(t):]
                 step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
                 normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
             uv = uv + offset_px * normal
@@ -496,8 +497,12 @@ class EndPlacer:
         h, w = mask.shape
         # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
         # read a clipped pixel, then count as off)
-        inside = (uv.view(np.uintp) < (w, h)).all(1)
-        on = np.take(mask.reshape(-1), uv[:, 1] * w + uv[:, 0], mode="clip") >= 128
+        x, y = uv[:, 0], uv[:, 1]
+        inside = x.view(np.uintp) < w
+        inside &= y.view(np.uintp) < h
+        idx = y * w
+        idx += x
+        on = mask.reshape(-1).take(idx, mode="clip") >= 128
         on &= inside
         k = int(on.argmin())                        # the first point off the mask (if any is)
         last = k - 1 if not on[k] else len(t) - 1

@@ -434,10 +434,15 @@ class EndPlacer:
         for s2, c2 in self.curves.items():
             if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
                 continue
+            # the box's extent along t is the span's own (its first and last samples): a piece
+            # clear of the walk there is skipped before its box is sampled
+            lo, hi = c2.t_range
+            lo_t, hi_t = (lo_v, hi_v) if c2.by_row else (lo_u, hi_u)
+            if min(lo, hi) > hi_t or max(lo, hi) < lo_t:
+                continue
             u0, v0, u1, v1 = self._box(s2)
             if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
                 continue
-            lo, hi = c2.t_range
             ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
             inside = (ta >= lo - 2) & (ta <= hi + 2)
             if inside.sum() < 2:

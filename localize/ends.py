@@ -34,7 +34,7 @@ HIDDEN_FORK_MIN_DEG = 20.0
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Total-least-squares line through points (N, 2): centroid and unit direction."""
-    c = pts.mean(0)
+    c = pts.sum(0) / len(pts)                 # (the mean, bit for bit, without np.mean's checks)
     q = pts - c
     sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
     a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)        # the direction of the largest spread
@@ -81,7 +81,7 @@ class EndPlacer:
         # keyed with the piece's curve (or None), as flat pieces gain curves between rounds
         self._points_cache: dict = {}
         self._walk_cache: dict = {}
-        self._node_r: dict = {}
+        self._node_r: np.ndarray | None = None
         self._near_cache: dict = {}
         self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
 
@@ -102,10 +102,9 @@ class EndPlacer:
 
     def _node_radius(self, node: int) -> float:
         """Radius (px) of the distance transform at a node's skeleton pixel (cached)."""
-        r = self._node_r.get(node)
-        if r is None:
-            r = self._node_r[node] = radius_at(self.sm.radius_map, self.node_xy[node])[0]
-        return r
+        if self._node_r is None:          # (all nodes at once: the same values)
+            self._node_r = radius_at(self.sm.radius_map, self.node_xy)
+        return self._node_r[node]
 
     def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
         """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
@@ -148,7 +147,7 @@ class EndPlacer:
             near[s], rad[s] = hit[1], hit[2]
         dirs = {}
         for s, pts in near.items():
-            v = pts.mean(0) - p
+            v = pts.sum(0) / len(pts) - p
             dirs[s] = v / max(np.hypot(*v), 1e-9)
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]

@@ -258,10 +258,16 @@ class EndPlacer:
         cot = np.dot(e2, e1) / np.dot(e2, n)
         s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
         step = max(1.5 * r_child, 6.0)
-        for h1 in (r_par + 3.0, r_par + 3.0 + r_child):
-            m1, m2 = self._child_crossings([(c1 + h1 * n, s0 + h1 * cot), (c1 + (h1 + step) * n, s0 + (h1 + step) * cot)],
-                                           e1, r_child, sin_t, mask)
-            if m1 is not None and m2 is not None:
+        pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
+        # the mask read once on the four lines (the second pair is needed when the first is unclear)
+        samples = EndPlacer._line_samples([(c1 + h * n, s0 + h * cot) for pair in pairs for h in pair],
+                                          e1, r_child, sin_t, mask)
+        for i, (h1, _) in enumerate(pairs):
+            m1 = EndPlacer._interval_middle(*samples[2 * i], r_child, sin_t)
+            if m1 is None:
+                continue
+            m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
+            if m2 is not None:
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
 
@@ -307,6 +313,14 @@ class EndPlacer:
         """Middles (parameter s along each line ``base + s e``, for each ``(base, s_c)`` of ``lines``)
         of the ``mask`` interval at or nearest to ``s_c``, where it is as wide as a piece of radius
         ``r_child`` crossed at sine ``sin_t``; else None. The mask is read once for all lines."""
+        return [EndPlacer._interval_middle(*sv, r_child, sin_t)
+                for sv in EndPlacer._line_samples(lines, e, r_child, sin_t, mask)]
+
+    @staticmethod
+    def _line_samples(lines: list, e, r_child: float, sin_t: float, mask: np.ndarray) -> list:
+        """:meth:`_child_crossings`' samples: for each ``(base, s_c)`` of ``lines``, the parameters
+        ``s`` (1 px apart, around ``s_c``), the ``mask`` along ``base + s e`` there (bilinear; one
+        read for all lines: each point's value is its own) and ``s_c``."""
         reach = (4.7 * r_child + 3) / sin_t + 2          # the interval nearest s_c, whole, if as wide
         ss = [np.arange(s_c - reach, s_c + reach, 1.0) for _, s_c in lines]
         n = [len(s) for s in ss]
@@ -315,9 +329,8 @@ class EndPlacer:
         val = EndPlacer._bilinear(mask, uv)
         out, i0 = [], 0
         for (_, s_c), s in zip(lines, ss):
-            v = val[i0:i0 + len(s)]
+            out.append((s, val[i0:i0 + len(s)], s_c))
             i0 += len(s)
-            out.append(EndPlacer._interval_middle(s, v, s_c, r_child, sin_t))
         return out
 
     @staticmethod

@@ -155,10 +155,12 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         hh = int(half_px[i])
         if v - hh < 0 or v + hh + 1 > h or u - hh < 0 or u + hh + 1 > w:
             continue
+        x0 = max(int(u - np.ceil(d_max_px)) - hh, 0)
+        if not u - (x0 + hh) > d_branch_px[i] + margin_px:
+            continue                        # no position in front (the strip's first is the nearest): read nothing
         tmpl = left[v - hh:v + hh + 1, u - hh:u + hh + 1]
         if _flat(tmpl, 2.0):
             continue
-        x0 = max(int(u - np.ceil(d_max_px)) - hh, 0)
         strip = right[v - hh:v + hh + 1, x0:u - 1 + hh + 1]
         if strip.shape[1] <= tmpl.shape[1]:
             continue

@@ -241,3 +241,50 @@ def test_deferred_provisional_forks_give_the_same_result(monkeypatch):
     a, b = placers
     assert a.hidden == b.hidden and a.radius == b.radius and a.uvd.keys() == b.uvd.keys()
     assert all(np.array_equal(a.uvd[n], b.uvd[n]) for n in a.uvd)
+
+
+def _interval_middle_by_scanning(s, val, s_c, r_child, sin_t):
+    """The interval's middle found by scanning sample by sample (the rule _interval_middle follows)."""
+    on = [v >= 128 for v in val.tolist()]
+    ds = s[1] - s[0]
+    ic = int(np.rint((s_c - s[0]) / ds))
+    w = int(2 * r_child / sin_t / ds)
+    lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, len(s))
+    if lo_i >= hi_i or not any(on[lo_i:hi_i]):
+        return None
+    c = lo_i + min(max(ic - lo_i, 0), hi_i - lo_i - 1)
+    right = next((j - c for j in range(c, hi_i) if on[j]), None)
+    left = next((c - j for j in range(c, lo_i - 1, -1) if on[j]), None)
+    k = c - left if right is None or (left is not None and left <= right) else c + right
+    a = next((j for j in range(k, -1, -1) if not on[j]), None)
+    b = next((j for j in range(k, len(on)) if not on[j]), None)
+    if a is None or b is None:
+        return None
+    va, vb = float(val[a]), float(val[b])
+    lo = s[a] + ds * (128.0 - va) / max(float(val[a + 1]) - va, 1e-9)
+    hi = s[b] - ds * (128.0 - vb) / max(float(val[b - 1]) - vb, 1e-9)
+    if abs((hi - lo) * sin_t - 2 * r_child) > 0.8 * r_child + 2:
+        return None
+    return 0.5 * (lo + hi)
+
+
+def test_the_interval_middle_is_the_scanned_one_bit_for_bit():
+    # random soft masks along a line (several intervals, some touching the ends): the vectorised
+    # search gives the very value of the sample-by-sample scan, or None alike
+    from appliance.localize.ends import EndPlacer
+
+    rng = np.random.default_rng(5)
+    found = 0
+    for _ in range(400):
+        n = int(rng.integers(20, 120))
+        s = np.arange(n, dtype=float) * 1.0 - 0.3
+        on = np.repeat(rng.random(n // 4 + 1) < 0.5, 4)[:n]
+        val = np.where(on, 255, 0).astype(np.uint8)
+        edge = rng.integers(0, n, n // 5)
+        val[edge] = rng.integers(0, 256, len(edge))
+        s_c, r_child, sin_t = float(rng.uniform(0, n)), float(rng.uniform(2, 12)), float(rng.uniform(0.3, 1.0))
+        got = EndPlacer._interval_middle(s, val, s_c, r_child, sin_t)
+        want = _interval_middle_by_scanning(s, val, s_c, r_child, sin_t)
+        assert got == want
+        found += got is not None
+    assert found >= 40

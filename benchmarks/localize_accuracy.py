@@ -1,6 +1,6 @@
 """Localization accuracy on rendered scenes with exact truth: improved vs the paper vs OpenCV SGBM.
 
-    python benchmarks/localize_accuracy.py [--extra N] [--masks true|colour|both] [--json OUT]
+    python benchmarks/localize_accuracy.py [--extra N] [--masks true|colour|both] [--json OUT] [--pictures DIR]
 
 Scenes: fixtures/scenes (4) plus ``--extra`` more rendered with seeds 100.. (cached in
 out/localize_scenes). Rig f ~1450 px, b ~120 mm, 1280x960, branches 500-1500 mm away.
@@ -35,6 +35,7 @@ from appliance.localize import Feature, LocalizationResult, Localizer
 from appliance.localize.sgbm import sgbm_disparity
 from appliance.localize.triangulate import triangulate
 from appliance.synth.evaluate import format_table, pool, score_result
+from appliance.synth.show import draw_score
 from appliance.synth.truth import SceneTruth, load_truth
 
 REPO = Path(__file__).resolve().parents[1]
@@ -147,7 +148,11 @@ def main() -> int:
     ap.add_argument("--extra", type=int, default=0, help="render this many more scenes (seeds 100..)")
     ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
     ap.add_argument("--json", type=Path, help="write pooled scores here")
+    ap.add_argument("--pictures", type=Path, metavar="DIR",
+                    help="write how the improved variant scored on each scene here (synth.show.draw_score)")
     a = ap.parse_args()
+    if a.pictures:
+        a.pictures.mkdir(parents=True, exist_ok=True)
     cfg = load_config().localize
     calib = load_calibration(REPO / "fixtures" / "rig.yaml")
     locs = {v: Localizer(calib, cfg, v) for v in ("improved", "paper")}
@@ -163,8 +168,11 @@ def main() -> int:
                 t0 = time.perf_counter()
                 res = loc.localize(left, right, **kw)
                 times.setdefault(f"{variant}, {mode} masks", []).append(time.perf_counter() - t0)
-                per_method.setdefault(f"{variant}, {mode} masks", []).append(
-                    score_result(res, truth, name=name))
+                score = score_result(res, truth, name=name)
+                per_method.setdefault(f"{variant}, {mode} masks", []).append(score)
+                if a.pictures and variant == "improved":
+                    pic = draw_score(left, res, truth, score)
+                    cv2.imwrite(str(a.pictures / f"{name.replace(' ', '_')}_{mode}.png"), pic)
                 axes.setdefault(f"{variant}, {mode} masks", []).extend(axis_errors(res, truth))
         per_method.setdefault("sgbm at true features", []).append(
             score_result(sgbm_result(locs["improved"], left, right, truth), truth, name=name))

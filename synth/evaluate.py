@@ -175,6 +175,26 @@ def _distance_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray):
     return out_d, out_j
 
 
+def covered_axis(result: LocalizationResult, truth: SceneTruth, cover_mm: float = 10.0):
+    """The true axes' samples seen in both views, and which of them a reported branch covers.
+
+    Returns
+    -------
+    points_mm : ndarray (N, 3)
+        Samples every ~2 mm of every true axis visible in both views, left camera frame, mm.
+    length_mm : ndarray (N,)
+        Axis length each sample stands for, mm.
+    covered : ndarray (N,) bool
+        Within ``cover_mm`` of a reported polyline.
+    """
+    pts, lens, _, vis = _true_axis_samples(truth)
+    lines = [np.asarray(b.polyline_mm, float) for b in result.branches if len(b.polyline_mm) >= 2]
+    a = np.concatenate([p[:-1] for p in lines]) if lines else np.zeros((0, 3))
+    b = np.concatenate([p[1:] for p in lines]) if lines else np.zeros((0, 3))
+    dist, _ = _distance_to_segments(pts[vis], a, b)
+    return pts[vis], lens[vis], dist <= cover_mm
+
+
 def _true_axis_samples(truth: SceneTruth, step_mm: float = 2.0):
     """Samples of every true axis: points (N, 3), length each (N,), radius (N,), visible in both views (N,)."""
     pts, lens, radii = [], [], []
@@ -262,13 +282,8 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
     found = [r for r in rows if r.truth_index >= 0 and r.result_id >= 0]
 
     # branches: coverage of the visible true axes, and how much of what was reported lies on a true axis
-    pts, lens, _, vis = _true_axis_samples(truth)
-    segs = [(np.asarray(b.polyline_mm, float)[:-1], np.asarray(b.polyline_mm, float)[1:], k)
-            for k, b in enumerate(result.branches) if len(b.polyline_mm) >= 2]
-    a = np.concatenate([s[0] for s in segs]) if segs else np.zeros((0, 3))
-    b = np.concatenate([s[1] for s in segs]) if segs else np.zeros((0, 3))
-    dist, _ = _distance_to_segments(pts[vis], a, b)
-    covered = float(lens[vis][dist <= cover_mm].sum())
+    _, lens, on = covered_axis(result, truth, cover_mm)
+    covered = float(lens[on].sum())
     true_a = np.concatenate([br.axis_mm[:-1] for br in truth.branches])
     true_b = np.concatenate([br.axis_mm[1:] for br in truth.branches])
     true_r = np.concatenate([(br.radius_mm[:-1] + br.radius_mm[1:]) / 2 for br in truth.branches])
@@ -292,7 +307,7 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
         err_3d_mm=_stats([r.err_3d_mm for r in found]),
         left_err_px=_stats([r.left_err_px for r in found]),
         radius_err_mm=_stats([r.radius_err_mm for r in found]),
-        visible_axis_mm=float(lens[vis].sum()), covered_axis_mm=covered,
+        visible_axis_mm=float(lens.sum()), covered_axis_mm=covered,
         reported_mm=reported, reported_on_axis_mm=on_axis,
         branch_radius_err_mm=_stats(branch_radius_err), rows=rows, branch_radius_errors_mm=branch_radius_err,
     )

@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 
 from appliance.errors import ApplianceError
+from appliance.localize.result import LocalizationResult
+from appliance.synth.evaluate import Score, covered_axis
 from appliance.synth.truth import SceneTruth, load_truth
 
 COLOURS = {"endpoint": (0, 230, 255), "bifurcation": (255, 0, 255)}
@@ -49,6 +51,37 @@ def draw_truth(left: np.ndarray, right: np.ndarray, truth: SceneTruth, axes: boo
         cv2.putText(out, side, (12, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (255, 255, 255), 2, cv2.LINE_AA)
         panels.append(out)
     return np.hstack(panels)
+
+
+def draw_score(left: np.ndarray, result: LocalizationResult, truth: SceneTruth, score: Score,
+               cover_mm: float = 10.0) -> np.ndarray:
+    """The left image (H, W, 3) with how a result scored against the truth: the true axes green where a
+    reported branch covers them (within ``cover_mm``) and red where none does, the reported branches
+    thin in blue beneath (seen where they are not on a true axis), true features seen in both views ringed green when found and red when missed, and
+    reported features matching no true one crossed in orange."""
+    out = (left if left.ndim == 3 else cv2.cvtColor(left, cv2.COLOR_GRAY2BGR)) // 2   # dimmed: marks stand out
+    for b in result.branches:
+        if len(b.polyline_mm) >= 2:
+            line = np.round(truth.rig.project(np.asarray(b.polyline_mm, float), "left") * 4).astype(np.int32)
+            cv2.polylines(out, [line.reshape(-1, 1, 2)], False, (255, 170, 0), 1, cv2.LINE_AA, shift=2)
+    pts, _, covered = covered_axis(result, truth, cover_mm)
+    px = np.round(truth.rig.project(pts, "left")).astype(int) if len(pts) else np.zeros((0, 2), int)
+    for (u, v), on in zip(px.tolist(), covered.tolist()):
+        cv2.circle(out, (u, v), 2, (0, 220, 0) if on else (0, 0, 255), -1)
+    found = {r.truth_index for r in score.rows if r.truth_index >= 0 and r.result_id >= 0}
+    for r in score.rows:
+        if r.truth_index >= 0:
+            u, v = np.round(truth.features.left_px[r.truth_index]).astype(int).tolist()
+            cv2.circle(out, (u, v), 10, (0, 220, 0) if r.truth_index in found else (0, 0, 255), 2, cv2.LINE_AA)
+    by_id = {f.id: f for f in result.features}
+    for r in score.rows:
+        if r.truth_index < 0 and r.result_id in by_id:
+            u, v = np.round(by_id[r.result_id].left_px).astype(int).tolist()
+            cv2.drawMarker(out, (u, v), (0, 140, 255), cv2.MARKER_TILTED_CROSS, 16, 2, cv2.LINE_AA)
+    text = (f"{score.name}  found {score.n_found}/{score.n_true}  false {score.n_result - score.n_correct}  "
+            f"cover {score.branch_coverage:.2f}")
+    cv2.putText(out, text, (12, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2, cv2.LINE_AA)
+    return out
 
 
 def main(argv=None) -> int:

@@ -37,10 +37,10 @@ from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.single_edge import (
-    _carry_over,
-    _centre_guess,
-    _edge_samples,
-    _grow,
+    carry_over,
+    centre_guess,
+    edge_samples,
+    grow,
 )
 from appliance.localize.texture import (
     surface_disparity,
@@ -72,7 +72,7 @@ def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
 
 
 def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.ndarray, ...]:
-    """:func:`_centre_guess` by rows of every segment in ``segs`` at once, points inside a junction
+    """:func:`centre_guess` by rows of every segment in ``segs`` at once, points inside a junction
     region at a segment's end (:func:`_near_junction`) left out.
 
     Returns rows (N,) float, centre columns (N,) and piece index into ``segs`` (N,) (non-decreasing):
@@ -128,8 +128,8 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     ``angle_deg`` holds each segment's angle from the rows (:func:`_angle_deg`); ``taken`` (bool per
     right run) marks right crossings that belong to another piece. A curve's ``right_runs`` are the
     right crossings it used. Without ``taken`` (the first fit), the curves are then carried on past
-    occluders along their own rows (:func:`_grow`) and onto pieces that found nothing
-    (:func:`_carry_over`).
+    occluders along their own rows (:func:`grow`) and onto pieces that found nothing
+    (:func:`carry_over`).
     """
     segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
@@ -204,7 +204,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     w_poly, _ = robust_fit_groups(tf, w_l[q[chosen]], gc, ng, np.ones(ng, int), rounds=2)
     width = int(rows_all.max()) + 1
     rest = ~np.isin(g_all * width + rows_all, gc * width + tf.astype(int)) & alive[g_all]
-    te, de, re, ge = _edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
+    te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
                                    runs_l, runs_r, taken)
     # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
     ta, da, ga = np.r_[tf, te], np.r_[df, de], np.r_[gc, ge]
@@ -237,8 +237,8 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
                                 len(tk), end_slopes(tk, dk), used)
     if taken is None:
-        _grow(graph, curves, runs_l, runs_r, sm, centres)
-        curves.update(_carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
+        grow(graph, curves, runs_l, runs_r, sm, centres)
+        curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
     return curves
 
 
@@ -340,7 +340,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     else from the forks/joints at its ends."""
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
-    cols, yc = _centre_guess(pts, 0, g.scale)
+    cols, yc = centre_guess(pts, 0, g.scale)
     keep = ~_near_junction(g, s, np.column_stack([cols, yc]), sm.radius_map)
     cols, yc = cols[keep].astype(int), yc[keep]
     if len(cols) < 4:

@@ -3,9 +3,9 @@
 An occluder (a leaf, an apple, another branch at another depth) that cuts a steep branch on one
 side leaves rows whose crossings differ between the views: their middles are not the axis', but
 the uncut side's edge is the same outline in both views. This module matches such rows edge by
-edge: on rows of a fitted piece (:func:`_edge_samples`), past a fitted piece's span along its own
-skeleton rows (:func:`_grow`), and on pieces that found no curve but continue a matched one
-(:func:`_carry_over`); :func:`edge_to_axis` moves one edge's disparity onto the axis (each camera
+edge: on rows of a fitted piece (:func:`edge_samples`), past a fitted piece's span along its own
+skeleton rows (:func:`grow`), and on pieces that found no curve but continue a matched one
+(:func:`carry_over`); :func:`edge_to_axis` moves one edge's disparity onto the axis (each camera
 sees a thick branch's outline at other surface points).
 """
 
@@ -27,7 +27,7 @@ from appliance.localize.graph import ENDPOINT, JOINT, SkeletonGraph
 from appliance.localize.matching import StereoMasks
 
 
-def _centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
+def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
     uniq, inv = np.unique(t, return_inverse=True)
@@ -148,7 +148,7 @@ def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, 
     return ts[inl], ds[inl], cs[inl], rs[inl]
 
 
-def _grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
+def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
           centres: tuple, step_px: int = 40, reach_px: float = 120.0) -> None:
     """Matched steep curves carried on along their own skeleton rows beyond their fitted span, where
     an occluder cuts the branch on one side (no whole crossings there): window by window of
@@ -225,7 +225,7 @@ def _refit(c: BranchCurve, new: list) -> BranchCurve:
                        tuple(slopes), used)
 
 
-def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs,
+def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs,
                 sm: StereoMasks, reach_px: float = 120.0) -> dict[int, BranchCurve]:
     """Steep pieces that found no whole crossings (cut by occluders on one side, at other depths in
     each view), matched by single edges against the branch they continue.
@@ -245,7 +245,7 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
         if len(yx) < 2 or (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24 or \
                 (graph.node_kind[[n for n in graph.seg_nodes[s] if n >= 0]] == ENDPOINT).any():
             continue
-        rows, xc = _centre_guess(graph.to_full(yx), 1, graph.scale)
+        rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
         if len(rows) < 24:
             continue
         r0, r1 = float(rows[0]), float(rows[-1])
@@ -287,7 +287,7 @@ def _carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchC
     return out
 
 
-def _edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
+def edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
                   d_model: GroupPolys, runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
     """Disparity samples from single edges, on rows whose crossing is not whole.
 

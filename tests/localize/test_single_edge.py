@@ -54,8 +54,8 @@ def test_trunk_cut_by_occluders_is_carried_on(monkeypatch):
     loc, left, right, truth = _fixture_00()
     kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right)
     with_it = score_result(loc.localize(left, right, **kw), truth)
-    monkeypatch.setattr(dense, "_carry_over", lambda *a, **k: {})
-    monkeypatch.setattr(dense, "_grow", lambda *a, **k: None)
+    monkeypatch.setattr(dense, "carry_over", lambda *a, **k: {})
+    monkeypatch.setattr(dense, "grow", lambda *a, **k: None)
     without = score_result(loc.localize(left, right, **kw), truth)
     assert with_it.branch_coverage >= 0.88
     assert with_it.branch_coverage >= without.branch_coverage + 0.04

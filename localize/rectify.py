@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
+from appliance.localize.skeleton import block_mean
 
 GREY_TILE_PX = (32, 128)    # LazyRectified's tiles (rows, cols)
 
@@ -115,8 +116,8 @@ class Rectifier:
         any_px = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY)[1]
         if (hb * b, wb * b) != (h, w):
             any_px = cv2.copyMakeBorder(any_px, 0, hb * b - h, 0, wb * b - w, cv2.BORDER_CONSTANT, value=0)
-        # integer-factor INTER_AREA is the block mean: one 255 pixel of 64 still rounds to >= 4
-        cells = cv2.integral(cv2.resize(any_px, (wb, hb), interpolation=cv2.INTER_AREA))
+        # the block mean (by halvings): one 255 pixel of 64 still rounds to >= 4
+        cells = cv2.integral(block_mean(any_px, b))
         t = self.tiles[side]
         by0, bx0 = t[:, 4] // b, t[:, 6] // b
         by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)

@@ -18,7 +18,7 @@ from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import block_mean
 
-GREY_TILE_PX = (32, 128)    # LazyRectified's tiles (rows, cols)
+GREY_TILE_PX = (16, 128)    # LazyRectified's tiles (rows, cols): the reads are strips of ~10-20 rows
 
 
 @dataclass(frozen=True, eq=False)

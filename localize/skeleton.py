@@ -10,6 +10,7 @@ resolution from the image edges.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -19,6 +20,8 @@ import numpy as np
 # neighbour k of pixel (y, x) is at (y + DY[k], x + DX[k]): N, NE, E, SE, S, SW, W, NW
 DY = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
 DX = np.array([0, 1, 1, 1, 0, -1, -1, -1])
+_LITTLE_ENDIAN = sys.byteorder == "little"
+_GATHER_BITS, _TOP_BYTE = np.uint64(0x0102040810204080), np.uint64(56)
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,8 +115,12 @@ class SparseImage:
 
     def codes(self, idx: np.ndarray) -> np.ndarray:
         """:func:`neighbour_code` at the flat indices ``idx``, shape (N,) uint8."""
-        nb = self.flat[np.asarray(idx)[:, None] + self.offsets()]
-        return np.packbits(nb, axis=1, bitorder="little").reshape(-1)
+        nb = self.flat[np.asarray(idx)[:, None] + self.offsets()] != 0
+        if not _LITTLE_ENDIAN:
+            return np.packbits(nb, axis=1, bitorder="little").reshape(-1)
+        # the 8 neighbour bytes (0/1) of a pixel read as one uint64: a multiply moves byte k's bit to
+        # bit 56 + k (no carries), the same code as np.packbits(bitorder="little") in half the time
+        return ((nb.view(np.uint64)[:, 0] * _GATHER_BITS) >> _TOP_BYTE).astype(np.uint8)
 
     def image(self) -> np.ndarray:
         """The (H, W) uint8 0/1 image."""

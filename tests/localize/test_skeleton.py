@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import block_mean, remove_corners, skeletonize, zhang_suen
+from appliance.localize.skeleton import SparseImage, block_mean, neighbour_code, remove_corners, skeletonize, zhang_suen
 
 from tests.localize.shapes import y_shape
 
@@ -50,3 +50,15 @@ def test_fast_skeleton_block_mean_thresholds_as_one_area_resize():
     m = _blobs(3, (96, 128))
     small = cv2.threshold(cv2.resize(m, (32, 24), interpolation=cv2.INTER_AREA), 76, 255, cv2.THRESH_BINARY)[1]
     assert np.array_equal(skeletonize(m, "fast", 4).mask, small)
+
+
+def test_sparse_codes_are_the_neighbour_codes():
+    # a random image (all 256 codes occur), set pixels 1 or 2 (zhang_suen marks border pixels 2)
+    rng = np.random.default_rng(7)
+    for on in (1, 2):
+        img = (rng.random((60, 80)) < 0.45).astype(np.uint8)
+        sp = SparseImage.from_image(img)
+        sp.flat[sp.flat > 0] = on
+        yx = np.argwhere(np.ones_like(img))
+        assert np.array_equal(sp.codes(sp.index(yx[:, 0], yx[:, 1])), neighbour_code(img)[yx[:, 0], yx[:, 1]])
+    assert sp.codes(np.zeros(0, np.int64)).shape == (0,)

@@ -70,12 +70,16 @@ class Poly:
         """Least squares (``degree`` lowered to what the samples support)."""
         t, y = np.asarray(t, float), np.asarray(y, float)
         n = len(t)
-        if degree > 0 and n and not (t[1:] > t[:-1]).all():       # not strictly increasing: count values
-            st = np.sort(t)
-            degree = int(min(degree, np.count_nonzero(st[1:] != st[:-1])))
+        increasing = False
+        if degree > 0 and n:
+            increasing = bool((t[1:] > t[:-1]).all())
+            if not increasing:                                     # count distinct values
+                st = np.sort(t)
+                degree = int(min(degree, np.count_nonzero(st[1:] != st[:-1])))
         degree = int(max(min(degree, n - 1), 0))
         t0 = float(t.sum()) / n if n else 0.0
-        ts = max(float(t.max()) - t0, t0 - float(t.min()), 1.0) if n else 1.0
+        t_lo, t_hi = (float(t[0]), float(t[-1])) if increasing else (float(t.min()), float(t.max())) if n else (0.0, 0.0)
+        ts = max(t_hi - t0, t0 - t_lo, 1.0) if n else 1.0
         x = (t - t0) / ts
         return cls(_lstsq_poly(x, y, degree), t0, ts)
 
@@ -228,7 +232,15 @@ class BranchCurve:
         """Samples (N, 3) of (u, v, d) along the fitted span every ``step_px`` of t."""
         lo, hi = self.t_range
         t = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
-        return np.column_stack([self.uv_at(t), self.d_at(t)])
+        out = np.empty((len(t), 3))
+        out[:, 1 if self.by_row else 0] = t
+        if np.isfinite(t).all():            # inside the span: the polynomials themselves (as _eval)
+            out[:, 0 if self.by_row else 1] = self.s_poly(t)
+            out[:, 2] = self.d_poly(t)
+        else:
+            out[:, 0 if self.by_row else 1] = self.s_at(t)
+            out[:, 2] = self.d_at(t)
+        return out
 
 
 def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float, float]:

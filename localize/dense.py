@@ -50,7 +50,7 @@ from appliance.localize.texture import (
 
 def _angle_deg(pts: np.ndarray) -> float:
     """Angle of a point set's main direction from the horizontal, degrees (0..90)."""
-    c = pts - pts.mean(0)
+    c = pts - pts.sum(0) / len(pts)             # (the mean, bit for bit, without np.mean's checks)
     sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
     return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
 

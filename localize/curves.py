@@ -171,6 +171,15 @@ def degree_for(n_samples: int, span_px: float) -> int:
     return 2 if span_px < 160 else 3
 
 
+def _one(t) -> float | None:
+    """``t`` as a Python float when it is one value (a float, or a one-element 1-D array), else None."""
+    if isinstance(t, float):
+        return float(t)
+    if type(t) is np.ndarray and t.shape == (1,):
+        return float(t[0])
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class BranchCurve:
     """A branch piece in the rectified left image with its disparity.
@@ -190,17 +199,24 @@ class BranchCurve:
     d_end_slopes: tuple[float, float] | None = None
     right_runs: np.ndarray | None = None
 
+    def _at(self, poly: Poly, t1: float, slopes=None) -> float:
+        """:meth:`_eval` of one parameter, in Python floats."""
+        lo, hi = self.t_range
+        tc1 = min(max(t1, lo), hi)
+        if tc1 == t1:
+            return poly.at(tc1)
+        slope = poly.deriv().at(tc1) if slopes is None else slopes[0] if t1 < lo else slopes[1]
+        return poly.at(tc1) + slope * (t1 - tc1)
+
     def _eval(self, poly: Poly, t, slopes=None) -> np.ndarray:
         """``poly`` inside the span, beyond it along ``slopes`` (the curve's own at the span's ends by default)."""
+        t1 = _one(t)
+        if t1 is not None:                  # one point: the same sums in Python floats
+            return np.array([self._at(poly, t1, slopes)])
         t = np.atleast_1d(np.asarray(t, float))
         lo, hi = self.t_range
-        if t.shape == (1,):                 # one point: the same sums in Python floats
-            t1 = float(t[0])
-            tc1 = min(max(t1, lo), hi)
-            if tc1 == t1:
-                return np.array([poly.at(tc1)])
-            slope = poly.deriv().at(tc1) if slopes is None else slopes[0] if t1 < lo else slopes[1]
-            return np.array([poly.at(tc1) + slope * (t1 - tc1)])
+        if t.shape == (1,):
+            return np.array([self._at(poly, float(t[0]), slopes)])
         if not t.size or (t.min() >= lo and t.max() <= hi):     # no extrapolation (NaN: the general path)
             return poly(t)
         tc = np.minimum(np.maximum(t, lo), hi)
@@ -217,6 +233,10 @@ class BranchCurve:
 
     def uv_at(self, t) -> np.ndarray:
         """(N, 2) rectified left (u, v) at parameters ``t``."""
+        t1 = _one(t)
+        if t1 is not None:
+            s = self._at(self.s_poly, t1)
+            return np.array([[s, t1]] if self.by_row else [[t1, s]])
         t = np.asarray(t, float).reshape(-1)
         out = np.empty((len(t), 2))
         out[:, 0 if self.by_row else 1] = self.s_at(t)

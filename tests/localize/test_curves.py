@@ -174,3 +174,17 @@ def test_uvd_samples_are_the_curve_evaluated_along_its_span():
                 lo, hi = c.t_range
                 tt = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step)) + 1))
                 assert np.array_equal(c.uvd(step), np.column_stack([c.uv_at(tt), c.d_at(tt)]))
+
+
+def test_one_parameter_evaluates_alike_whatever_its_form():
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.uniform(0, 200, 30))
+    c = BranchCurve(0, True, (float(t[2]), float(t[-3])), Poly.fit(t, 0.002 * t ** 2, 2), Poly.fit(t, 150 - 0.2 * t, 1),
+                    3.0, 30, (0.1, -0.4))
+    for x in (-20.0, 0.0, float(t[2]), 77.7, float(t[-3]), 260.5):
+        forms = (x, np.float64(x), np.array([x]), np.array(x), [x], np.array([x], np.float32))
+        for f in ("uv_at", "s_at", "d_at"):
+            for v in forms:
+                want = getattr(c, f)(np.r_[np.asarray(v, float).ravel(), 0.0])[:1]     # the array path
+                got = getattr(c, f)(v)
+                assert got.shape == want.shape and np.array_equal(got, want), (f, v)

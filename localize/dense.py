@@ -203,7 +203,10 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     # rows where the branch is partly hidden still show one true edge in both views
     w_poly, _ = robust_fit_groups(tf, w_l[q[chosen]], gc, ng, np.ones(ng, int), rounds=2)
     width = int(rows_all.max()) + 1
-    rest = ~np.isin(g_all * width + rows_all, gc * width + tf.astype(int)) & alive[g_all]
+    key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
+    used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)   # (np.isin by a table)
+    used_key[key_used] = True
+    rest = ~used_key[key_all] & alive[g_all]
     te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
                                    runs_l, runs_r, taken)
     # pieces with edge samples: the disparity refitted to all their samples, in each piece's order

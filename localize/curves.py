@@ -217,8 +217,16 @@ class BranchCurve:
         lo, hi = self.t_range
         if t.shape == (1,):
             return np.array([self._at(poly, float(t[0]), slopes)])
-        if not t.size or (t.min() >= lo and t.max() <= hi):     # no extrapolation (NaN: the general path)
+        if not t.size:
             return poly(t)
+        mn, mx = t.min(), t.max()
+        if mn >= lo and mx <= hi:           # no extrapolation (NaN: the general path)
+            return poly(t)
+        # all beyond one end (a walk out of the span): that end's value and slope, as below per point
+        if mn >= hi:
+            return poly.at(hi) + (poly.deriv().at(hi) if slopes is None else slopes[1]) * (t - hi)
+        if mx < lo:
+            return poly.at(lo) + (poly.deriv().at(lo) if slopes is None else slopes[0]) * (t - lo)
         tc = np.minimum(np.maximum(t, lo), hi)
         if slopes is None:
             slopes = (poly.deriv().at(lo), poly.deriv().at(hi))

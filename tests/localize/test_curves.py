@@ -188,3 +188,19 @@ def test_one_parameter_evaluates_alike_whatever_its_form():
                 want = getattr(c, f)(np.r_[np.asarray(v, float).ravel(), 0.0])[:1]     # the array path
                 got = getattr(c, f)(v)
                 assert got.shape == want.shape and np.array_equal(got, want), (f, v)
+
+
+def test_evaluation_beyond_one_end_is_the_clipped_formula():
+    rng = np.random.default_rng(8)
+    t = np.sort(rng.uniform(0, 300, 40))
+    base = Poly.fit(t, 0.001 * (t - 150) ** 3 / 50 + rng.normal(0, 0.2, 40), 3)
+    for s_poly in (base, Spliced(base, 60.0, 240.0, Poly.fit(t, 0.3 * t, 1), Poly.fit(t, -0.2 * t, 2))):
+        c = BranchCurve(0, False, (50.0, 250.0), s_poly, Poly.fit(t, 120 + 0.05 * t, 1), 3.0, 40, (0.25, -0.75))
+        lo, hi = c.t_range
+        for tt in (hi + np.arange(0, 30, 0.25), lo - np.arange(0.25, 30, 0.25), np.r_[lo - 3.0, 100.0, hi + 2.0]):
+            tc = np.minimum(np.maximum(tt, lo), hi)
+            for poly, slopes in ((c.s_poly, (c.s_poly.deriv().at(lo), c.s_poly.deriv().at(hi))),
+                                 (c.d_poly, c.d_end_slopes)):
+                want = poly(tc) + np.where(tt < lo, slopes[0], slopes[1]) * (tt - tc)
+                got = c.s_at(tt) if poly is c.s_poly else c.d_at(tt)
+                assert np.array_equal(got, want)

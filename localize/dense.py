@@ -12,7 +12,8 @@ side, and pieces that only continue a matched one past occluders, are matched by
 
 Flat pieces (rows ambiguous) take their disparity from the bark texture (:mod:`texture`),
 or else from the forks/joints at their ends; a flat piece with neither is left out rather
-than guessed. Forks, tips and bridges are then placed on the curves (:mod:`ends`).
+than guessed. Steep pieces still without a curve that end in a tip take one from the tip's
+round cap (:mod:`caps`). Forks, tips and bridges are then placed on the curves (:mod:`ends`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from appliance.localize.curves import (
     robust_fit,
     robust_fit_groups,
 )
+from appliance.localize.caps import cap_curves
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -455,6 +457,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 curves[s] = c
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
+    curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
     for node in np.flatnonzero(kinds == ENDPOINT):
         b.tip(node)
     for node in np.flatnonzero(kinds == JOINT):

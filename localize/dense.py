@@ -41,6 +41,7 @@ from appliance.localize.radius import radius_at
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
+    edge_consensus,
     edge_samples,
     grow,
 )
@@ -475,6 +476,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 kinds[node] = ENDPOINT
                 b.uvd.pop(node, None)
                 b.tip(node)
+    # steep pieces still without a curve, matched edge by edge on their own: branches to keep clear of,
+    # not trusted for forks and tips (placed above without them)
+    curves.update(edge_consensus(graph, [s for s in steep if s not in curves], curves, runs_l, runs_r, sm))
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px

@@ -480,8 +480,8 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         kind = {ENDPOINT: "endpoint", JUNCTION: "bifurcation"}.get(int(kinds[node]))
         if kind is None or node in b.hidden or not (0.95 * dmin <= d <= 1.05 * dmax):
             continue
-        if kind == "endpoint" and min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
-            continue
+        if min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
+            continue                 # (a tip or fork at the view's edge: its branch runs out of view)
         if any(f.kind == kind and np.hypot(f.u - u, f.v - v) < 3 for f in features):
             continue                                 # two graph ends placed on one tip
         features.append(FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node]))

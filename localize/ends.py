@@ -220,7 +220,9 @@ class EndPlacer:
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
             # outline leaving it in the right view tells the fork's own (along the rows)
             d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
-            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0:
+            # (unless the child's own disparity agrees with the parent's: the two views' outline
+            # places may be a px or two apart, as with noisy masks)
+            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
                 d, agree = d_out, True
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]

@@ -485,8 +485,10 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         kind = {ENDPOINT: "endpoint", JUNCTION: "bifurcation"}.get(int(kinds[node]))
         if kind is None or node in b.hidden or not (0.95 * dmin <= d <= 1.05 * dmax):
             continue
-        if min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
-            continue                 # (a tip or fork at the view's edge: its branch runs out of view)
+        # a tip at the view's edge: its branch runs out of view; a fork on the edge itself: its
+        # pieces leave the view there (the axes' crossing lies outside, where they meet)
+        if min(u, v, w - 1 - u, h - 1 - v) < (border_px + graph.scale if kind == "endpoint" else 1.0):
+            continue
         ft = FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node])
         # two graph ends placed on one tip; two junctions placing one fork (a loop of the
         # skeleton at a thick crotch): the one slid least from its junction stands

@@ -70,12 +70,16 @@ class Poly:
         """Least squares (``degree`` lowered to what the samples support)."""
         t, y = np.asarray(t, float), np.asarray(y, float)
         n = len(t)
-        if degree > 0 and n and not (t[1:] > t[:-1]).all():       # not strictly increasing: count values
-            st = np.sort(t)
-            degree = int(min(degree, np.count_nonzero(st[1:] != st[:-1])))
+        increasing = False
+        if degree > 0 and n:
+            increasing = bool((t[1:] > t[:-1]).all())
+            if not increasing:                                     # count distinct values
+                st = np.sort(t)
+                degree = int(min(degree, np.count_nonzero(st[1:] != st[:-1])))
         degree = int(max(min(degree, n - 1), 0))
         t0 = float(t.sum()) / n if n else 0.0
-        ts = max(float(t.max()) - t0, t0 - float(t.min()), 1.0) if n else 1.0
+        t_lo, t_hi = (float(t[0]), float(t[-1])) if increasing else (float(t.min()), float(t.max())) if n else (0.0, 0.0)
+        ts = max(t_hi - t0, t0 - t_lo, 1.0) if n else 1.0
         x = (t - t0) / ts
         return cls(_lstsq_poly(x, y, degree), t0, ts)
 
@@ -228,7 +232,15 @@ class BranchCurve:
         """Samples (N, 3) of (u, v, d) along the fitted span every ``step_px`` of t."""
         lo, hi = self.t_range
         t = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
-        return np.column_stack([self.uv_at(t), self.d_at(t)])
+        out = np.empty((len(t), 3))
+        out[:, 1 if self.by_row else 0] = t
+        if np.isfinite(t).all():            # inside the span: the polynomials themselves (as _eval)
+            out[:, 0 if self.by_row else 1] = self.s_poly(t)
+            out[:, 2] = self.d_poly(t)
+        else:
+            out[:, 0 if self.by_row else 1] = self.s_at(t)
+            out[:, 2] = self.d_at(t)
+        return out
 
 
 def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float, float]:
@@ -266,10 +278,10 @@ class GroupPolys:
     def __call__(self, g: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Values at parameters ``t`` (N,) of samples of groups ``g`` (N,)."""
         x = (np.asarray(t, float) - self.t0[g]) / self.ts[g]
-        c = self.coef[g]
-        y = x * c[:, 0] + c[:, 1]
-        y = y * x + c[:, 2]
-        return y * x + c[:, 3]
+        c = self.coef                   # (a gather per coefficient: faster than of whole rows)
+        y = x * c[g, 0] + c[g, 1]
+        y = y * x + c[g, 2]
+        return y * x + c[g, 3]
 
     def deriv(self) -> GroupPolys:
         d = np.zeros_like(self.coef)
@@ -312,12 +324,15 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
         distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
         deg = np.where(deg > 0, np.minimum(deg, distinct - 1), deg)
     deg = np.maximum(np.minimum(deg, n - 1), 0)
-    pad = np.append(starts, len(t))[:-1]                      # a zero row after the samples: empty groups read it
-    t_pad = np.append(t, 0.0)
+    pad = starts                                              # a padding sample after the samples: empty groups read it
+    t_pad = np.empty(len(t) + 1)
+    t_pad[:-1] = t
+    t_pad[-1] = 0.0
     t0 = np.add.reduceat(t_pad, pad) / np.maximum(n, 1)
-    t_hi = np.append(t, -np.inf)
-    t_lo = np.append(t, np.inf)
-    ts = np.maximum(np.maximum(np.maximum.reduceat(t_hi, pad) - t0, t0 - np.minimum.reduceat(t_lo, pad)), 1.0)
+    t_pad[-1] = -np.inf
+    t_hi = np.maximum.reduceat(t_pad, pad)
+    t_pad[-1] = np.inf
+    ts = np.maximum(np.maximum(t_hi - t0, t0 - np.minimum.reduceat(t_pad, pad)), 1.0)
     x = (t - t0[g]) / ts[g]
     dm = int(deg.max()) if n_groups else 0
     p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
@@ -366,12 +381,16 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     for _ in range(rounds):
         res = y - fit(g, t)
         kr, kg = res[keep], g[keep]
-        bounds = np.searchsorted(kg, np.arange(n_groups + 1))
-        thr = np.full(n_groups, np.inf)
-        for k in np.flatnonzero(active).tolist():
-            r = kr[bounds[k]:bounds[k + 1]]
-            mad = 1.4826 * median(np.abs(r - median(r))) + 1e-3
-            thr[k] = k_mad * mad + 0.05
+        bounds = np.searchsorted(kg, np.arange(n_groups + 1)).tolist()
+        live = np.flatnonzero(active).tolist()
+        med = np.zeros(n_groups)
+        for k in live:
+            med[k] = median(kr[bounds[k]:bounds[k + 1]])
+        dev = np.abs(kr - med[kg])                            # (each group's deviations: the same values)
+        mad = np.zeros(n_groups)
+        for k in live:
+            mad[k] = median(dev[bounds[k]:bounds[k + 1]])
+        thr = np.where(active, k_mad * (1.4826 * mad + 1e-3) + 0.05, np.inf)
         new = np.abs(res) <= thr[g]
         count = np.bincount(g[new], minlength=n_groups)
         changed = np.bincount(g[new != keep], minlength=n_groups) > 0

@@ -53,7 +53,7 @@ from appliance.localize.texture import (
 
 def _angle_deg(pts: np.ndarray) -> float:
     """Angle of a point set's main direction from the horizontal, degrees (0..90)."""
-    c = pts - pts.mean(0)
+    c = pts - pts.sum(0) / len(pts)             # (the mean, bit for bit, without np.mean's checks)
     sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
     return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
 
@@ -302,10 +302,10 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     g = np.repeat(np.arange(len(live)), hi - lo)
     sel = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
     ts, ds = t[sel], d[sel]
-    i_s, sl_s = i[g].T, slope[g].T                       # (H, N) each sample's piece's hypotheses
-    inl = np.abs(ds[None, :] - (d[i_s] + sl_s * (ts[None, :] - t[i_s]))) <= tol_px
+    di, ti, sl = d[i][g], t[i][g], slope[g]               # (N, H) each sample's piece's hypotheses
+    inl = np.abs(ds[:, None] - (di + sl * (ts[:, None] - ti))) <= tol_px
     starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
-    count = np.add.reduceat(inl, starts, axis=1, dtype=np.int64).T     # (G, H)
+    count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1
     best = count.argmax(1)
     for m, k in enumerate(live.tolist()):
@@ -313,7 +313,7 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
         if not ok[m].any():
             polys[k] = Poly.constant(float(median(dk)))
             continue
-        on = inl[best[m], starts[m]:starts[m] + hi[m] - lo[m]]
+        on = inl[starts[m]:starts[m] + hi[m] - lo[m], best[m]]
         polys[k] = Poly.fit(tk[on], dk[on], 1)
     return GroupPolys.of(polys)
 

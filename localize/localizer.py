@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
+from appliance.localize.curves import median
 from appliance.localize.dense import match_dense
 from appliance.localize.errors import LocalizeError
 from appliance.localize.graph import SkeletonGraph
@@ -214,18 +215,24 @@ class Localizer:
                 node_id[ft.node] = i
                 features.append(Feature(i, ft.kind, tuple(left_px[i]), tuple(right_px[i]), tuple(xyz[i]),
                                         radius_mm, float(xyz[i, 2] - k * radius_mm)))
-        branches = []
+        kept = []
+        dmin, dmax = self.d_range_px
         for p in m.pieces:
             if not np.isfinite(p.radius_px) or len(p.uvd) < 2 or (p.uvd[:, 2] <= 0).any():
                 continue
-            dmin, dmax = self.d_range_px       # as the features: within the working range (5 %)
+            # as the features: within the working range (5 %)
             uvd = longest_run(p.uvd, (p.uvd[:, 2] >= 0.95 * dmin) & (p.uvd[:, 2] <= 1.05 * dmax))
             uvd = plausible_part(uvd, self.cfg.match.max_disparity_gradient)
-            if len(uvd) < 2:
-                continue
-            p = replace(p, uvd=uvd)
-            poly = triangulate(p.uvd[:, 0], p.uvd[:, 1], p.uvd[:, 2], calib)
-            radius_mm = float(p.radius_px * np.median(poly[:, 2]) / f)
-            ids = tuple(node_id.get(n, -1) for n in p.nodes)
-            branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
+            if len(uvd) >= 2:
+                kept.append((p, uvd))
+        branches = []
+        if kept:
+            # all pieces triangulated at once (row by row the same values), then split
+            uvd = np.vstack([u for _, u in kept])
+            polys = np.split(triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib),
+                             np.cumsum([len(u) for _, u in kept])[:-1])
+            for (p, _), poly in zip(kept, polys):
+                radius_mm = float(p.radius_px * median(poly[:, 2]) / f)
+                ids = tuple(node_id.get(n, -1) for n in p.nodes)
+                branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
         return LocalizationResult(tuple(features), tuple(branches), int(stamp_ns))

@@ -16,8 +16,9 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.localize.errors import LocalizeError
+from appliance.localize.skeleton import block_mean
 
-GREY_TILE_PX = (32, 128)    # LazyRectified's tiles (rows, cols)
+GREY_TILE_PX = (16, 64)     # LazyRectified's source boxes: per tile of this size (rows, cols)
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,7 +45,7 @@ class Rectifier:
     tiles: tuple = ()
     _sources: dict = field(default_factory=dict, repr=False)   # tile_sources() cache
 
-    TILE_PX = (32, 64)      # output tile (rows, cols) of the sparse remap
+    TILE_PX = (32, 32)      # output tile (rows, cols) of the sparse remap
     BLOCK_PX = 8            # source pixels per cell of the "anything here" map
     SPARSE_MAX = 0.7        # remap in full when more than this share of the image is needed
 
@@ -63,7 +64,7 @@ class Rectifier:
         tiles = tuple(_tile_sources(*cv2.convertMaps(m1, m2, cv2.CV_32FC1), cls.TILE_PX) for m1, m2 in maps)
         rect = cls(calib, maps, valid, tiles)
         for side in (0, 1):
-            rect.tile_sources(side, GREY_TILE_PX)        # LazyRectified's tiles, ready for the first frame
+            rect.source_grid(side, GREY_TILE_PX)         # LazyRectified's source boxes, ready for the first frame
         return rect
 
     def tile_sources(self, side: int, tile_px: tuple[int, int]) -> np.ndarray:
@@ -74,6 +75,21 @@ class Rectifier:
                 self._sources[key] = self.tiles[side]
             else:
                 self._sources[key] = _tile_sources(*cv2.convertMaps(*self.maps[side], cv2.CV_32FC1), tile_px)
+        return self._sources[key]
+
+    def source_grid(self, side: int, tile_px: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`tile_sources` as two grids (rows, cols, 2) int: each tile's source box start (sy0, sx0)
+        and end (sy1, sx1); a tile that sees nothing has start ``W + H`` and end -1 (a union of boxes by
+        a min and a max). Computed once."""
+        key = ("grid", side, tuple(tile_px))
+        if key not in self._sources:
+            t = self.tile_sources(side, tile_px)
+            w, h = (int(s) for s in self.calib.image_size)
+            shape = (-(-h // tile_px[0]), -(-w // tile_px[1]), 2)
+            empty = ((t[:, 5] <= t[:, 4]) | (t[:, 7] <= t[:, 6]))[:, None]
+            lo = np.where(empty, w + h, t[:, [4, 6]]).reshape(shape)
+            hi = np.where(empty, -1, t[:, [5, 7]]).reshape(shape)
+            self._sources[key] = (lo, hi)
         return self._sources[key]
 
     def check_size(self, image: np.ndarray, what: str) -> None:
@@ -115,8 +131,8 @@ class Rectifier:
         any_px = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY)[1]
         if (hb * b, wb * b) != (h, w):
             any_px = cv2.copyMakeBorder(any_px, 0, hb * b - h, 0, wb * b - w, cv2.BORDER_CONSTANT, value=0)
-        # integer-factor INTER_AREA is the block mean: one 255 pixel of 64 still rounds to >= 4
-        cells = cv2.integral(cv2.resize(any_px, (wb, hb), interpolation=cv2.INTER_AREA))
+        # the block mean (by halvings): one 255 pixel of 64 still rounds to >= 4
+        cells = cv2.integral(block_mean(any_px, b))
         t = self.tiles[side]
         by0, bx0 = t[:, 4] // b, t[:, 6] // b
         by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
@@ -181,12 +197,13 @@ def _tile_sources(map_x: np.ndarray, map_y: np.ndarray, tile_px: tuple[int, int]
 
 
 class LazyRectified:
-    """A rectified image computed tile by tile when indexed (``img[y0:y1, x0:x1]``).
+    """A rectified image computed where indexed (``img[y0:y1, x0:x1]``).
 
     The matcher reads the grey images only in small patches and strips; rectifying just the
-    tiles it touches saves most of a full remap. A BGR ``image`` is converted to grey only in
-    the source area of each tile (the same grey image as converting it all first: the
-    conversion is per pixel), which saves the full-size conversion too.
+    area read (one remap of exactly that rectangle) saves most of a full remap. A BGR ``image``
+    is converted to grey only in the source area of the read (the union of the source boxes of
+    the ``tile_px`` tiles it covers): the same grey image as converting it all first, as the
+    conversion and the remap are per pixel. Nothing is cached: a read costs about its area.
     """
 
     def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, tile_px: tuple[int, int] = GREY_TILE_PX):
@@ -195,30 +212,8 @@ class LazyRectified:
         w, h = rectifier.calib.image_size
         self.shape = (h, w)
         self.dtype = image.dtype
-        self._tiles: dict[tuple[int, int], np.ndarray] = {}
-        self._grey = None                                   # BGR input: grey where tiles read it
-        self._boxes = rectifier.tile_sources(side, tile_px) if image.ndim == 3 else None
-        self._cols = -(-w // self.tw)
-
-    def _tile(self, i: int, j: int) -> np.ndarray:
-        if (i, j) not in self._tiles:
-            m1, m2 = self.rectifier.maps[self.side]
-            y0, x0 = i * self.th, j * self.tw
-            y1, x1 = min(y0 + self.th, self.shape[0]), min(x0 + self.tw, self.shape[1])
-            m1, m2 = m1[y0:y1, x0:x1], m2[y0:y1, x0:x1]
-            src = self.image
-            if src.ndim == 3:
-                # grey only where this tile reads (its source box), into a full-size buffer
-                if self._grey is None:
-                    self._grey = np.empty(self.image.shape[:2], np.uint8)
-                sy0, sy1, sx0, sx1 = self._boxes[i * self._cols + j, 4:].tolist()
-                if sy1 <= sy0 or sx1 <= sx0:                  # the tile sees nothing of the image
-                    self._tiles[i, j] = np.zeros((y1 - y0, x1 - x0), np.uint8)
-                    return self._tiles[i, j]
-                cv2.cvtColor(src[sy0:sy1, sx0:sx1], cv2.COLOR_BGR2GRAY, dst=self._grey[sy0:sy1, sx0:sx1])
-                src = self._grey
-            self._tiles[i, j] = cv2.remap(src, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-        return self._tiles[i, j]
+        self._grey = None                                   # BGR input: grey where reads need it
+        self._boxes = rectifier.source_grid(side, tile_px) if image.ndim == 3 else None
 
     def __getitem__(self, index):
         ys, xs = index
@@ -226,6 +221,18 @@ class LazyRectified:
         x0, x1, _ = xs.indices(self.shape[1])
         if y1 <= y0 or x1 <= x0:
             return np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), self.dtype)
-        i0, i1, j0, j1 = y0 // self.th, (y1 - 1) // self.th, x0 // self.tw, (x1 - 1) // self.tw
-        block = np.vstack([np.hstack([self._tile(i, j) for j in range(j0, j1 + 1)]) for i in range(i0, i1 + 1)])
-        return block[y0 - i0 * self.th:y1 - i0 * self.th, x0 - j0 * self.tw:x1 - j0 * self.tw]
+        src = self.image
+        if src.ndim == 3:
+            lo, hi = self._boxes
+            i0, i1, j0, j1 = y0 // self.th, (y1 - 1) // self.th + 1, x0 // self.tw, (x1 - 1) // self.tw + 1
+            sy0, sx0 = lo[i0:i1, j0:j1].reshape(-1, 2).min(0).tolist()
+            sy1, sx1 = hi[i0:i1, j0:j1].reshape(-1, 2).max(0).tolist()
+            if sy1 <= sy0 or sx1 <= sx0:                    # the area sees nothing of the image
+                return np.zeros((y1 - y0, x1 - x0), np.uint8)
+            if self._grey is None:
+                self._grey = np.empty(src.shape[:2], np.uint8)
+            cv2.cvtColor(src[sy0:sy1, sx0:sx1], cv2.COLOR_BGR2GRAY, dst=self._grey[sy0:sy1, sx0:sx1])
+            src = self._grey
+        m1, m2 = self.rectifier.maps[self.side]
+        return cv2.remap(src, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=0)

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
-from appliance.localize.skeleton import binary, pixels
+from appliance.localize.skeleton import binary, block_mean, pixels
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 
@@ -58,22 +58,6 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     return m
 
 
-def _block_mean(mask: np.ndarray, factor: int) -> np.ndarray:
-    """Mean of each ``factor`` x ``factor`` block (whole blocks), uint8, shape (H / factor, W / factor).
-
-    A power-of-two factor is taken in halvings: OpenCV's 2x area resize is ~8x faster than
-    one 4x (0.04 against 0.28 ms at 1280x960). Either way a block with any pixel set
-    stays non-zero, and ``rint(mean * factor**2 / 255)`` is the exact count of set pixels.
-    """
-    h, w = mask.shape
-    if factor & (factor - 1):
-        return cv2.resize(mask, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
-    while factor > 1:
-        h, w, factor = h // 2, w // 2, factor // 2
-        mask = cv2.resize(mask, (w, h), interpolation=cv2.INTER_AREA)
-    return mask
-
-
 def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndarray:
     """Remove connected components smaller than ``min_area_px`` (uint8 0/255).
 
@@ -88,7 +72,7 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
         pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
         out = drop_small(pad, min_area_px, factor)
         return mask if out is pad else out[:h, :w]
-    cover = _block_mean(mask, factor)
+    cover = block_mean(mask, factor)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask

@@ -159,3 +159,18 @@ def test_spliced_keeps_its_base_inside_and_its_parts_outside():
     assert all(s.at(float(x)) == pytest.approx(w) for x, w in zip(t, want))
     assert np.allclose(s.deriv()(t), [0.0, 2.0, 2.0, 2.0, -1.0])
     assert np.allclose(Spliced(base, 0.0, 10.0)(t), base(t))          # no parts: the base everywhere
+
+
+def test_uvd_samples_are_the_curve_evaluated_along_its_span():
+    rng = np.random.default_rng(11)
+    for by_row in (True, False):
+        t = np.sort(rng.uniform(0, 300, 40))
+        s = Poly.fit(t, 0.001 * (t - 150) ** 2 + rng.normal(0, 0.3, 40), 2)
+        spliced = Spliced(s, 50.0, 250.0, Poly.fit(t, 0.5 * t, 1), None)
+        for s_poly in (s, spliced):
+            c = BranchCurve(0, by_row, (float(t[3]), float(t[-2])), s_poly, Poly.fit(t, 200 - 0.1 * t, 1), 4.0, 40,
+                            (0.2, -0.3))
+            for step in (0.7, 4.0, 1000.0):
+                lo, hi = c.t_range
+                tt = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step)) + 1))
+                assert np.array_equal(c.uvd(step), np.column_stack([c.uv_at(tt), c.d_at(tt)]))

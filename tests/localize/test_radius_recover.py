@@ -5,7 +5,7 @@ from appliance.config import load_config
 from appliance.localize.graph import JOINT, build_graph
 from appliance.localize.prune import prune
 from appliance.localize.radius import radius_at, ridge_radius_map, segment_radius
-from appliance.localize.recover import end_geometry, recover
+from appliance.localize.recover import _line_pixels, end_geometry, recover
 from appliance.localize.skeleton import skeletonize
 
 
@@ -72,3 +72,15 @@ def test_end_directions_point_out_of_their_segments():
         outward = np.sign(np.dot(xy - [150, 95], axis))
         assert np.dot(d, axis) * outward >= np.cos(np.radians(3))     # along the stick, away from its middle
     assert np.allclose(ends.radius_px, 3.0, atol=1.0)
+
+
+def test_line_pixels_are_the_distinct_pixels_of_the_line_sorted():
+    rng = np.random.default_rng(4)
+    graph = build_graph(skeletonize(np.pad(np.full((20, 40), 255, np.uint8), 10), "fast", 4))
+    for _ in range(50):
+        a, b = rng.uniform(0, 60, 2), rng.uniform(0, 60, 2)
+        px = _line_pixels(graph, a, b)
+        pa, pb = (a + 0.5) / graph.scale - 0.5, (b + 0.5) / graph.scale - 0.5
+        n = int(np.ceil(np.abs(pb - pa).max())) + 1
+        want = np.unique(np.rint(pa + np.linspace(0, 1, n)[:, None] * (pb - pa)).astype(int)[:, ::-1], axis=0)
+        assert np.array_equal(px, want) and px.dtype == want.dtype

@@ -46,3 +46,17 @@ def test_lazy_rectified_bgr_gives_the_grey_rectified_image():
         for ys, xs in ((slice(0, h), slice(0, w)), (slice(40, 90), slice(100, 230)), (slice(h - 5, h), slice(0, 7))):
             assert np.array_equal(lazy[ys, xs], want[ys, xs])
             assert np.array_equal(lazy_grey[ys, xs], want[ys, xs])
+
+
+def test_lazy_rectified_reads_anywhere_are_the_full_rectified_image():
+    w, h = 333, 251
+    rect = Rectifier.from_calibration(distorted_rig(w, h))
+    rng = np.random.default_rng(9)
+    bgr = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    for side in (0, 1):
+        want = rect.rectify(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), side)
+        lazy = LazyRectified(rect, bgr, side)
+        for _ in range(200):                 # strips and patches, crossing tiles, at and past the borders
+            y0, x0 = rng.integers(-5, h), rng.integers(-5, w)
+            ys, xs = slice(max(y0, 0), y0 + rng.integers(1, 40)), slice(max(x0, 0), x0 + rng.integers(1, 300))
+            assert np.array_equal(lazy[ys, xs], want[ys, xs])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import remove_corners, skeletonize, zhang_suen
+from appliance.localize.skeleton import SparseImage, block_mean, neighbour_code, remove_corners, skeletonize, zhang_suen
 
 from tests.localize.shapes import y_shape
 
@@ -34,3 +34,31 @@ def test_remove_corners_keeps_paths_connected_and_thin():
     assert skel.image.sum() < thin.sum()                              # staircase corners went
     n, _ = cv2.connectedComponents(skel.image, connectivity=8)
     assert n - 1 == 1
+
+
+def test_fast_skeleton_block_mean_thresholds_as_one_area_resize():
+    # every 4 x 4 block of a 0/255 mask (2^16 of them): the mean by halvings passes the fast
+    # skeleton's threshold exactly where OpenCV's one-step 4x area resize does
+    codes = np.arange(1 << 16)
+    bits = ((codes[:, None] >> np.arange(16)) & 1).astype(np.uint8) * 255
+    img = bits.reshape(256, 256, 4, 4).transpose(0, 2, 1, 3).reshape(1024, 1024)
+    one = cv2.resize(img, (256, 256), interpolation=cv2.INTER_AREA)
+    halved = block_mean(img, 4)
+    assert np.array_equal(cv2.threshold(one, 76, 255, cv2.THRESH_BINARY)[1],
+                          cv2.threshold(halved, 76, 255, cv2.THRESH_BINARY)[1])
+    assert np.array_equal(one > 0, halved > 0)               # any pixel set: non-zero either way
+    m = _blobs(3, (96, 128))
+    small = cv2.threshold(cv2.resize(m, (32, 24), interpolation=cv2.INTER_AREA), 76, 255, cv2.THRESH_BINARY)[1]
+    assert np.array_equal(skeletonize(m, "fast", 4).mask, small)
+
+
+def test_sparse_codes_are_the_neighbour_codes():
+    # a random image (all 256 codes occur), set pixels 1 or 2 (zhang_suen marks border pixels 2)
+    rng = np.random.default_rng(7)
+    for on in (1, 2):
+        img = (rng.random((60, 80)) < 0.45).astype(np.uint8)
+        sp = SparseImage.from_image(img)
+        sp.flat[sp.flat > 0] = on
+        yx = np.argwhere(np.ones_like(img))
+        assert np.array_equal(sp.codes(sp.index(yx[:, 0], yx[:, 1])), neighbour_code(img)[yx[:, 0], yx[:, 1]])
+    assert sp.codes(np.zeros(0, np.int64)).shape == (0,)

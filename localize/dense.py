@@ -12,7 +12,8 @@ side, and pieces that only continue a matched one past occluders, are matched by
 
 Flat pieces (rows ambiguous) take their disparity from the bark texture (:mod:`texture`),
 or else from the forks/joints at their ends; a flat piece with neither is left out rather
-than guessed. Forks, tips and bridges are then placed on the curves (:mod:`ends`).
+than guessed. Steep pieces still without a curve that end in a tip take one from the tip's
+round cap (:mod:`caps`). Forks, tips and bridges are then placed on the curves (:mod:`ends`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from appliance.localize.curves import (
     robust_fit,
     robust_fit_groups,
 )
+from appliance.localize.caps import cap_curves
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -39,6 +41,7 @@ from appliance.localize.radius import radius_at
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
+    edge_consensus,
     edge_samples,
     grow,
 )
@@ -433,6 +436,11 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     return np.vstack(parts)
 
 
+def _slide(b: EndPlacer, f: FeatureUVD) -> float:
+    """How far (px) a feature was placed from its graph node's skeleton pixel."""
+    return float(np.hypot(*(b.node_xy[f.node] - (f.u, f.v))))
+
+
 def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_px: float = 3.0) -> Matching:
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
@@ -458,6 +466,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 curves[s] = c
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
+    curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
     for node in np.flatnonzero(kinds == ENDPOINT):
         b.tip(node)
     for node in np.flatnonzero(kinds == JOINT):
@@ -475,6 +484,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 kinds[node] = ENDPOINT
                 b.uvd.pop(node, None)
                 b.tip(node)
+    # steep pieces still without a curve, matched edge by edge on their own: branches to keep clear of,
+    # not trusted for forks and tips (placed above without them)
+    curves.update(edge_consensus(graph, [s for s in steep if s not in curves], curves, runs_l, runs_r, sm))
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px
@@ -483,11 +495,22 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         kind = {ENDPOINT: "endpoint", JUNCTION: "bifurcation"}.get(int(kinds[node]))
         if kind is None or node in b.hidden or not (0.95 * dmin <= d <= 1.05 * dmax):
             continue
-        if kind == "endpoint" and min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
+        # a tip at the view's edge: its branch runs out of view; a fork on the edge itself: its
+        # pieces leave the view there (the axes' crossing lies outside, where they meet)
+        if min(u, v, w - 1 - u, h - 1 - v) < (border_px + graph.scale if kind == "endpoint" else 1.0):
             continue
-        if any(f.kind == kind and np.hypot(f.u - u, f.v - v) < 3 for f in features):
-            continue                                 # two graph ends placed on one tip
-        features.append(FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node]))
+        ft = FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node])
+        # two graph ends placed on one tip; two junctions placing one fork (a loop of the
+        # skeleton at a thick crotch): the one slid least from its junction stands
+        near = 3.0 if kind == "endpoint" else max(3.0, b.radius[node])
+        same = [i for i, f in enumerate(features) if f.kind == kind and np.hypot(f.u - u, f.v - v) < near
+                and (kind == "endpoint" or abs(f.d - d) <= max(1.0, 0.006 * d))]
+        if same:
+            i = same[0]
+            if kind == "bifurcation" and _slide(b, ft) < _slide(b, features[i]):
+                features[i] = ft
+            continue
+        features.append(ft)
     pieces = []
     for s, c in sorted(curves.items()):
         a, z = graph.seg_nodes[s]

@@ -30,6 +30,8 @@ END_SHIFT_FLAT_PX = 6.0
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
 HIDDEN_FORK_MIN_DEG = 20.0
+# the right view's outline of a child must tell its disparity from the parent's to this (px)
+OUTLINE_MAX_D_PX = 4.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -218,7 +220,9 @@ class EndPlacer:
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
             # outline leaving it in the right view tells the fork's own (along the rows)
             d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
-            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0:
+            # (unless the child's own disparity agrees with the parent's: the two views' outline
+            # places may be a px or two apart, as with noisy masks)
+            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
                 d, agree = d_out, True
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
@@ -276,7 +280,9 @@ class EndPlacer:
 
         The parent's axis in the right view is the left one moved by its disparity; the fork
         found there from the child's right outline must be the left fork moved by the parent's
-        disparity (within 1 px or 0.6 %): a child at another depth crosses the parent elsewhere.
+        disparity (within 1.6 px or 0.9 %: each view's place is ~1 px off): a child at another
+        depth crosses the parent elsewhere. A child so near the rows that a depth difference of
+        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
         """
         def right_of(pt):
             d = np.mean([self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents])
@@ -284,9 +290,14 @@ class EndPlacer:
         r1, d1 = right_of(xy)
         r2, _ = right_of(xy + 30.0 * e1)
         er = (r2 - r1) / max(np.hypot(*(r2 - r1)), 1e-9)
+        tol = max(1.6, 0.009 * d1)
+        # a child at another depth by D px crosses the parent D |e2_y| / sin(angle) px further
+        # along it in the right view: a child near the rows (a crossing branch) moves too little
+        if tol * abs(er[0] * e2[1] - er[1] * e2[0]) > OUTLINE_MAX_D_PX * abs(e2[1]):
+            return False
         xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
-        return xy_r is not None and np.hypot(*(xy_r - r1)) <= max(1.0, 0.006 * d1)
+        return xy_r is not None and np.hypot(*(xy_r - r1)) <= tol
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

@@ -25,6 +25,7 @@ from appliance.localize.curves import (
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, JOINT, SkeletonGraph
 from appliance.localize.matching import StereoMasks
+from appliance.localize.radius import radius_at
 
 
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -310,3 +311,114 @@ def edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupP
     te, de, re, ge = (np.concatenate(a) for a in zip(*out))
     o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
     return te[o], de[o], re[o], ge[o]
+
+
+def _angle(pts: np.ndarray) -> float:
+    """Angle of a point set's main direction from the rows, degrees (0..90)."""
+    c = pts - pts.mean(0)
+    sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
+    return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
+
+
+def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs,
+                   runs_r: Runs, sm: StereoMasks, n_hyp: int = 128, tol_px: float = 1.0,
+                   min_share: float = 0.5, max_gradient: float = 0.25) -> dict[int, BranchCurve]:
+    """Steep pieces that found no whole crossings and continue no matched branch, matched edge by
+    edge on their own.
+
+    Where an occluder (a leaf, or another branch merging with it in one view) cuts a piece by
+    different amounts in the two views, no row shows it whole in both, but each row may still show
+    one of its two outlines in both. For each row, each right crossing inside the working range
+    (and not used by another curve) gives two candidate disparities: of the left edges and of the
+    right edges. The straight line d(row) on which the most rows have a candidate (within
+    ``tol_px``; RANSAC over candidate pairs, fixed seed) is the piece's if at least ``min_share``
+    of its rows (and 12) are on it, it lies in the working range and its depth changes by at most
+    ``max_gradient`` px per row. On each such row the agreeing edge's disparity moves onto the
+    axis (:func:`edge_to_axis`) and gives the centre (that edge less the half width: the 75th
+    percentile of the wider view's crossings, at most twice what the left mask's radius gives);
+    the centre line must run within a half width (+ 2 px) of the piece's skeleton.
+    """
+    out = {}
+    taken = np.zeros(len(runs_r.row), bool)
+    for c in curves.values():
+        if c.right_runs is not None and len(c.right_runs):
+            taken[c.right_runs] = True
+    dmin, dmax = sm.d_range_px
+    cx = 0.5 * (sm.left_mask.shape[1] - 1)
+    rng = np.random.default_rng(0)
+    for s in dead:
+        yx = graph.seg_yx[s]
+        if len(yx) < 2 or graph.seg_recovered[s]:
+            continue
+        rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
+        if len(rows) < 24:
+            continue
+        ri = rows.astype(int)
+        il = runs_l.find(ri, xc)
+        ok = il >= 0
+        ri, il = ri[ok], il[ok]
+        if len(ri) < 12:
+            continue
+        a_l, b_l = runs_l.left_px[il], runs_l.right_px[il]
+        q, rr = runs_r.between(ri, a_l - dmax, b_l - dmin)
+        keep = ~taken[rr]
+        q, rr = q[keep], rr[keep]
+        if len(q) < 12:
+            continue
+        t = ri[q].astype(float)
+        cand_t = np.r_[t, t]
+        cand_d = np.r_[a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]]
+        cand_q = np.r_[q, q]
+        i, j = rng.integers(0, len(cand_t), (2, n_hyp))
+        dt = cand_t[j] - cand_t[i]
+        good = np.abs(dt) >= 5
+        if not good.any():
+            continue
+        i, j, dt = i[good], j[good], dt[good]
+        slope = (cand_d[j] - cand_d[i]) / dt
+        fit = cand_d[i][:, None] + slope[:, None] * (cand_t[None, :] - cand_t[i][:, None])    # (H, C)
+        on = np.abs(cand_d[None, :] - fit) <= tol_px
+        order = np.argsort(cand_q, kind="stable")
+        starts = np.flatnonzero(np.r_[True, np.diff(cand_q[order]) != 0])
+        n_rows = np.logical_or.reduceat(on[:, order], starts, axis=1).sum(1)                 # rows on each line
+        k = int(n_rows.argmax())
+        if n_rows[k] < max(12, min_share * len(ri)):
+            continue
+        sel = on[k]
+        ts, ds, qs = cand_t[sel], cand_d[sel], cand_q[sel]
+        side = np.r_[np.full(len(q), -1.0), np.full(len(q), 1.0)][sel]
+        runs = np.r_[rr, rr][sel]
+        d_line, inl = robust_fit(ts, ds, 1)
+        inl &= np.abs(ds - d_line(ts)) <= tol_px
+        ts, ds, qs, side, runs = ts[inl], ds[inl], qs[inl], side[inl], runs[inl]
+        if len(np.unique(ts)) < max(12, min_share * len(ri)):
+            continue
+        # the line must be a branch's: inside the working range, and not steeper in depth than a
+        # branch pointing ~15 deg off the line of sight (``max_gradient`` px per row)
+        d_ends = d_line(np.array([ts.min(), ts.max()]))
+        if d_ends.min() < 0.95 * dmin or d_ends.max() > 1.05 * dmax or \
+                abs(d_ends[1] - d_ends[0]) > max_gradient * max(float(ts.max() - ts.min()), 1.0):
+            continue
+        # the half width along the rows: the wider of the two views' crossings, where it is whole,
+        # but not much wider than the left mask's own (a crossing merged with another branch)
+        w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
+        half_px = 0.5 * float(np.percentile(w, 75))
+        r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
+        sin_t = max(float(np.sin(np.radians(_angle(graph.to_full(yx))))), 0.2)
+        if half_px > 2.0 * r_px / sin_t + 2:
+            continue
+        e_l = np.where(side < 0, a_l[qs], b_l[qs])
+        u = e_l - side * half_px
+        d_ax = edge_to_axis(u, ds, np.full(len(ds), half_px), side, sm.f_px, cx, sm.offset_px)
+        span = float(ts.max() - ts.min())
+        degree = min(degree_for(len(np.unique(ts)), span), 2)
+        u_poly, _ = robust_fit(ts, u, degree)
+        d_poly, inl_d = robust_fit(ts, d_ax, degree)
+        ts = ts[inl_d]
+        radius = half_px / float(np.sqrt(1 + np.mean(u_poly.deriv()(ts)) ** 2))
+        if float(median(np.abs(u_poly(rows) - xc))) > 0.5 * half_px + 2:
+            continue                        # not this piece's centre line (another branch's edges)
+        out[s] = BranchCurve(s, True, (float(ts.min()), float(ts.max())), u_poly, d_poly, radius, len(ts),
+                             end_slopes(ts, d_ax[inl_d]), np.unique(runs[inl_d]))
+        taken[out[s].right_runs] = True
+    return out

@@ -36,6 +36,67 @@ def test_a_child_at_another_depth_is_no_fork():
     assert z and abs(z[0] - 850.0) <= 10.0 and abs(z[-1] - 1000.0) <= 10.0
 
 
+@pytest.mark.parametrize("angle_deg, d_child, agrees", [(45.0, 84.0, True), (45.0, 88.0, False),
+                                                       (86.0, 84.0, False), (86.0, 88.0, False)])
+def test_the_right_outline_confirms_a_fork_only_where_depth_would_move_it(angle_deg, d_child, agrees):
+    # a vertical parent (radius 10 px, disparity 84 px) and a child (6 px) leaving it at
+    # ``angle_deg`` from it, drawn at disparity ``d_child`` in the right view: a child at 45 deg
+    # 4 px nearer crosses the parent 4 px further along it there; one within 4 deg of the rows
+    # crosses it at the same place at any depth, so its outline tells nothing
+    from types import SimpleNamespace
+
+    from appliance.localize.ends import EndPlacer
+
+    w, h, ss, d = 640, 480, 4, 84.0
+    fork, a = np.array([320.0, 300.0]), np.radians(angle_deg)
+    e2 = np.array([np.sin(a), -np.cos(a)])
+    masks = []
+    for shift, shift_child in ((0.0, 0.0), (d, d_child)):
+        big = np.zeros((h * ss, w * ss), np.uint8)
+
+        def px(p, dx):
+            return round((p[0] - dx + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
+        cv2.line(big, px((320.0, 40.0), shift), px((320.0, 460.0), shift), 255, 20 * ss)
+        cv2.line(big, px(fork, shift_child), px(fork + 150.0 * e2, shift_child), 255, 12 * ss)
+        masks.append(cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA))
+    parent = SimpleNamespace(t_of=lambda uv: np.atleast_2d(uv)[:, 1], d_at=lambda t: np.full(np.shape(t), d))
+    placer = SimpleNamespace(sm=SimpleNamespace(left_mask=masks[0], right_mask=masks[1]), curves={0: parent})
+    placer._fork_from_child_outline = lambda *a, **k: EndPlacer._fork_from_child_outline(placer, *a, **k)
+    along = np.array([0.0, -1.0])
+    xy = EndPlacer._fork_from_child_outline(placer, fork + 50.0 * along, along, fork + 40.0 * e2, e2, fork, 10.0, 6.0)
+    assert xy is not None and np.hypot(*(xy - fork)) <= 1.0
+    assert bool(EndPlacer._outline_agrees(placer, xy, along, fork + 40.0 * e2, e2, [0], 10.0, 6.0)) is agrees
+
+
+@pytest.mark.parametrize("base_y", [488.0, 474.0])
+def test_a_fork_on_the_edge_of_the_view_is_no_fork(base_y):
+    # two branches spreading upwards from (330, base_y), at 1000 mm: whose meeting lies below the
+    # bottom edge (row 479) leave the view as a V whose junction is on the edge: no fork there;
+    # meeting 5 px inside the view, they have one fork, at the meeting point
+    calib = ideal_rig()
+    w, h = calib.image_size
+    ss, d = 4, calib.f_px * calib.baseline_mm / 1000.0
+    base = (330.0, base_y)
+    imgs, masks = [], []
+    for shift in (0.0, d):
+        def px(p, shift=shift):
+            return round((p[0] - shift + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
+        big = np.full((h * ss, w * ss), 40, np.uint8)
+        for top, r in (((250.0, 150.0), 11), ((430.0, 160.0), 9)):
+            cv2.line(big, px(base), px(top), 200, 2 * r * ss)
+            cv2.circle(big, px(top), r * ss, 200, -1)
+        grey = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA)
+        imgs.append(cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
+        masks.append(((grey.astype(int) - 40) > 80).astype(np.uint8) * 255)
+    res = Localizer(calib, CFG).localize(imgs[0], imgs[1], mask_left=masks[0], mask_right=masks[1])
+    forks = [f for f in res.features if f.kind == "bifurcation"]
+    assert len([f for f in res.features if f.kind == "endpoint"]) == 2
+    if base_y > h - 1:
+        assert not forks
+    else:
+        assert len(forks) == 1 and np.hypot(*np.subtract(forks[0].left_px, base)) <= 2.0
+
+
 def test_pieces_are_not_joined_across_depths():
     # the crossing "child" ends at the junction placed with the parent's disparity: its piece must
     # not be drawn on to that point (a straight 3D link from 850 mm to 1000 mm)

@@ -61,3 +61,53 @@ def test_trunk_cut_by_occluders_is_carried_on(monkeypatch):
     assert with_it.branch_coverage >= without.branch_coverage + 0.04
     assert with_it.branch_precision >= without.branch_precision - 0.005
     assert with_it.n_found >= without.n_found
+
+
+def _rod_masks(d_px: float, cut_l_px: np.ndarray, cut_r_px: np.ndarray, h: int = 240, w: int = 480,
+               half_px: float = 12.0):
+    """Soft masks (0-255) of a slightly tilted rod rows 30..209, its left side cut per row by ``cut_l_px`` (left
+    view) and ``cut_r_px`` (right view, shifted by ``d_px``): both views show only its right outline whole."""
+    rows = np.arange(h, dtype=float)
+    centre = 300.0 + 0.06 * (rows - 30)
+    cols = np.arange(w, dtype=float)
+    out = []
+    for shift, cut in ((0.0, cut_l_px), (d_px, cut_r_px)):
+        a = (centre - shift - half_px + cut)[:, None]
+        b = (centre - shift + half_px)[:, None]
+        cover = np.clip(np.minimum(cols[None] + 0.5 - a, b - (cols[None] - 0.5)), 0, 1)   # pixel coverage
+        cover[(rows < 30) | (rows >= 210)] = 0
+        out.append((255 * cover).astype(np.uint8))
+    return out, centre
+
+
+def test_edge_consensus_matches_a_piece_cut_differently_in_each_view():
+    from appliance.localize.edges import find_runs
+    from appliance.localize.graph import build_graph
+    from appliance.localize.matching import StereoMasks
+    from appliance.localize.radius import ridge_radius_map
+    from appliance.localize.single_edge import edge_consensus
+    from appliance.localize.skeleton import skeletonize
+
+    rng = np.random.default_rng(3)
+    rows = 240
+    cut_l = rng.uniform(9.0, 12.0, rows)               # a ragged edge over the left side, further in the left view
+    cut_r = rng.uniform(1.0, 5.0, rows)
+    d_true = 150.4
+    (ml, mr), centre = _rod_masks(d_true, cut_l, cut_r)
+    bl = cv2.threshold(ml, 127, 255, cv2.THRESH_BINARY)[1]
+    sm = StereoMasks(ml, mr, ml, mr, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
+    graph = build_graph(skeletonize(bl, "fast", 4))
+    runs_l, runs_r = find_runs(ml, soft=True), find_runs(mr, soft=True)
+    steep = [s for s in range(len(graph.seg_yx)) if len(graph.seg_yx[s]) >= 2]
+    # no row is whole in both views: the dense fit finds nothing
+    assert dense.fit_steep_many(graph, steep, runs_l, runs_r, sm, {s: 86.0 for s in steep}) == {}
+    curves = edge_consensus(graph, steep, {}, runs_l, runs_r, sm)
+    assert len(curves) == 1
+    (c,) = curves.values()
+    t = np.arange(60.0, 190.0, 10.0)
+    assert np.abs(c.d_at(t) - d_true).max() < 0.3
+    assert np.abs(c.s_at(t) - centre[t.astype(int)]).max() < 1.0
+    assert abs(c.radius_px - 12.0) < 1.5
+    # the right view shows nothing at the working range: nothing is matched
+    sm_far = StereoMasks(ml, mr, ml, mr, sm.radius_map, (200.0, 300.0), 1450.0)
+    assert edge_consensus(graph, steep, {}, runs_l, runs_r, sm_far) == {}

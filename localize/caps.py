@@ -1,0 +1,131 @@
+"""Tips of steep pieces the dense fit could not match, found by their round cap.
+
+A branch's end often shows only as a short stub past a leaf or an apple, cut obliquely by
+it, or as a piece whose rows are all cut or merged on one side in one view: no row has two
+crossings of the same width in both views, so :func:`dense.fit_steep_many` finds nothing.
+Its round cap, though, is seen whole in both views when the tip is: the left mask's patch
+around the cap, slid along the rows of the right mask across the working disparity range,
+fits in one place. That disparity (good to a pixel or two) and the straight centre line of the
+piece's last few radii make a short curve, on which :meth:`ends.EndPlacer.tip` places the tip
+and checks it like any other (the cap's rows refine the disparity; an end cut by an occluder,
+whose outline differs between the views, is hidden).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from appliance.localize.curves import BranchCurve, Poly
+from appliance.localize.edges import Runs
+from appliance.localize.graph import ENDPOINT, SkeletonGraph
+from appliance.localize.matching import StereoMasks
+from appliance.localize.radius import radius_at
+
+# the cap's best fit: at most this share of the compared pixels differ
+MAX_FIT_ERROR = 0.15
+# another fit elsewhere along the rows within this share of the best: ambiguous
+MIN_FIT_MARGIN = 0.15
+
+
+def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray) -> float | None:
+    """Disparity (px) at which the left mask's square patch around ``centre_xy`` (x, y) fits the
+    right mask best along the same rows, within the working range; None when it fits nowhere
+    well (:data:`MAX_FIT_ERROR`), or about as well at another place (:data:`MIN_FIT_MARGIN`).
+    Sub-pixel by a parabola through the best fit and its neighbours.
+
+    Only the patch's half towards ``out`` (unit (x, y), from the piece to its end) counts: the
+    cap and the background beyond it, alike in both views at a tip, while the piece behind it
+    may be cut differently by an occluder in each. The fit's error is the share of that half's
+    pixels that differ (coverage 0-255 compared as a fraction).
+    """
+    h, w = sm.left_mask.shape
+    x, y = np.rint(centre_xy).astype(int)
+    x0, x1, y0, y1 = x - half_px, x + half_px + 1, y - half_px, y + half_px + 1
+    if x0 < 0 or y0 < 0 or x1 > w or y1 > h:
+        return None
+    patch = sm.left_mask[y0:y1, x0:x1].astype(np.float32)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    half = ((xx - centre_xy[0]) * out[0] + (yy - centre_xy[1]) * out[1] >= -half_px / 3).astype(np.float32)
+    n = float(half.sum()) * 255.0 ** 2
+    dmin, dmax = sm.d_range_px
+    s0, s1 = max(int(np.floor(x0 - dmax)), 0), min(int(np.ceil(x1 - dmin)), w)
+    if s1 - s0 < x1 - x0 + 2:
+        return None
+    strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
+    err = cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=half)[0] / n
+    k = int(np.argmin(err))
+    best = float(err[k])
+    far = np.abs(np.arange(len(err)) - k) > half_px
+    if best > MAX_FIT_ERROR or (far.any() and float(err[far].min()) < best + MIN_FIT_MARGIN):
+        return None
+    off = 0.0
+    if 0 < k < len(err) - 1:
+        a, b, c = (float(v) for v in err[k - 1:k + 2])
+        den = a - 2 * b + c
+        off = 0.5 * (a - c) / den if den > 0 else 0.0
+    return float(x0 - (s0 + k + off))
+
+
+def _rows_agree(runs_l: Runs, runs_r: Runs, rows: np.ndarray, u_poly: Poly, d: float, max_width_px: float) -> bool:
+    """Whether most (60 %, at least 2) ``rows`` cross the branch at ``u_poly`` in the left view,
+    no wider than ``max_width_px``, and at ``d`` px less in the right one with runs of about the
+    same width (20 % + 1.5 px): a cap matched against the side of something wider (a trunk) is
+    not, nor is a blob much wider than its radius says."""
+    u = u_poly(rows)
+    il, ir = runs_l.find(rows, u), runs_r.find(rows, u - d)
+    both = (il >= 0) & (ir >= 0)
+    w_l, w_r = runs_l.span_px[il[both]], runs_r.span_px[ir[both]]
+    n = int(((np.abs(w_l - w_r) <= 0.2 * w_l + 1.5) & (w_l <= max_width_px)).sum())
+    return n >= max(2, 0.6 * len(rows))
+
+
+def cap_curves(graph: SkeletonGraph, sm: StereoMasks, runs_l: Runs, runs_r: Runs, curves: dict,
+               min_angle_deg: float) -> dict[int, BranchCurve]:
+    """Curves (by row) for the pieces without one in ``curves`` that end in a tip whose cap
+    :func:`cap_disparity` finds in the right view: the straight centre line of the piece's last
+    four radii (its skeleton and end pixels; ``runs_l``'s middles near the end) at the cap's
+    disparity, if it is steep (at least ``min_angle_deg`` from the rows) and the rows across
+    the cap show it alike in both views (:func:`_rows_agree`).
+
+    Returns
+    -------
+    dict
+        {segment: BranchCurve}; a piece with two such ends takes the first that fits.
+    """
+    out: dict[int, BranchCurve] = {}
+    for node in np.flatnonzero(graph.node_kind == ENDPOINT).tolist():
+        for s in np.flatnonzero((graph.seg_nodes == node).any(1)).tolist():
+            if s in out or s in curves or graph.seg_recovered[s]:
+                continue
+            end_xy = graph.to_full(graph.node_yx[node][None])[0]
+            r = float(radius_at(sm.radius_map, end_xy[None])[0])
+            if r < 1.0:
+                continue
+            yx = [graph.seg_yx[s].reshape(-1, 2)] + [graph.node_pixels[n] for n in graph.seg_nodes[s] if n >= 0]
+            pts = graph.to_full(np.concatenate(yx))
+            near = pts[np.hypot(*(pts - end_xy).T) <= 4 * r + graph.scale]
+            q = near - near.mean(0)
+            sxx, syy, sxy = float(q[:, 0] @ q[:, 0]), float(q[:, 1] @ q[:, 1]), float(q[:, 0] @ q[:, 1])
+            angle = abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
+            if np.ptp(near[:, 1]) < 1 or angle < min_angle_deg:
+                continue
+            out_dir = end_xy - near.mean(0)
+            d = cap_disparity(sm, end_xy, max(4, int(round(2 * r))), out_dir / max(float(np.hypot(*out_dir)), 1e-9))
+            if d is None:
+                continue
+            t = near[:, 1].astype(float)
+            u_poly = Poly.fit(t, near[:, 0], 1)
+            # the coarse skeleton's line moved onto the middles of the left rows within two radii
+            # of the end (the cap's and those next to it: whole, as the tip is seen)
+            rows = np.arange(np.ceil(end_xy[1] - 2 * r), np.floor(end_xy[1] + 2 * r) + 1)
+            il = runs_l.find(rows, u_poly(rows))
+            if (il >= 0).sum() >= 3:
+                u_poly = Poly.fit(rows[il >= 0], runs_l.centre_px[il[il >= 0]], 1)
+            # (a row crosses a piece at angle a over 2 r / sin a: at most half as much again, as in
+            # dense.fit_steep_many)
+            max_w = 1.5 * (2 * r / max(np.sin(np.radians(angle)), 0.2) + 1) + 2
+            if not _rows_agree(runs_l, runs_r, rows[np.abs(rows - end_xy[1]) <= r], u_poly, d, max_w):
+                continue
+            out[s] = BranchCurve(s, True, (float(t.min()), float(t.max())), u_poly, Poly.constant(d), r, len(near),
+                                 (0.0, 0.0))
+    return out

@@ -321,7 +321,7 @@ def _angle(pts: np.ndarray) -> float:
 
 
 def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs,
-                   runs_r: Runs, sm: StereoMasks, n_hyp: int = 128, tol_px: float = 1.0,
+                   runs_r: Runs, sm: StereoMasks, tol_px: float = 1.0,
                    min_share: float = 0.5, max_gradient: float = 0.25) -> dict[int, BranchCurve]:
     """Steep pieces that found no whole crossings and continue no matched branch, matched edge by
     edge on their own.
@@ -330,10 +330,10 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
     different amounts in the two views, no row shows it whole in both, but each row may still show
     one of its two outlines in both. For each row, each right crossing inside the working range
     (and not used by another curve) gives two candidate disparities: of the left edges and of the
-    right edges. The straight line d(row) on which the most rows have a candidate (within
-    ``tol_px``; RANSAC over candidate pairs, fixed seed) is the piece's if at least ``min_share``
-    of its rows (and 12) are on it, it lies in the working range and its depth changes by at most
-    ``max_gradient`` px per row. On each such row the agreeing edge's disparity moves onto the
+    right edges. The straight line d(row), its slope at most ``max_gradient`` px per row (a branch
+    pointing ~15 deg off the line of sight), on which the most rows have a candidate (within
+    ``tol_px``; a vote over 21 slopes and offset bins) is the piece's if at least ``min_share`` of
+    its rows (and 12) are on it and it lies in the working range. On each such row the agreeing edge's disparity moves onto the
     axis (:func:`edge_to_axis`) and gives the centre (that edge less the half width: the 75th
     percentile of the wider view's crossings, at most twice what the left mask's radius gives);
     the centre line must run within a half width (+ 2 px) of the piece's skeleton.
@@ -345,7 +345,7 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
             taken[c.right_runs] = True
     dmin, dmax = sm.d_range_px
     cx = 0.5 * (sm.left_mask.shape[1] - 1)
-    rng = np.random.default_rng(0)
+    slopes = np.linspace(-max_gradient, max_gradient, 21)
     for s in dead:
         yx = graph.seg_yx[s]
         if len(yx) < 2 or graph.seg_recovered[s]:
@@ -369,22 +369,21 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
         cand_t = np.r_[t, t]
         cand_d = np.r_[a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]]
         cand_q = np.r_[q, q]
-        i, j = rng.integers(0, len(cand_t), (2, n_hyp))
-        dt = cand_t[j] - cand_t[i]
-        good = np.abs(dt) >= 5
-        if not good.any():
+        # vote: for each slope within the plausible range, the offsets of the line through each
+        # candidate, in bins of ``tol_px``; the best window of two bins wins
+        tm = float(cand_t.mean())
+        d0 = cand_d[None, :] - slopes[:, None] * (cand_t[None, :] - tm)                     # (S, C)
+        lo = float(d0.min())
+        bins = ((d0 - lo) / tol_px).astype(np.intp)
+        nb = int(bins.max()) + 2
+        bins += np.arange(len(slopes))[:, None] * nb
+        votes = np.bincount(bins.ravel(), minlength=len(slopes) * nb).reshape(len(slopes), nb)
+        window = votes[:, :-1] + votes[:, 1:]
+        k_s, k_b = np.unravel_index(int(window.argmax()), window.shape)
+        line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
+        sel = np.abs(cand_d - line) <= 1.5 * tol_px
+        if len(np.unique(cand_q[sel])) < max(12, min_share * len(ri)):
             continue
-        i, j, dt = i[good], j[good], dt[good]
-        slope = (cand_d[j] - cand_d[i]) / dt
-        fit = cand_d[i][:, None] + slope[:, None] * (cand_t[None, :] - cand_t[i][:, None])    # (H, C)
-        on = np.abs(cand_d[None, :] - fit) <= tol_px
-        order = np.argsort(cand_q, kind="stable")
-        starts = np.flatnonzero(np.r_[True, np.diff(cand_q[order]) != 0])
-        n_rows = np.logical_or.reduceat(on[:, order], starts, axis=1).sum(1)                 # rows on each line
-        k = int(n_rows.argmax())
-        if n_rows[k] < max(12, min_share * len(ri)):
-            continue
-        sel = on[k]
         ts, ds, qs = cand_t[sel], cand_d[sel], cand_q[sel]
         side = np.r_[np.full(len(q), -1.0), np.full(len(q), 1.0)][sel]
         runs = np.r_[rr, rr][sel]

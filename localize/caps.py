@@ -93,39 +93,41 @@ def cap_curves(graph: SkeletonGraph, sm: StereoMasks, runs_l: Runs, runs_r: Runs
         {segment: BranchCurve}; a piece with two such ends takes the first that fits.
     """
     out: dict[int, BranchCurve] = {}
-    for node in np.flatnonzero(graph.node_kind == ENDPOINT).tolist():
-        for s in np.flatnonzero((graph.seg_nodes == node).any(1)).tolist():
-            if s in out or s in curves or graph.seg_recovered[s]:
-                continue
-            end_xy = graph.to_full(graph.node_yx[node][None])[0]
-            r = float(radius_at(sm.radius_map, end_xy[None])[0])
-            if r < 1.0:
-                continue
-            yx = [graph.seg_yx[s].reshape(-1, 2)] + [graph.node_pixels[n] for n in graph.seg_nodes[s] if n >= 0]
-            pts = graph.to_full(np.concatenate(yx))
-            near = pts[np.hypot(*(pts - end_xy).T) <= 4 * r + graph.scale]
-            q = near - near.mean(0)
-            sxx, syy, sxy = float(q[:, 0] @ q[:, 0]), float(q[:, 1] @ q[:, 1]), float(q[:, 0] @ q[:, 1])
-            angle = abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
-            if np.ptp(near[:, 1]) < 1 or angle < min_angle_deg:
-                continue
-            out_dir = end_xy - near.mean(0)
-            d = cap_disparity(sm, end_xy, max(4, int(round(2 * r))), out_dir / max(float(np.hypot(*out_dir)), 1e-9))
-            if d is None:
-                continue
-            t = near[:, 1].astype(float)
-            u_poly = Poly.fit(t, near[:, 0], 1)
-            # the coarse skeleton's line moved onto the middles of the left rows within two radii
-            # of the end (the cap's and those next to it: whole, as the tip is seen)
-            rows = np.arange(np.ceil(end_xy[1] - 2 * r), np.floor(end_xy[1] + 2 * r) + 1)
-            il = runs_l.find(rows, u_poly(rows))
-            if (il >= 0).sum() >= 3:
-                u_poly = Poly.fit(rows[il >= 0], runs_l.centre_px[il[il >= 0]], 1)
-            # (a row crosses a piece at angle a over 2 r / sin a: at most half as much again, as in
-            # dense.fit_steep_many)
-            max_w = 1.5 * (2 * r / max(np.sin(np.radians(angle)), 0.2) + 1) + 2
-            if not _rows_agree(runs_l, runs_r, rows[np.abs(rows - end_xy[1]) <= r], u_poly, d, max_w):
-                continue
-            out[s] = BranchCurve(s, True, (float(t.min()), float(t.max())), u_poly, Poly.constant(d), r, len(near),
-                                 (0.0, 0.0))
+    ends = graph.seg_nodes
+    is_end = (ends >= 0) & (graph.node_kind[np.maximum(ends, 0)] == ENDPOINT)
+    for s, k in zip(*np.nonzero(is_end)):
+        s, node = int(s), int(ends[s, k])
+        if s in out or s in curves or graph.seg_recovered[s]:
+            continue
+        end_xy = graph.to_full(graph.node_yx[node][None])[0]
+        r = float(radius_at(sm.radius_map, end_xy[None])[0])
+        if r < 1.0:
+            continue
+        yx = [graph.seg_yx[s].reshape(-1, 2)] + [graph.node_pixels[n] for n in graph.seg_nodes[s] if n >= 0]
+        pts = graph.to_full(np.concatenate(yx))
+        near = pts[np.hypot(*(pts - end_xy).T) <= 4 * r + graph.scale]
+        q = near - near.mean(0)
+        sxx, syy, sxy = float(q[:, 0] @ q[:, 0]), float(q[:, 1] @ q[:, 1]), float(q[:, 0] @ q[:, 1])
+        angle = abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
+        if np.ptp(near[:, 1]) < 1 or angle < min_angle_deg:
+            continue
+        out_dir = end_xy - near.mean(0)
+        d = cap_disparity(sm, end_xy, max(4, int(round(2 * r))), out_dir / max(float(np.hypot(*out_dir)), 1e-9))
+        if d is None:
+            continue
+        t = near[:, 1].astype(float)
+        u_poly = Poly.fit(t, near[:, 0], 1)
+        # the coarse skeleton's line moved onto the middles of the left rows within two radii
+        # of the end (the cap's and those next to it: whole, as the tip is seen)
+        rows = np.arange(np.ceil(end_xy[1] - 2 * r), np.floor(end_xy[1] + 2 * r) + 1)
+        il = runs_l.find(rows, u_poly(rows))
+        if (il >= 0).sum() >= 3:
+            u_poly = Poly.fit(rows[il >= 0], runs_l.centre_px[il[il >= 0]], 1)
+        # (a row crosses a piece at angle a over 2 r / sin a: at most half as much again, as in
+        # dense.fit_steep_many)
+        max_w = 1.5 * (2 * r / max(np.sin(np.radians(angle)), 0.2) + 1) + 2
+        if not _rows_agree(runs_l, runs_r, rows[np.abs(rows - end_xy[1]) <= r], u_poly, d, max_w):
+            continue
+        out[s] = BranchCurve(s, True, (float(t.min()), float(t.max())), u_poly, Poly.constant(d), r, len(near),
+                             (0.0, 0.0))
     return out

@@ -571,14 +571,15 @@ class EndPlacer:
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
-            # its row run is found in the right view too; it takes the mean of the two when they
-            # agree (2 px), else the run end's if the end's outline agrees row by row
+            # its row run is found in the right view too; it takes the run end's (its outline is
+            # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
+            # row by row
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
             if d_end is None:
                 self.hidden.add(int(node))
                 return
             if abs(d_end - self.uvd[node][2]) <= 2.0:
-                self.uvd[node][2] = 0.5 * (d_end + self.uvd[node][2])
+                self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r):
                 # an occluder's edge lies in front of the branch it cuts: an end further away
                 # than the texture says is the cap's own (the texture's is off, and so is the

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 from appliance.localize.edges import find_runs
 from appliance.localize.rectify import LazyRectified, Rectifier
-from appliance.localize.subpixel import gather, refine_boundaries, refine_runs
+from appliance.localize.subpixel import gather, near_points, refine_boundaries, refine_runs
 
 from tests.localize.test_rectify import distorted_rig
 
@@ -80,3 +80,21 @@ def test_gather_from_a_lazily_rectified_colour_image_is_the_rectified_grey():
         exact = gather(want, row, col)
         assert got.shape == (3000, 7)
         assert np.abs(got - exact).max() <= 1.0          # the grey conversion rounds before or after the remap
+        grey = gather(LazyRectified(rect, cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), side), row, col)
+        assert np.array_equal(grey, exact)               # a grey source: the very same values
+
+
+def test_near_points_selects_the_runs_around_points_and_their_right_view_places():
+    h, w = 300, 400
+    mask = np.zeros((h, w), np.uint8)
+    mask[:, 50:60] = mask[:, 200:210] = mask[:, 330:340] = 255     # three upright bars
+    runs = find_runs(mask, soft=True)
+    pt = np.array([[205.0, 150.0]])
+    near = near_points(runs, pt, 32)
+    assert near[(runs.x0 == 200) & (np.abs(runs.row - 150) <= 32)].all()
+    assert not near[(runs.x0 == 200) & (np.abs(runs.row - 150) > 32 + 16 + 16)].any()  # within a cell or two
+    assert not near[runs.x0 != 200].any()
+    right = near_points(runs, pt, 32, (140.0, 160.0))                  # the point 140-160 px left in the right view
+    assert right[(runs.x0 == 50) & (np.abs(runs.row - 150) <= 32)].all()
+    assert not right[runs.x0 != 50].any()
+    assert not near_points(runs, np.zeros((0, 2)), 32).any()

@@ -131,12 +131,11 @@ def steep_boundaries(mask: np.ndarray, row: np.ndarray, x_px: np.ndarray, max_ta
     return gy <= max_tan * gx
 
 
-def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px: tuple[float, float] = (0.0, 0.0),
-                cell_px: int = 16) -> np.ndarray:
+def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px=(0.0, 0.0), cell_px: int = 16) -> np.ndarray:
     """Runs near any of some points: within ``reach_px`` of a point's row, and of its column moved
-    left by a disparity in ``d_range_px`` (the right view's runs where the points may show).
+    left by a disparity in its ``d_range_px`` (the right view's runs where the points may show).
 
-    On a grid of ``cell_px`` cells (so up to a cell further).
+    On a grid of ``cell_px`` cells (so up to a cell further), by the runs' middle pixel.
 
     Parameters
     ----------
@@ -144,7 +143,8 @@ def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px: tupl
     xy_px : ndarray (P, 2)
         Points (x, y), px (left rectified image).
     reach_px : float
-    d_range_px : (float, float)
+    d_range_px : (2,) or ndarray (P, 2)
+        Disparity range (lo, hi), px, of all points or of each.
 
     Returns
     -------
@@ -153,16 +153,15 @@ def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px: tupl
     xy = np.asarray(xy_px, float).reshape(-1, 2)
     if len(xy) == 0 or len(runs.row) == 0:
         return np.zeros(len(runs.row), bool)
-    lo, hi = d_range_px
-    rows, cols = int(runs.row.max()) // cell_px + 1, runs.width // cell_px + 1
-    grid = np.zeros((rows, cols), np.uint8)
-    cy = np.clip(xy[:, 1] // cell_px, 0, rows - 1).astype(np.intp)
-    cx = np.clip((xy[:, 0] - 0.5 * (lo + hi)) // cell_px, 0, cols - 1).astype(np.intp)
-    grid[cy, cx] = 1
-    ky, kx = int(np.ceil(reach_px / cell_px)), int(np.ceil((reach_px + 0.5 * (hi - lo)) / cell_px))
-    grid = cv2.dilate(grid, np.ones((2 * ky + 1, 2 * kx + 1), np.uint8))
-    centre = np.clip(runs.centre_px // cell_px, 0, cols - 1).astype(np.intp)
-    return grid[runs.row // cell_px, centre] > 0
+    d = np.broadcast_to(np.asarray(d_range_px, float), (len(xy), 2))
+    rows, cols = int(runs.row[-1]) // cell_px + 1, runs.width // cell_px + 1
+    box = np.column_stack([xy[:, 1] - reach_px, xy[:, 1] + reach_px,
+                           xy[:, 0] - d[:, 1] - reach_px, xy[:, 0] - d[:, 0] + reach_px]) // cell_px
+    box = np.maximum(box, 0).astype(np.intp)
+    grid = np.zeros((rows, cols), bool)
+    for y0, y1, x0, x1 in box.tolist():            # a few dozen points
+        grid[y0:y1 + 1, x0:x1 + 1] = True
+    return grid[runs.row // cell_px, np.minimum((runs.x0 + runs.x1) // (2 * cell_px), cols - 1)]
 
 
 def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
@@ -198,25 +197,27 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     n = len(runs.row)
     if n == 0:
         return runs
-    row, x = np.r_[runs.row, runs.row], np.r_[runs.left_px, runs.right_px]
-    inward = np.r_[np.ones(n), -np.ones(n)]
-    todo = np.arange(2 * n) if only is None else np.flatnonzero(np.r_[only, only])
+    row, x = np.concatenate([runs.row, runs.row]), np.concatenate([runs.left_px, runs.right_px])
+    todo = np.arange(2 * n) if only is None else np.flatnonzero(np.concatenate([only, only]))
     if mask is not None:
         todo = todo[steep_boundaries(mask, row[todo], x[todo], max_tan)]
     xr = refine_boundaries(gray, row[todo], x[todo], **kw)
     moved = xr != x[todo]
     todo, xr = todo[moved], xr[moved]
-    x = x.copy()
     if len(todo) >= min_moved:
-        x += inward * np.median((xr - x[todo]) * inward[todo])
+        inward = np.where(todo < n, 1.0, -1.0)
+        bias = float(np.median((xr - x[todo]) * inward))
+        x[:n] += bias
+        x[n:] -= bias
     x[todo] = np.clip(xr, x[todo] - max_dev_px, x[todo] + max_dev_px)
     # never across the run's own middle (a thin run keeps a positive span)
-    left = np.minimum(x[:n], runs.centre_px)
-    right = np.maximum(x[n:], runs.centre_px)
+    centre = runs.centre_px
+    left, right = np.minimum(x[:n], centre), np.maximum(x[n:], centre)
     x0, x1 = runs.x0, runs.x1
-    same_prev = np.r_[False, runs.row[1:] == runs.row[:-1]]
-    room_l = (x0 > 0) & (~same_prev | (x0 - np.r_[0, x1[:-1]] >= 3))
-    room_r = (x1 < runs.width - 1) & (~np.r_[same_prev[1:], False] | (np.r_[x0[1:], 0] - x1 >= 3))
-    x0 = np.where(room_l & (left < x0 - 0.5), x0 - 1, x0)
-    x1 = np.where(room_r & (right > x1 + 0.5), x1 + 1, x1)
+    gap = np.empty(n + 1, np.int64)                  # background pixels + 1 before each run (huge at a row's start)
+    gap[[0, -1]] = 1 << 40
+    np.subtract(x0[1:], x1[:-1], out=gap[1:-1])
+    gap[1:-1][runs.row[1:] != runs.row[:-1]] = 1 << 40
+    x0 = np.where((gap[:-1] >= 3) & (x0 > 0) & (left < x0 - 0.5), x0 - 1, x0)
+    x1 = np.where((gap[1:] >= 3) & (x1 < runs.width - 1) & (right > x1 + 0.5), x1 + 1, x1)
     return dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)

@@ -4,8 +4,8 @@ A binary branch mask (exact or from a segmenter) places each outline only to a p
 into the rectified frame with linear interpolation its half-coverage crossing is good to some
 0.3-0.5 px per row. The grey image's outline is anti-aliased (optics blur, sensor area): the
 intensity step along the row locates it to a small fraction of a pixel. :func:`refine_runs`
-moves each run boundary to the strongest step within ``max_shift_px`` of the mask's, where the
-step is clear (else the mask's stays).
+moves run boundaries to the strongest step within 1.5 px of the mask's where the step is clear,
+and all of them by the mask's bias (docs/localize-subpixel.md has the figures).
 """
 
 from __future__ import annotations
@@ -60,10 +60,11 @@ def refine_boundaries(gray, row: np.ndarray, x_px: np.ndarray, min_step: float =
 
     The step is the peak of the difference of neighbouring pixels, signed like the difference of
     the plateaus either side (the mean of the two pixels at each end of a 7 px window centred on
-    the boundary's pixel), among the differences within 1.5 px of the mask's boundary;
-    a parabola through the peak and its neighbours places it to a fraction of a pixel. It counts
-    only where clear: at least ``min_step`` grey levels and ``min_share`` of the plateaus'
-    difference, and a true peak (above its neighbours).
+    the boundary's pixel), among the differences within 1.5 px of the mask's boundary; a Gaussian
+    through the peak and its neighbours places it to a few hundredths of a pixel on a blurred step
+    (a parabola, used where a neighbour is <= 0, is off by up to 0.2 px). It counts only where
+    clear: at least ``min_step`` grey levels and ``min_share`` of the plateaus' difference, a true
+    peak (above its neighbours), and within ``max_shift_px`` of the mask's boundary.
 
     Parameters
     ----------
@@ -157,10 +158,10 @@ def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px=(0.0,
     rows, cols = int(runs.row[-1]) // cell_px + 1, runs.width // cell_px + 1
     box = np.column_stack([xy[:, 1] - reach_px, xy[:, 1] + reach_px,
                            xy[:, 0] - d[:, 1] - reach_px, xy[:, 0] - d[:, 0] + reach_px]) // cell_px
-    box = np.maximum(box, 0).astype(np.intp)
+    box[:, [0, 2]] = np.maximum(box[:, [0, 2]], 0)
     grid = np.zeros((rows, cols), bool)
-    for y0, y1, x0, x1 in box.tolist():            # a few dozen points
-        grid[y0:y1 + 1, x0:x1 + 1] = True
+    for y0, y1, x0, x1 in box.astype(np.intp).tolist():       # a few dozen points (a box left of or
+        grid[y0:y1 + 1, x0:x1 + 1] = True                      # above the image is empty)
     return grid[runs.row // cell_px, np.minimum((runs.x0 + runs.x1) // (2 * cell_px), cols - 1)]
 
 
@@ -172,8 +173,8 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     boundaries first move by the median shift of those the grey image moves (if at least
     ``min_moved``), then those move to the grey outline, at most ``max_dev_px`` from there (the
     step's position is good, but a lit rim or the background's texture can pull it off). A
-    boundary moved out past its run's end pixel takes that pixel into the run (:meth:`Runs.find`
-    looks runs up by pixel), where at least two background pixels part it from the next run.
+    boundary moved out into the next pixel takes that pixel into the run (:meth:`Runs.find` looks
+    runs up by pixel), where at least two background pixels part it from the next run.
 
     Parameters
     ----------

@@ -571,14 +571,15 @@ class EndPlacer:
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
-            # its row run is found in the right view too; it takes the mean of the two when they
-            # agree (2 px), else the run end's if the end's outline agrees row by row
-            d_end = self._end_disparity(uv_edge, out, self.uvd[node][2])
+            # its row run is found in the right view too; it takes the run end's (its outline is
+            # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
+            # row by row
+            d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
             if d_end is None:
                 self.hidden.add(int(node))
                 return
             if abs(d_end - self.uvd[node][2]) <= 2.0:
-                self.uvd[node][2] = 0.5 * (d_end + self.uvd[node][2])
+                self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r):
                 # an occluder's edge lies in front of the branch it cuts: an end further away
                 # than the texture says is the cap's own (the texture's is off, and so is the
@@ -702,12 +703,15 @@ class EndPlacer:
             return False
         return bool((m[y0:y1, x0:x1] >= 128).any())
 
-    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float) -> float | None:
+    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0) -> float | None:
         """Disparity of the end of a flat piece: the end of its row run in both views.
 
         The round cap's silhouette ends one image radius beyond the cap centre in both views,
         so the run ends are corresponding points. Right runs of a similar length ending in the
-        disparity range are candidates; the one nearest ``d_prior`` wins.
+        disparity range are candidates; the one nearest ``d_prior`` wins. With the radius ``r``
+        (px), the median over the rows within half a radius of the axis (at least 3 within 1 px
+        of the axis row's): on 28 rendered scenes the median error of such tips drops by a third
+        to a half (docs/localize-subpixel.md).
         """
         sm = self.sm
         row = int(np.rint(uv_edge[1]))
@@ -729,7 +733,23 @@ class EndPlacer:
         if not ok.any():
             return None
         d = d[ok]
-        return float(d[np.argmin(np.abs(d - d_prior))])
+        d = float(d[np.argmin(np.abs(d - d_prior))])
+        k = int(0.5 * r)
+        if k < 1:
+            return d
+        # the rows within half a radius of the axis end alike in both views too (the cap's sphere):
+        # the median of their run ends' disparities near the axis row's (1 px)
+        rows = row + np.arange(-k, k + 1)
+        rows = rows[(rows >= 0) & (rows < sm.left_mask.shape[0])]
+        sgn = 1.0 if right_end else -1.0
+        il = runs_l.find(rows, np.full(len(rows), e_l - sgn * (1.0 + r)))
+        rows, il = rows[il >= 0], il[il >= 0]
+        el = runs_l.right_px[il] if right_end else runs_l.left_px[il]
+        ir = runs_r.find(rows, el - d - sgn * 1.0)
+        er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
+        de = el - er
+        de = de[np.abs(de - d) <= 1.0]
+        return float(np.median(de)) if len(de) >= 3 else d
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
         """Whether a flat piece's end has the same outline in both views at disparity ``d``.

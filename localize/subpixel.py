@@ -1,0 +1,224 @@
+"""Sub-pixel outline of branches along rows from the grey image.
+
+A binary branch mask (exact or from a segmenter) places each outline only to a pixel; remapped
+into the rectified frame with linear interpolation its half-coverage crossing is good to some
+0.3-0.5 px per row. The grey image's outline is anti-aliased (optics blur, sensor area): the
+intensity step along the row locates it to a small fraction of a pixel. :func:`refine_runs`
+moves run boundaries to the strongest step within 1.5 px of the mask's where the step is clear,
+and all of them by the mask's bias (docs/localize-subpixel.md has the figures).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+from appliance.localize.edges import Runs
+
+_REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this width
+
+
+def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
+    """``gray[row, col]`` of an ndarray or of a :class:`~appliance.localize.rectify.LazyRectified`.
+
+    A lazily rectified image is not remapped by tiles: just the queried pixels are, through the
+    same remap tables (a BGR source is remapped, then converted to grey: the same values but for
+    rounding), a small fraction of the tiles' cost.
+
+    Parameters
+    ----------
+    gray : ndarray (H, W) or LazyRectified
+    row : ndarray (K,) int
+    col : ndarray (K, n) int
+        Columns per row (clipped to the image).
+
+    Returns
+    -------
+    ndarray (K, n) float32
+    """
+    h, w = gray.shape
+    col = np.clip(col, 0, w - 1)
+    if isinstance(gray, np.ndarray):
+        return gray[row[:, None], col].astype(np.float32)
+    m1, m2 = gray.rectifier.maps[gray.side]
+    n = col.size
+    flat = np.zeros(-(-n // _REMAP_WIDTH) * _REMAP_WIDTH, np.int64)     # (rows, _REMAP_WIDTH): remap's
+    flat[:n] = (row[:, None] * w + col).ravel()                             # output stays < 32767 rows
+    flat = flat.reshape(-1, _REMAP_WIDTH)
+    map1 = m1.view(np.int32).reshape(-1).take(flat).view(np.int16).reshape(flat.shape + (2,))   # (x, y) pairs
+    out = cv2.remap(gray.image, map1, m2.reshape(-1).take(flat), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    if out.ndim == 3:
+        out = cv2.cvtColor(out, cv2.COLOR_BGR2GRAY)
+    return out.reshape(-1)[:n].reshape(col.shape).astype(np.float32)
+
+
+def refine_boundaries(gray, row: np.ndarray, x_px: np.ndarray, min_step: float = 12.0, min_share: float = 0.25,
+                      max_shift_px: float = 1.5) -> np.ndarray:
+    """Boundaries moved to the grey image's intensity step along their row.
+
+    The step is the peak of the difference of neighbouring pixels, signed like the difference of
+    the plateaus either side (the mean of the two pixels at each end of a 7 px window centred on
+    the boundary's pixel), among the differences within 1.5 px of the mask's boundary; a Gaussian
+    through the peak and its neighbours places it to a few hundredths of a pixel on a blurred step
+    (a parabola, used where a neighbour is <= 0, is off by up to 0.2 px). It counts only where
+    clear: at least ``min_step`` grey levels and ``min_share`` of the plateaus' difference, a true
+    peak (above its neighbours), and within ``max_shift_px`` of the mask's boundary.
+
+    Parameters
+    ----------
+    gray : ndarray (H, W) uint8 or LazyRectified
+        Rectified grey image.
+    row : ndarray (K,) int
+    x_px : ndarray (K,) float
+        Boundaries from the mask, px.
+
+    Returns
+    -------
+    ndarray (K,) float
+        Refined boundaries (``x_px`` where the step is not clear).
+    """
+    x_px = np.asarray(x_px, float)
+    if len(x_px) == 0:
+        return x_px.copy()
+    xi = np.rint(x_px).astype(np.int64)
+    p = gather(gray, np.asarray(row, np.int64), xi[:, None] + np.arange(-3, 4))    # (K, 7) float32
+    raw = p[:, 5] + p[:, 6] - p[:, 0] - p[:, 1]            # twice the plateaus' difference, right - left
+    step = np.diff(p, axis=1)
+    step *= np.sign(raw)[:, None]                          # (K, 6): > 0 along the plateaus' step
+    # difference j lies at xi - 2.5 + j: within 1.5 px of the boundary are j = 2, 3 and 1 or 4 (the
+    # side the boundary leans to); 0 and 5 are only neighbours for the parabola
+    d = (x_px - xi).astype(np.float32)
+    cand = step[:, 1:5].copy()
+    cand[d > 0, 0] = -np.inf
+    cand[d < 0, 3] = -np.inf
+    k = np.argmax(cand, axis=1) + 1
+    flat = step.reshape(-1)
+    at = np.arange(len(k)) * 6 + k
+    a, b, c = flat[at - 1], flat[at], flat[at + 1]
+    # peak of a Gaussian through the three (exact for a blurred step); a parabola where a side is <= 0
+    la, lb, lc = (np.log(np.maximum(v, 1e-3)) for v in (a, b, c))
+    gauss = (a > 0) & (c > 0)
+    frac = np.where(gauss, 0.5 * (la - lc) / np.minimum(la - 2 * lb + lc, -1e-6),
+                    0.5 * (a - c) / np.minimum(a - 2 * b + c, -1e-6))
+    clear = (b >= min_step) & (b >= 0.5 * min_share * np.abs(raw)) & (b > a) & (b >= c)
+    shift = k - 2.5 - d + frac
+    return np.where(clear & (np.abs(shift) <= max_shift_px), x_px + shift, x_px)
+
+
+def steep_boundaries(mask: np.ndarray, row: np.ndarray, x_px: np.ndarray, max_tan: float = 1.0) -> np.ndarray:
+    """Whether the outline at each boundary runs within ``atan(max_tan)`` of the vertical, from the
+    soft mask's central differences at the boundary's pixel (where a row crosses it cleanly).
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) uint8
+        Soft mask (coverage 0-255).
+    row : ndarray (K,) int
+    x_px : ndarray (K,) float
+
+    Returns
+    -------
+    ndarray (K,) bool
+    """
+    h, w = mask.shape
+    r = np.clip(row, 1, h - 2)
+    c = np.clip(np.rint(x_px).astype(np.int64), 1, w - 2)
+    flat = mask.reshape(-1)
+    at = r * w + c
+    gx = np.abs(flat[at + 1].astype(np.int32) - flat[at - 1])
+    gy = np.abs(flat[at + w].astype(np.int32) - flat[at - w])
+    return gy <= max_tan * gx
+
+
+def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px=(0.0, 0.0), cell_px: int = 16) -> np.ndarray:
+    """Runs near any of some points: within ``reach_px`` of a point's row, and of its column moved
+    left by a disparity in its ``d_range_px`` (the right view's runs where the points may show).
+
+    On a grid of ``cell_px`` cells (so up to a cell further), by the runs' middle pixel.
+
+    Parameters
+    ----------
+    runs : Runs
+    xy_px : ndarray (P, 2)
+        Points (x, y), px (left rectified image).
+    reach_px : float
+    d_range_px : (2,) or ndarray (P, 2)
+        Disparity range (lo, hi), px, of all points or of each.
+
+    Returns
+    -------
+    ndarray (R,) bool
+    """
+    xy = np.asarray(xy_px, float).reshape(-1, 2)
+    if len(xy) == 0 or len(runs.row) == 0:
+        return np.zeros(len(runs.row), bool)
+    d = np.broadcast_to(np.asarray(d_range_px, float), (len(xy), 2))
+    rows, cols = int(runs.row[-1]) // cell_px + 1, runs.width // cell_px + 1
+    box = np.column_stack([xy[:, 1] - reach_px, xy[:, 1] + reach_px,
+                           xy[:, 0] - d[:, 1] - reach_px, xy[:, 0] - d[:, 0] + reach_px]) // cell_px
+    box[:, [0, 2]] = np.maximum(box[:, [0, 2]], 0)
+    grid = np.zeros((rows, cols), bool)
+    for y0, y1, x0, x1 in box.astype(np.intp).tolist():       # a few dozen points (a box left of or
+        grid[y0:y1 + 1, x0:x1 + 1] = True                      # above the image is empty)
+    return grid[runs.row // cell_px, np.minimum((runs.x0 + runs.x1) // (2 * cell_px), cols - 1)]
+
+
+def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
+                max_tan: float = 1.0, max_dev_px: float = 0.6, min_moved: int = 50, **kw) -> Runs:
+    """``runs`` with their boundaries moved to the grey image's outline (:func:`refine_boundaries`).
+
+    A segmenter's mask sits off the grey outline by some bias (its threshold, its cleaning): all
+    boundaries first move by the median shift of those the grey image moves (if at least
+    ``min_moved``), then those move to the grey outline, at most ``max_dev_px`` from there (the
+    step's position is good, but a lit rim or the background's texture can pull it off). A
+    boundary moved out into the next pixel takes that pixel into the run (:meth:`Runs.find` looks
+    runs up by pixel), where at least two background pixels part it from the next run.
+
+    Parameters
+    ----------
+    runs : Runs
+        Runs of ``mask``.
+    gray : ndarray (H, W) uint8 or LazyRectified
+        The rectified grey image of the same view.
+    mask : ndarray (H, W) uint8, optional
+        The soft mask of the runs: only boundaries where the outline is steep are refined
+        (:func:`steep_boundaries` with ``max_tan``: along a row a shallow outline's step is
+        spread over pixels); all without it.
+    only : ndarray (R,) bool, optional
+        Runs to refine (the others only take the bias); all without it.
+    **kw
+        Passed to :func:`refine_boundaries`.
+
+    Returns
+    -------
+    Runs
+    """
+    n = len(runs.row)
+    if n == 0:
+        return runs
+    row, x = np.concatenate([runs.row, runs.row]), np.concatenate([runs.left_px, runs.right_px])
+    todo = np.arange(2 * n) if only is None else np.flatnonzero(np.concatenate([only, only]))
+    if mask is not None:
+        todo = todo[steep_boundaries(mask, row[todo], x[todo], max_tan)]
+    xr = refine_boundaries(gray, row[todo], x[todo], **kw)
+    moved = xr != x[todo]
+    todo, xr = todo[moved], xr[moved]
+    if len(todo) >= min_moved:
+        inward = np.where(todo < n, 1.0, -1.0)
+        bias = float(np.median((xr - x[todo]) * inward))
+        x[:n] += bias
+        x[n:] -= bias
+    x[todo] = np.clip(xr, x[todo] - max_dev_px, x[todo] + max_dev_px)
+    # never across the run's own middle (a thin run keeps a positive span)
+    centre = runs.centre_px
+    left, right = np.minimum(x[:n], centre), np.maximum(x[n:], centre)
+    x0, x1 = runs.x0, runs.x1
+    gap = np.empty(n + 1, np.int64)                  # background pixels + 1 before each run (huge at a row's start)
+    gap[[0, -1]] = 1 << 40
+    np.subtract(x0[1:], x1[:-1], out=gap[1:-1])
+    gap[1:-1][runs.row[1:] != runs.row[:-1]] = 1 << 40
+    x0 = np.where((gap[:-1] >= 3) & (x0 > 0) & (left < x0 - 0.5), x0 - 1, x0)
+    x1 = np.where((gap[1:] >= 3) & (x1 < runs.width - 1) & (right > x1 + 0.5), x1 + 1, x1)
+    return dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)

@@ -36,3 +36,19 @@ def test_colour_recogniser_finds_bark_and_tells_leaves_at_points():
     assert mask[:, 72:88].all() and not mask[:, :65].any() and not mask[:, 95:].any()
     got = occluder_at(hsv, np.array([[30, 60], [80, 60], [150, 10], [-5, 60], [30, 200]]), cfg)
     assert got.tolist() == [True, False, False, False, False]
+
+
+def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():
+    """Bark with a little more blue than green (hue ~178, past the wrap) is still bark; a red
+    apple of the same hue is far more saturated."""
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_color
+
+    cfg = load_config().localize.segment
+    img = np.full((120, 160, 3), (235, 206, 135), np.uint8)     # sky (BGR)
+    cv2.rectangle(img, (70, 0), (90, 119), (80, 76, 125), -1)    # reddish grey bark, B > G
+    cv2.circle(img, (30, 60), 15, (30, 30, 180), -1)             # a red apple
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+    assert hsv[60, 80, 0] > 170 and hsv[60, 30, 0] < 5          # hues on both sides of the wrap
+    mask, _ = segment_color(img, cfg)
+    assert mask[:, 72:88].all() and not mask[:, :65].any()

@@ -59,6 +59,7 @@ class SegmentConfig:
     open_px: int = rng(min=0)
     close_px: int = rng(min=0)
     min_area_px: int = rng(min=0)
+    edge_window_px: int = rng(min=0)
 
 
 @dataclass(frozen=True)

@@ -52,3 +52,55 @@ def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():
     assert hsv[60, 80, 0] > 170 and hsv[60, 30, 0] < 5          # hues on both sides of the wrap
     mask, _ = segment_color(img, cfg)
     assert mask[:, 72:88].all() and not mask[:, :65].any()
+
+
+def test_mirrored_hue_range_equals_the_wrapped_one():
+    """A range wrapping through red tested on RGB2HSV hues (one inRange) picks the same pixels as
+    the two inRanges on BGR2HSV hues, but for hue rounding at the bounds and exactly grey pixels."""
+    from dataclasses import replace
+
+    from appliance.config import load_config
+    from appliance.localize.segment import bark_hsv, hsv_bark
+
+    cfg = replace(load_config().localize.segment, hue_min=170, hue_max=30)
+    img = np.random.default_rng(1).integers(0, 256, (400, 500, 3), dtype=np.uint8)
+    hsv, fast = bark_hsv(img, cfg)
+    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg)
+    assert np.array_equal(hsv[..., 1:], cv2.cvtColor(img, cv2.COLOR_BGR2HSV)[..., 1:])   # S, V as before
+    assert cv2.countNonZero(ref) > 2000
+    assert cv2.countNonZero(fast ^ ref) <= 5e-3 * cv2.countNonZero(ref)
+
+
+def _branch_scene(bark_bgr, back_bgr, x0=60.3, x1=71.7, h=80, w=140, ss=8):
+    """A vertical branch spanning x0..x1 (px, sub-pixel) over a plain background, rendered with
+    ``ss`` supersamples per pixel (exact area mixing); its true coverage per pixel."""
+    xs = (np.arange(w * ss) + 0.5) / ss
+    inside = ((xs >= x0) & (xs <= x1)).astype(float).reshape(w, ss).mean(1)
+    cover = np.tile(inside, (h, 1))
+    img = cover[..., None] * np.array(bark_bgr, float) + (1 - cover[..., None]) * np.array(back_bgr, float)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8), cover
+
+
+@pytest.mark.parametrize("back", [(235, 206, 135), (40, 120, 60), (60, 160, 140)])   # sky, foliage, grass
+@pytest.mark.parametrize("bark", [(50, 62, 78), (25, 30, 38)])                        # lit, shaded bark
+def test_unmix_edges_gives_outline_pixels_their_bark_share(back, bark):
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene(bark, back)
+    hard = np.where(cover == 1, 255, 0).astype(np.uint8)      # a recogniser's mask: the pure pixels only
+    assert (cover[0] % 1 > 0.2).sum() == 2                     # ... and a mixed pixel at each side
+    soft = unmix_edges(img, hard, 20)
+    assert np.abs(soft[8:-8].astype(float) / 255 - cover[8:-8]).max() < 0.06     # coverage within 6 %
+    assert np.array_equal(soft[8:-8] > 127, cover[8:-8] >= 0.5)                  # thresholded: the exact mask
+    assert np.array_equal(soft[:, :58], hard[:, :58]) and np.array_equal(soft[:, 75:], hard[:, 75:])
+
+
+def test_unmix_edges_keeps_pixels_it_cannot_tell():
+    """A background of the bark's own chromaticity (dark soil) gives no share: the mask stays."""
+    from appliance.localize.segment import unmix_edges
+
+    img, _ = _branch_scene((50, 62, 78), (100, 124, 156))     # the same hue, twice as bright
+    hard = np.zeros(img.shape[:2], np.uint8)
+    hard[:, 61:71] = 255
+    assert np.array_equal(unmix_edges(img, hard, 20), hard)
+    assert np.array_equal(unmix_edges(img, np.zeros_like(hard), 20), np.zeros_like(hard))

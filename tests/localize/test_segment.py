@@ -104,3 +104,17 @@ def test_unmix_edges_keeps_pixels_it_cannot_tell():
     hard[:, 61:71] = 255
     assert np.array_equal(unmix_edges(img, hard, 20), hard)
     assert np.array_equal(unmix_edges(img, np.zeros_like(hard), 20), np.zeros_like(hard))
+
+
+def test_unmix_edges_on_a_ragged_size_and_in_place():
+    """Sizes not a multiple of the block: the whole blocks are unmixed, the last rows and columns kept;
+    ``out=mask`` writes into the mask itself."""
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene((50, 62, 78), (235, 206, 135), h=83, w=141)
+    hard = np.where(cover == 1, 255, 0).astype(np.uint8)
+    soft = unmix_edges(img, hard, 20)
+    assert np.array_equal(soft[:80] > 127, cover[:80] >= 0.5)
+    assert np.array_equal(soft[80:], hard[80:])                 # 83 = 4 * 20 + 3: the last 3 rows kept
+    same = hard.copy()
+    assert unmix_edges(img, same, 20, out=same) is same and np.array_equal(same, soft)

@@ -125,11 +125,12 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     return out
 
 
-def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, factor: int = 4,
+def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int = 1, factor: int = 4,
                 out: np.ndarray | None = None, scratch: np.ndarray | None = None) -> np.ndarray:
-    """Soft branch coverage at the mask's outline: each pixel of the outline (3x3 morphological
-    gradient: the mask's own edge pixels and their outside neighbours) gets the share of bark
-    in its colour, 0-255; the rest of ``mask`` (uint8 0/255, (H, W)) is kept.
+    """Soft branch coverage at the mask's outline: each pixel of the outline (morphological
+    gradient over (2 ``band_px`` + 1)^2: the pixels up to ``band_px`` inside and outside the mask's
+    edge) gets the share of bark in its colour, 0-255; the rest of ``mask`` (uint8 0/255, (H, W))
+    is kept. ``band_px`` 2 suits JPEG images, whose colour is smeared over 2 px (4:2:0).
 
     An outline pixel's colour is taken as a mix ``p = beta * c_o + k * chi``: ``c_o`` the mean
     colour of the background near it (pixels of a ``factor`` times smaller nearest-neighbour
@@ -153,7 +154,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, factor: int =
     hs, ws = h // factor, w // factor
     if hs == 0 or ws == 0:
         return mask.copy() if out is None else mask
-    ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, _K3, dst=scratch)
+    ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
     blocks = cv2.findNonZero(_block_mean(ring[:hs * factor, :ws * factor], factor))
     if out is None:
         out = mask.copy()
@@ -198,7 +199,8 @@ def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.n
     hsv, raw = bark_hsv(bgr, cfg)
     mask = clean_mask(raw, cfg)
     if cfg.edge_window_px > 0:
-        mask = unmix_edges(bgr, mask, cfg.edge_window_px, out=mask, scratch=None if raw is mask else raw)
+        mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
+                           scratch=None if raw is mask else raw)
     return mask, hsv
 
 

@@ -118,3 +118,17 @@ def test_unmix_edges_on_a_ragged_size_and_in_place():
     assert np.array_equal(soft[80:], hard[80:])                 # 83 = 4 * 20 + 3: the last 3 rows kept
     same = hard.copy()
     assert unmix_edges(img, same, 20, out=same) is same and np.array_equal(same, soft)
+
+
+def test_unmix_edges_band_reaches_an_outline_smeared_over_two_pixels():
+    """Colour smeared over 3 px across the outline (as JPEG's half-size chroma does): the band of
+    2 px reaches every mixed pixel, the band of 1 px leaves the outermost ones as they were."""
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene((50, 62, 78), (40, 120, 60), x0=61.0, x1=75.0)
+    img = cv2.blur(img, (3, 1), borderType=cv2.BORDER_REPLICATE)
+    cover = cv2.blur(cover, (3, 1), borderType=cv2.BORDER_REPLICATE)
+    hard = np.where(cover > 0.99, 255, 0).astype(np.uint8)
+    err = [np.abs(unmix_edges(img, hard, 20, band).astype(float) / 255 - cover)[8:-8].max() for band in (1, 2)]
+    assert (cover[0] % 1 > 0.2).sum() == 4                     # two mixed pixels at each side
+    assert err[0] > 0.25 and err[1] < 0.06

@@ -15,6 +15,8 @@ from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean, pixels
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
+_K3 = np.ones((3, 3), np.uint8)
+_MIN_SIN2 = 0.05 ** 2          # unmix_edges: background and bark chromaticities at least ~3 deg apart
 
 
 def _kernel(size_px: int) -> np.ndarray:
@@ -31,6 +33,24 @@ def hsv_bark(hsv: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     if cfg.hue_min <= cfg.hue_max:
         return cv2.inRange(hsv, lo, hi)       # three channels at once: no split, ~2x faster
     return cv2.inRange(hsv, lo, (180, *hi[1:])) | cv2.inRange(hsv, (0, *lo[1:]), hi)
+
+
+def bark_hsv(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
+    """HSV image (H, W, 3) and raw bark mask (uint8 0/255, (H, W)) of a BGR image.
+
+    A hue range wrapping through red (``hue_min`` >= 120 >= ``hue_max``) is tested on the hues
+    of the image read as RGB: red and blue swapped mirror every hue h to 120 - h (mod 180),
+    so the range becomes [120 - hue_max, 300 - hue_min], one ``inRange`` instead of two and an
+    OR (0.6 ms less per 1280x960 image). Saturation and value are the same either way; exactly
+    grey pixels (saturation 0, hue 0 in both readings) are then never bark.
+    """
+    if cfg.hue_min > cfg.hue_max and cfg.hue_min >= 120 >= cfg.hue_max:
+        hsv = cv2.cvtColor(bgr, cv2.COLOR_RGB2HSV)
+        lo = (120 - cfg.hue_max, 0, cfg.value_min)
+        hi = (300 - cfg.hue_min, cfg.saturation_max, cfg.value_max)
+        return hsv, cv2.inRange(hsv, lo, hi)
+    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+    return hsv, hsv_bark(hsv, cfg)
 
 
 def occluder_at(hsv: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
@@ -89,11 +109,81 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     return out
 
 
+def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int = 1, factor: int = 4,
+                out: np.ndarray | None = None, scratch: np.ndarray | None = None) -> np.ndarray:
+    """Soft branch coverage at the mask's outline: each pixel of the outline (morphological
+    gradient over (2 ``band_px`` + 1)^2: the pixels up to ``band_px`` inside and outside the mask's
+    edge) gets the share of bark in its colour, 0-255; the rest of ``mask`` (uint8 0/255, (H, W))
+    is kept. ``band_px`` 2 suits JPEG images, whose colour is smeared over 2 px (4:2:0).
+
+    An outline pixel's colour is taken as a mix ``p = beta * c_o + k * chi``: ``c_o`` the mean
+    colour of the background near it (pixels of a ``factor`` times smaller nearest-neighbour
+    copy more than one small pixel off the mask, over ``window_px``: sky, foliage and leaves
+    are smooth at that scale), ``chi`` the bark's chromaticity (unit BGR vector of the mean
+    colour inside the mask: shading scales bark colour, it does not change its chromaticity),
+    ``k`` free (the bark's brightness at that edge: lit or shaded side). The least-squares
+    ``beta`` is the background's share, coverage = 1 - beta = 1 - p . v with one vector ``v``
+    per ``factor`` x ``factor`` block. Pixels with no background sample in their window, or whose
+    background has nearly the bark's chromaticity (less than ~3 deg apart), keep their value,
+    as do those of the last ``H % factor`` rows and ``W % factor`` columns. Thresholded at 0.5
+    this is the exact masks' pixel-coverage rule; the soft values give the rectified coverage
+    sub-pixel outlines. ~0.9 ms per 1280x960 image alone, ~1.2 ms inside the pipeline (outline
+    pixels found per block).
+
+    ``out`` (may be ``mask`` itself) receives the result, a copy of ``mask`` by default;
+    ``scratch``, a uint8 (H, W) array that may be overwritten (not ``mask``), holds the outline.
+    Both save allocating a full-size image.
+    """
+    h, w = mask.shape
+    hs, ws = h // factor, w // factor
+    ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
+    blocks = cv2.findNonZero(_block_mean(ring[:hs * factor, :ws * factor], factor)) if hs and ws else None
+    if out is None:
+        out = mask.copy()
+    elif out is not mask:
+        out[...] = mask
+    if blocks is None:
+        return out
+    small = cv2.resize(bgr[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+    ms = cv2.resize(mask[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+    chi = np.array(cv2.mean(small, mask=cv2.erode(ms, _K3))[:3], np.float32)
+    if not chi.any():                                            # only thin twigs: their whole mask
+        chi = np.array(cv2.mean(small, mask=ms)[:3], np.float32)
+    chi /= max(float(np.linalg.norm(chi)), 1e-6)
+    away = cv2.bitwise_not(cv2.dilate(ms, _K3))                 # sure background, 255
+    win = (max(1, round(window_px / factor)),) * 2
+    n_o = cv2.boxFilter(away, cv2.CV_32F, win, normalize=False)
+    s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
+    b = blocks.reshape(-1, 2)
+    bi = b[:, 1] * ws + b[:, 0]                                  # the blocks holding outline pixels
+    n = n_o.reshape(-1).take(bi) * (1.0 / 255)
+    c_o = s_o.reshape(-1, 3).take(bi, axis=0) / np.maximum(n, 1.0)[:, None]
+    c_chi = c_o @ chi
+    c_c = np.einsum("ij,ij->i", c_o, c_o)
+    det = c_c - c_chi * c_chi                                   # |c_o|^2 sin^2(c_o, chi)
+    ok = (n > 0.5) & (det > _MIN_SIN2 * c_c)
+    bi, v = bi[ok], (c_o[ok] - c_chi[ok, None] * chi) / det[ok, None]
+    off = (np.arange(factor)[:, None] * w + np.arange(factor)).reshape(-1)
+    fi = ((bi // ws) * (factor * w) + (bi % ws) * factor)[:, None] + off
+    on = ring.reshape(-1).take(fi) != 0
+    fi = fi[on]
+    v = np.repeat(v, on.sum(1), axis=0)
+    p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)
+    cover = 1.0 - np.einsum("ij,ij->i", p, v)
+    out.reshape(-1)[fi] = np.clip(cover * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    return out
+
+
 def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The embedded recogniser: the branch mask, uint8 0/255 (H, W), and the HSV image it was
+    """The embedded recogniser: the branch mask, uint8 (H, W) (0/255; with ``edge_window_px`` > 0
+    soft coverage 0-255 along the outline, see :func:`unmix_edges`), and the HSV image it was
     taken from (H, W, 3) (for :func:`occluder_at`)."""
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    return clean_mask(hsv_bark(hsv, cfg), cfg), hsv
+    hsv, raw = bark_hsv(bgr, cfg)
+    mask = clean_mask(raw, cfg)
+    if cfg.edge_window_px > 0:
+        mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
+                           scratch=None if raw is mask else raw)
+    return mask, hsv
 
 
 def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:

@@ -36,3 +36,99 @@ def test_colour_recogniser_finds_bark_and_tells_leaves_at_points():
     assert mask[:, 72:88].all() and not mask[:, :65].any() and not mask[:, 95:].any()
     got = occluder_at(hsv, np.array([[30, 60], [80, 60], [150, 10], [-5, 60], [30, 200]]), cfg)
     assert got.tolist() == [True, False, False, False, False]
+
+
+def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():
+    """Bark with a little more blue than green (hue ~178, past the wrap) is still bark; a red
+    apple of the same hue is far more saturated."""
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_color
+
+    cfg = load_config().localize.segment
+    img = np.full((120, 160, 3), (235, 206, 135), np.uint8)     # sky (BGR)
+    cv2.rectangle(img, (70, 0), (90, 119), (80, 76, 125), -1)    # reddish grey bark, B > G
+    cv2.circle(img, (30, 60), 15, (30, 30, 180), -1)             # a red apple
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
+    assert hsv[60, 80, 0] > 170 and hsv[60, 30, 0] < 5          # hues on both sides of the wrap
+    mask, _ = segment_color(img, cfg)
+    assert mask[:, 72:88].all() and not mask[:, :65].any()
+
+
+def test_mirrored_hue_range_equals_the_wrapped_one():
+    """A range wrapping through red tested on RGB2HSV hues (one inRange) picks the same pixels as
+    the two inRanges on BGR2HSV hues, but for hue rounding at the bounds and exactly grey pixels."""
+    from dataclasses import replace
+
+    from appliance.config import load_config
+    from appliance.localize.segment import bark_hsv, hsv_bark
+
+    cfg = replace(load_config().localize.segment, hue_min=170, hue_max=30)
+    img = np.random.default_rng(1).integers(0, 256, (400, 500, 3), dtype=np.uint8)
+    hsv, fast = bark_hsv(img, cfg)
+    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg)
+    assert np.array_equal(hsv[..., 1:], cv2.cvtColor(img, cv2.COLOR_BGR2HSV)[..., 1:])   # S, V as before
+    assert cv2.countNonZero(ref) > 2000
+    assert cv2.countNonZero(fast ^ ref) <= 5e-3 * cv2.countNonZero(ref)
+
+
+def _branch_scene(bark_bgr, back_bgr, x0=60.3, x1=71.7, h=80, w=140, ss=8):
+    """A vertical branch spanning x0..x1 (px, sub-pixel) over a plain background, rendered with
+    ``ss`` supersamples per pixel (exact area mixing); its true coverage per pixel."""
+    xs = (np.arange(w * ss) + 0.5) / ss
+    inside = ((xs >= x0) & (xs <= x1)).astype(float).reshape(w, ss).mean(1)
+    cover = np.tile(inside, (h, 1))
+    img = cover[..., None] * np.array(bark_bgr, float) + (1 - cover[..., None]) * np.array(back_bgr, float)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8), cover
+
+
+@pytest.mark.parametrize("back", [(235, 206, 135), (40, 120, 60), (60, 160, 140)])   # sky, foliage, grass
+@pytest.mark.parametrize("bark", [(50, 62, 78), (25, 30, 38)])                        # lit, shaded bark
+def test_unmix_edges_gives_outline_pixels_their_bark_share(back, bark):
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene(bark, back)
+    hard = np.where(cover == 1, 255, 0).astype(np.uint8)      # a recogniser's mask: the pure pixels only
+    assert (cover[0] % 1 > 0.2).sum() == 2                     # ... and a mixed pixel at each side
+    soft = unmix_edges(img, hard, 20)
+    assert np.abs(soft[8:-8].astype(float) / 255 - cover[8:-8]).max() < 0.06     # coverage within 6 %
+    assert np.array_equal(soft[8:-8] > 127, cover[8:-8] >= 0.5)                  # thresholded: the exact mask
+    assert np.array_equal(soft[:, :58], hard[:, :58]) and np.array_equal(soft[:, 75:], hard[:, 75:])
+
+
+def test_unmix_edges_keeps_pixels_it_cannot_tell():
+    """A background of the bark's own chromaticity (dark soil) gives no share: the mask stays."""
+    from appliance.localize.segment import unmix_edges
+
+    img, _ = _branch_scene((50, 62, 78), (100, 124, 156))     # the same hue, twice as bright
+    hard = np.zeros(img.shape[:2], np.uint8)
+    hard[:, 61:71] = 255
+    assert np.array_equal(unmix_edges(img, hard, 20), hard)
+    assert np.array_equal(unmix_edges(img, np.zeros_like(hard), 20), np.zeros_like(hard))
+
+
+def test_unmix_edges_on_a_ragged_size_and_in_place():
+    """Sizes not a multiple of the block: the whole blocks are unmixed, the last rows and columns kept;
+    ``out=mask`` writes into the mask itself."""
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene((50, 62, 78), (235, 206, 135), h=83, w=141)
+    hard = np.where(cover == 1, 255, 0).astype(np.uint8)
+    soft = unmix_edges(img, hard, 20)
+    assert np.array_equal(soft[:80] > 127, cover[:80] >= 0.5)
+    assert np.array_equal(soft[80:], hard[80:])                 # 83 = 4 * 20 + 3: the last 3 rows kept
+    same = hard.copy()
+    assert unmix_edges(img, same, 20, out=same) is same and np.array_equal(same, soft)
+
+
+def test_unmix_edges_band_reaches_an_outline_smeared_over_two_pixels():
+    """Colour smeared over 3 px across the outline (as JPEG's half-size chroma does): the band of
+    2 px reaches every mixed pixel, the band of 1 px leaves the outermost ones as they were."""
+    from appliance.localize.segment import unmix_edges
+
+    img, cover = _branch_scene((50, 62, 78), (40, 120, 60), x0=61.0, x1=75.0)
+    img = cv2.blur(img, (3, 1), borderType=cv2.BORDER_REPLICATE)
+    cover = cv2.blur(cover, (3, 1), borderType=cv2.BORDER_REPLICATE)
+    hard = np.where(cover > 0.99, 255, 0).astype(np.uint8)
+    err = [np.abs(unmix_edges(img, hard, 20, band).astype(float) / 255 - cover)[8:-8].max() for band in (1, 2)]
+    assert (cover[0] % 1 > 0.2).sum() == 4                     # two mixed pixels at each side
+    assert err[0] > 0.25 and err[1] < 0.06

@@ -137,7 +137,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     h, w = mask.shape
     hs, ws = h // factor, w // factor
     ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
-    blocks = cv2.findNonZero(_block_mean(ring[:hs * factor, :ws * factor], factor)) if hs and ws else None
+    blocks = cv2.findNonZero(block_mean(ring[:hs * factor, :ws * factor], factor)) if hs and ws else None
     if out is None:
         out = mask.copy()
     elif out is not mask:

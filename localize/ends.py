@@ -52,6 +52,20 @@ def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     return c1 + t[0] * e1
 
 
+def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
+    """Factor (N,) taking the disparity of the middle of a round cap's crossing of each rectified
+    row in ``rows`` (N,) to the disparity of the cap's centre C, seen on row ``row_c``.
+
+    A row's epipolar plane cuts the cap (a sphere around C) in a circle around the foot of C on
+    that plane, and both views' crossings of the row project that circle's centre, not C: off C's
+    row the foot lies nearer (or further) by the fraction ``v (v - v_C) / (1 + v^2)`` of the depth,
+    ``v = (row - cy) / f`` (rows further from the image's middle row than C's are nearer). The
+    principal point's row may be taken at the image's middle (a small share of the effect).
+    """
+    v = (np.asarray(rows, float) - cy_px) / f_px
+    return 1.0 - v * (v - (row_c - cy_px) / f_px) / (1.0 + v * v)
+
+
 def _agree(d1: float, d2: float) -> bool:
     """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
     return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
@@ -654,8 +668,9 @@ class EndPlacer:
 
         Each rectified row cuts the cap (a sphere) in a circle; the middles of the left and
         right crossings of that row both project that circle's centre, a point within the
-        cap. Median over the cap's rows (one radius back from the end) of the middle
-        disparities near ``d_prior`` (2 px); None with fewer than 3 rows. A row whose left
+        cap, whose depth :func:`cap_row_scale` takes back to the cap's centre. Median over the
+        cap's rows (one radius back from the end) of the middle disparities near ``d_prior``
+        (2 px); None with fewer than 3 rows. A row whose left
         crossing reaches clearly further (1.5 px) on one side of the fitted centre line than on
         the other is merged there with something touching the branch: it gives the disparity
         of its other edge instead (near ``d_prior``: 2.5 px).
@@ -676,16 +691,17 @@ class EndPlacer:
         lo_l, hi_l = runs_l.left_px[il], runs_l.right_px[il]
         w_lo, w_hi = s_rows - lo_l, hi_l - s_rows           # each side's reach from the centre line
         sym = np.abs(w_lo - w_hi) <= 1.5
+        scale = cap_row_scale(rows, t_edge - sign * r, 0.5 * (sm.left_mask.shape[0] - 1), sm.f_px)
         c_l = runs_l.centre_px[il[sym]]
         q, rr = runs_r.between(rows[sym], c_l - d_prior - 2.0, c_l - d_prior + 2.0)
-        d = [c_l[q] - runs_r.centre_px[rr]]
+        d = [(c_l[q] - runs_r.centre_px[rr]) * scale[sym][q]]
         # a row merged on one side with something touching the branch: the other edge's disparity
         for side, lo_side in ((~sym & (w_lo < w_hi), True), (~sym & (w_lo >= w_hi), False)):
             if side.any() and len(runs_r.row):
                 e_l = lo_l[side] if lo_side else hi_l[side]
                 ir = runs_r.find(rows[side], e_l - d_prior + (1.5 if lo_side else -1.5))
                 e_r = np.where(ir >= 0, runs_r.left_px[ir] if lo_side else runs_r.right_px[ir], np.nan)
-                de = e_l - e_r
+                de = (e_l - e_r) * scale[side]
                 d.append(de[np.abs(de - d_prior) <= 2.5])
         d = np.concatenate(d)
         if len(d) < 3:

@@ -349,3 +349,22 @@ def test_the_interval_middle_is_the_scanned_one_bit_for_bit():
         assert got == want
         found += got is not None
     assert found >= 40
+
+
+def test_cap_row_scale_takes_a_cap_rows_circle_back_to_the_caps_centre():
+    # a sphere's centre C seen by a rectified pair (baseline along x); the epipolar plane of each row
+    # through the sphere cuts it in a circle around the foot of C on that plane: its disparity, scaled,
+    # is C's
+    from appliance.localize.ends import cap_row_scale
+
+    f, b, cy = 1460.0, 120.0, 479.5
+    for c in (np.array([80.0, -330.0, 1000.0]), np.array([-200.0, 280.0, 700.0]), np.array([0.0, 40.0, 1400.0])):
+        row_c = cy + f * c[1] / c[2]
+        rows = row_c + np.array([-7.0, -3.0, 0.0, 2.0, 6.0])
+        v = (rows - cy) / f
+        n = np.stack([np.zeros_like(v), -np.ones_like(v), v], 1) / np.sqrt(1 + v * v)[:, None]   # planes' normals
+        foot = c[None] - (n @ c)[:, None] * n
+        d_foot = f * b / foot[:, 2]
+        d_c = f * b / c[2]
+        assert np.abs(d_foot - d_c).max() > 0.02 or abs(c[1]) < 50       # the effect is there off the middle
+        assert np.abs(d_foot * cap_row_scale(rows, row_c, cy, f) - d_c).max() < 1e-9

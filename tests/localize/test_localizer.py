@@ -18,7 +18,9 @@ def test_dense_matching_gives_the_depth_of_a_drawn_branch(depth_mm):
     assert len(res.branches) == 1
     z = res.branches[0].polyline_mm[:, 2]
     dz_per_px = depth_mm / d
-    assert np.abs(z - depth_mm).max() < 0.1 * dz_per_px          # a tenth of a pixel of disparity
+    assert np.abs(z[1:-1] - depth_mm).max() < 0.1 * dz_per_px     # a tenth of a pixel of disparity
+    # the ends are the tips: the drawing is flat, but its caps' rows are read as a round 3D cap's
+    # (ends.cap_row_scale), which moves them by ~0.06-0.13 px here
     assert res.branches[0].radius_mm == pytest.approx(6.0 * depth_mm / calib.f_px, rel=0.1)
     tips = [f for f in res.features if f.kind == "endpoint"]
     assert len(tips) == 2

@@ -326,8 +326,12 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     g = np.repeat(np.arange(len(live)), hi - lo)
     sel = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
     ts, ds = t[sel], d[sel]
-    di, ti, sl = d[i][g], t[i][g], slope[g]               # (N, H) each sample's piece's hypotheses
-    inl = np.abs(ds[:, None] - (di + sl * (ts[:, None] - ti))) <= tol_px
+    # (N, H): each sample against its piece's hypotheses, |ds - (d_i + slope (ts - t_i))| in place
+    res = ts[:, None] - t[i][g]
+    res *= slope[g]
+    res += d[i][g]
+    np.subtract(ds[:, None], res, out=res)
+    inl = np.abs(res, out=res) <= tol_px
     starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
     count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1

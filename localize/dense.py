@@ -452,7 +452,7 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
             t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
             if abs(t_n - t_near) < 2:
                 continue
-            t = np.linspace(t_near, t_near + np.clip(t_n - t_near, -reach_px, reach_px), 6)[1:]
+            t = np.linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
             ext = np.column_stack([c.uv_at(t), c.d_at(t)])
             e = ext[::-1] if k == 0 else ext
         else:

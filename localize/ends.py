@@ -750,7 +750,7 @@ class EndPlacer:
         er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
         de = el - er
         de = de[np.abs(de - d) <= 1.0]
-        return float(np.median(de)) if len(de) >= 3 else d
+        return float(median(de)) if len(de) >= 3 else d
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
         """Whether a flat piece's end has the same outline in both views at disparity ``d``.

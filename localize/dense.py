@@ -234,7 +234,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
                                    runs_l, runs_r, taken)
     # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
-    ta, da, ga = np.r_[tf, te], np.r_[df, de], np.r_[gc, ge]
+    ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])   # (np.r_'s, cheaper)
     o = np.argsort(ga, kind="stable")
     ta, da, ga = ta[o], da[o], ga[o]
     has_edges = np.bincount(ge, minlength=ng) > 0
@@ -253,7 +253,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
             keep = inl2[ba[k]:ba[k + 1]]
             tk, dk = ts_[ba[k]:ba[k + 1]][keep], ds_[ba[k]:ba[k + 1]][keep]
             d_poly = Poly.fit(tk, dk, int(deg2[k]))
-            used = np.r_[used, re[be[k]:be[k + 1]]]
+            used = np.concatenate([used, re[be[k]:be[k + 1]]])
         else:
             tk, dk = tf[a:b], df[a:b]
             d_poly = Poly.fit(tk, dk, int(degree[k]))

@@ -225,7 +225,7 @@ class BranchCurve:
         # all beyond one end (a walk out of the span): that end's value and slope, as below per point
         if mn >= hi:
             return poly.at(hi) + (poly.deriv().at(hi) if slopes is None else slopes[1]) * (t - hi)
-        if mx < lo:
+        if mx <= lo:                        # (at lo itself: the same value, poly(lo) + slope * 0)
             return poly.at(lo) + (poly.deriv().at(lo) if slopes is None else slopes[0]) * (t - lo)
         tc = np.minimum(np.maximum(t, lo), hi)
         if slopes is None:

@@ -225,7 +225,7 @@ class BranchCurve:
         # all beyond one end (a walk out of the span): that end's value and slope, as below per point
         if mn >= hi:
             return poly.at(hi) + (poly.deriv().at(hi) if slopes is None else slopes[1]) * (t - hi)
-        if mx < lo:
+        if mx <= lo:                        # (at lo itself: the same value, poly(lo) + slope * 0)
             return poly.at(lo) + (poly.deriv().at(lo) if slopes is None else slopes[0]) * (t - lo)
         tc = np.minimum(np.maximum(t, lo), hi)
         if slopes is None:
@@ -329,6 +329,12 @@ class GroupPolys:
                    np.array([len(p.coef) - 1 for p in polys]))
 
 
+# fit_groups' normal equations of degree d: the columns of the power sums (x^0..x^6, then y x^0..y x^3)
+# forming the matrix (d+1, d+1) and the right-hand side (d+1,)
+_NORMAL_IDX = {d: (2 * d - np.arange(d + 1)[:, None] - np.arange(d + 1)[None, :], 7 + d - np.arange(d + 1))
+               for d in (2, 3)}
+
+
 def _starts(g: np.ndarray, n_groups: int) -> np.ndarray:
     """First sample of each group (``g`` non-decreasing; an empty group starts where the next does)."""
     return np.searchsorted(g, np.arange(n_groups))
@@ -344,9 +350,8 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     t, y = np.asarray(t, float), np.asarray(y, float)
     n = np.bincount(g, minlength=n_groups)
     starts = _starts(g, n_groups)
-    same = g[1:] == g[:-1]
     deg = np.asarray(degree, int).copy()
-    if not (t[1:] > t[:-1])[same].all():                     # not strictly increasing: count distinct values
+    if not ((t[1:] > t[:-1]) | (g[1:] != g[:-1])).all():      # not strictly increasing: count distinct values
         o = np.lexsort((t, g))
         st, sg = t[o], g[o]
         distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
@@ -375,21 +380,21 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     s = np.zeros((n_groups, 11))                             # sums of x^0..x^6, then of y x^0..y x^3
     s[:, :2 * dm + 1], s[:, 7:8 + dm] = sums[:, :2 * dm + 1], sums[:, 2 * dm + 1:]
     coef = np.zeros((n_groups, 4))
-    k0 = deg == 0
-    coef[k0, 3] = s[k0, 7] / np.maximum(n[k0], 1)
-    k1 = deg == 1
-    if k1.any():
+    per_degree = np.bincount(deg.astype(np.intp), minlength=4).tolist()     # (only the degrees present)
+    if per_degree[0]:
+        k0 = deg == 0
+        coef[k0, 3] = s[k0, 7] / np.maximum(n[k0], 1)
+    if per_degree[1]:
+        k1 = deg == 1
         nn, sx, sy, sxx, sxy = n[k1], s[k1, 1], s[k1, 7], s[k1, 2], s[k1, 8]
         det = nn * sxx - sx * sx
         coef[k1, 2] = (nn * sxy - sx * sy) / det
         coef[k1, 3] = (sxx * sy - sx * sxy) / det
     for d in (2, 3):
-        kd = np.flatnonzero(deg == d)
-        if len(kd):
-            i = np.arange(d + 1)
-            a = s[kd][:, 2 * d - i[:, None] - i[None, :]]
-            b = s[kd][:, 7 + d - i]
-            coef[kd, 3 - d:] = np.linalg.solve(a, b[:, :, None])[:, :, 0]
+        if per_degree[d]:
+            sd = s[deg == d]
+            a, b = sd[:, _NORMAL_IDX[d][0]], sd[:, _NORMAL_IDX[d][1]]
+            coef[deg == d, 3 - d:] = np.linalg.solve(a, b[:, :, None])[:, :, 0]
     return GroupPolys(coef, t0, ts, deg)
 
 

@@ -234,7 +234,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
                                    runs_l, runs_r, taken)
     # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
-    ta, da, ga = np.r_[tf, te], np.r_[df, de], np.r_[gc, ge]
+    ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])   # (np.r_'s, cheaper)
     o = np.argsort(ga, kind="stable")
     ta, da, ga = ta[o], da[o], ga[o]
     has_edges = np.bincount(ge, minlength=ng) > 0
@@ -253,7 +253,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
             keep = inl2[ba[k]:ba[k + 1]]
             tk, dk = ts_[ba[k]:ba[k + 1]][keep], ds_[ba[k]:ba[k + 1]][keep]
             d_poly = Poly.fit(tk, dk, int(deg2[k]))
-            used = np.r_[used, re[be[k]:be[k + 1]]]
+            used = np.concatenate([used, re[be[k]:be[k + 1]]])
         else:
             tk, dk = tf[a:b], df[a:b]
             d_poly = Poly.fit(tk, dk, int(degree[k]))
@@ -326,8 +326,12 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     g = np.repeat(np.arange(len(live)), hi - lo)
     sel = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
     ts, ds = t[sel], d[sel]
-    di, ti, sl = d[i][g], t[i][g], slope[g]               # (N, H) each sample's piece's hypotheses
-    inl = np.abs(ds[:, None] - (di + sl * (ts[:, None] - ti))) <= tol_px
+    # (N, H): each sample against its piece's hypotheses, |ds - (d_i + slope (ts - t_i))| in place
+    res = ts[:, None] - t[i][g]
+    res *= slope[g]
+    res += d[i][g]
+    np.subtract(ds[:, None], res, out=res)
+    inl = np.abs(res, out=res) <= tol_px
     starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
     count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1
@@ -448,7 +452,7 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
             t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
             if abs(t_n - t_near) < 2:
                 continue
-            t = np.linspace(t_near, t_near + np.clip(t_n - t_near, -reach_px, reach_px), 6)[1:]
+            t = np.linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
             ext = np.column_stack([c.uv_at(t), c.d_at(t)])
             e = ext[::-1] if k == 0 else ext
         else:

@@ -67,7 +67,8 @@ class Runs:
         i = np.searchsorted(self._start_keys, key, side="right") - 1
         ok = (i >= 0)
         i = np.maximum(i, 0)
-        ok &= (self.row[i] == row) & (self.x1[i] >= xi) & (self.x0[i] <= xi)
+        # (the last run starting at or before the key: on the query's row it starts at or before xi)
+        ok &= (self.row[i] == row) & (self.x1[i] >= xi)
         return np.where(ok, i, -1)
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

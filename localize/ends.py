@@ -205,8 +205,8 @@ class EndPlacer:
                 xy = p0
             else:
                 ahead = np.sign(np.dot(c2 - p0, e1)) or 1.0
-                shift = np.clip(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale),
-                                0.5 * r_par + 2 * self.g.scale)
+                shift = min(max(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale)),
+                            0.5 * r_par + 2 * self.g.scale)          # (np.clip of one value, without its overhead)
                 xy = p0 + ahead * shift * e1
         at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
 
@@ -362,9 +362,10 @@ class EndPlacer:
     def _bilinear(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """``img`` (H, W) uint8 at points ``uv`` (N, 2) (x, y), bilinear (1/32 px); 0 outside."""
         m = uv.astype(np.float32)
-        return np.concatenate([            # (OpenCV maps up to 32767 wide)
-            cv2.remap(img, m[i:i + 16384].reshape(1, -1, 2), None, cv2.INTER_LINEAR,
-                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0] for i in range(0, max(len(m), 1), 16384)])
+        parts = [cv2.remap(img, m[i:i + 16384].reshape(1, -1, 2), None, cv2.INTER_LINEAR,    # (OpenCV maps up
+                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0]                 # to 32767 wide)
+                 for i in range(0, max(len(m), 1), 16384)]
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
     @staticmethod
     def _interval_middle(s: np.ndarray, val: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:
@@ -765,7 +766,7 @@ class EndPlacer:
         er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
         de = el - er
         de = de[np.abs(de - d) <= 1.0]
-        return float(np.median(de)) if len(de) >= 3 else d
+        return float(median(de)) if len(de) >= 3 else d
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
         """Whether a flat piece's end has the same outline in both views at disparity ``d``.

@@ -176,14 +176,15 @@ class Localizer:
         r.check_size(right, "right image")
         clock = _Clock()
         ml, mr, occluder = self._masks(left, right, mask_left, mask_right, clock)
-        bl, br = (cv2.threshold(m, 127, 255, cv2.THRESH_BINARY)[1] for m in (ml, mr))
-        clock.lap("rectify")
-        if not bl.any() or not br.any():
+        if cv2.minMaxLoc(ml)[1] <= 127 or cv2.minMaxLoc(mr)[1] <= 127:     # a view without branch pixels
+            clock.lap("rectify")
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
+        bl = cv2.threshold(ml, 127, 255, cv2.THRESH_BINARY)[1]
+        clock.lap("rectify")
         c = self.cfg
         graph_l, radius_l = self._graph(bl, occluder, clock)
-        if c.match.method == "features":
-            graph_r, radius_r = self._graph(br, None, clock)
+        if c.match.method == "features":                # (the right mask's graph: only this method's)
+            graph_r, radius_r = self._graph(cv2.threshold(mr, 127, 255, cv2.THRESH_BINARY)[1], None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
             gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read

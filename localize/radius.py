@@ -50,8 +50,8 @@ def radius_at(radius_map: RadiusMap | np.ndarray, xy_px: np.ndarray) -> np.ndarr
     img, s = radius_map.image, radius_map.scale
     xy = np.rint((np.asarray(xy_px, float).reshape(-1, 2) + 0.5) / s - 0.5).astype(int)
     h, w = img.shape
-    x = np.clip(xy[:, 0], 0, w - 1)
-    y = np.clip(xy[:, 1], 0, h - 1)
+    x = np.minimum(np.maximum(xy[:, 0], 0), w - 1)        # (np.clip of ints: the same, fewer checks)
+    y = np.minimum(np.maximum(xy[:, 1], 0), h - 1)
     return img[y, x].astype(float)
 
 

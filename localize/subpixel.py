@@ -14,6 +14,7 @@ import dataclasses
 
 import cv2
 import numpy as np
+from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
 _REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this width
@@ -207,7 +208,7 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     todo, xr = todo[moved], xr[moved]
     if len(todo) >= min_moved:
         inward = np.where(todo < n, 1.0, -1.0)
-        bias = float(np.median((xr - x[todo]) * inward))
+        bias = float(median((xr - x[todo]) * inward))        # (np.median's value, bit for bit)
         x[:n] += bias
         x[n:] -= bias
     x[todo] = np.clip(xr, x[todo] - max_dev_px, x[todo] + max_dev_px)

@@ -100,17 +100,23 @@ def _batch_ncc(lbox: np.ndarray, rbox: np.ndarray, uv: np.ndarray, hh: int, hw: 
     ``origin``: the boxes' first row and the left and right boxes' first columns."""
     by0, lx0, rx0 = origin
     n_h, n_w, n_pos = 2 * hh + 1, 2 * hw + 1, hi - lo + 1
-    r = (uv[:, 1] - hh - by0)[:, None, None] + np.arange(n_h)[None, :, None]
-    tmpl = lbox[r, (uv[:, 0] - hw - lx0)[:, None, None] + np.arange(n_w)].astype(np.float64)
-    strip = rbox[r, (uv[:, 0] - hi - hw - rx0)[:, None, None] + np.arange(n_pos + n_w - 1)].astype(np.float64)
+
+    def windows(box, size):         # every (rows, cols) window of a box, a read-only view (no copy)
+        return np.lib.stride_tricks.as_strided(box, (box.shape[0] - size[0] + 1, box.shape[1] - size[1] + 1, *size),
+                                               box.strides * 2, writeable=False)
+    # each patch's and strip's block copied by its top-left corner (the same pixels as by index arrays)
+    y0 = uv[:, 1] - hh - by0
+    tmpl = windows(lbox, (n_h, n_w))[y0, uv[:, 0] - hw - lx0].astype(np.float64)
+    strip = windows(rbox, (n_h, n_pos + n_w - 1))[y0, uv[:, 0] - hi - hw - rx0].astype(np.float64)
     tz = tmpl - tmpl.mean(axis=(1, 2), keepdims=True)
     t_norm = np.sqrt(np.einsum("nhw,nhw->n", tz, tz))
     flat = t_norm / np.sqrt(n_h * n_w) < 1.0                 # _flat(tmpl, 1.0): no texture
     num = np.empty((len(uv), n_pos))
     for k in range(n_pos):                                   # (a few positions: one product each)
         num[:, k] = np.einsum("nhw,nhw->n", tz, strip[:, :, k:k + n_w])
-    c1 = np.concatenate([np.zeros((len(uv), 1)), np.cumsum(strip.sum(1), 1)], 1)
-    c2 = np.concatenate([np.zeros((len(uv), 1)), np.cumsum((strip * strip).sum(1), 1)], 1)
+    c1, c2 = np.zeros((2, len(uv), strip.shape[2] + 1))      # running column sums, a 0 column first
+    np.cumsum(strip.sum(1), 1, out=c1[:, 1:])
+    np.cumsum((strip * strip).sum(1), 1, out=c2[:, 1:])
     s1, s2 = c1[:, n_w:] - c1[:, :-n_w], c2[:, n_w:] - c2[:, :-n_w]
     var = np.maximum(s2 - s1 * s1 / (n_h * n_w), 0.0)
     den = t_norm[:, None] * np.sqrt(var)

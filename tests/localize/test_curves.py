@@ -197,7 +197,8 @@ def test_evaluation_beyond_one_end_is_the_clipped_formula():
     for s_poly in (base, Spliced(base, 60.0, 240.0, Poly.fit(t, 0.3 * t, 1), Poly.fit(t, -0.2 * t, 2))):
         c = BranchCurve(0, False, (50.0, 250.0), s_poly, Poly.fit(t, 120 + 0.05 * t, 1), 3.0, 40, (0.25, -0.75))
         lo, hi = c.t_range
-        for tt in (hi + np.arange(0, 30, 0.25), lo - np.arange(0.25, 30, 0.25), np.r_[lo - 3.0, 100.0, hi + 2.0]):
+        for tt in (hi + np.arange(0, 30, 0.25), lo - np.arange(0.25, 30, 0.25), lo - np.arange(0, 30, 0.25),
+                   np.r_[lo - 3.0, 100.0, hi + 2.0]):
             tc = np.minimum(np.maximum(tt, lo), hi)
             for poly, slopes in ((c.s_poly, (c.s_poly.deriv().at(lo), c.s_poly.deriv().at(hi))),
                                  (c.d_poly, c.d_end_slopes)):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize.curves import BranchCurve, Poly
+from appliance.localize.curves import BranchCurve, Poly, angle_deg
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
 from appliance.localize.matching import StereoMasks
@@ -106,9 +106,7 @@ def cap_curves(graph: SkeletonGraph, sm: StereoMasks, runs_l: Runs, runs_r: Runs
         yx = [graph.seg_yx[s].reshape(-1, 2)] + [graph.node_pixels[n] for n in graph.seg_nodes[s] if n >= 0]
         pts = graph.to_full(np.concatenate(yx))
         near = pts[np.hypot(*(pts - end_xy).T) <= 4 * r + graph.scale]
-        q = near - near.mean(0)
-        sxx, syy, sxy = float(q[:, 0] @ q[:, 0]), float(q[:, 1] @ q[:, 1]), float(q[:, 0] @ q[:, 1])
-        angle = abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
+        angle = angle_deg(near)
         if np.ptp(near[:, 1]) < 1 or angle < min_angle_deg:
             continue
         out_dir = end_xy - near.mean(0)

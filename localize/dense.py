@@ -26,6 +26,7 @@ from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
     Poly,
+    angle_deg,
     degree_for,
     end_slopes,
     median,
@@ -70,13 +71,6 @@ def _ends_disparity(graph: SkeletonGraph, curves: dict, d_range_px: tuple[float,
                 d_end = float(c.d_at(c.t_of(xy[k]))[0])
                 d[k] = d_end - margin_px, d_end + margin_px
     return xy, d
-
-
-def _angle_deg(pts: np.ndarray) -> float:
-    """Angle of a point set's main direction from the horizontal, degrees (0..90)."""
-    c = pts - pts.sum(0) / len(pts)             # (the mean, bit for bit, without np.mean's checks)
-    sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
-    return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
 
 
 def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.ndarray) -> np.ndarray:
@@ -149,7 +143,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
 
     Every step runs over the samples of all pieces together (a piece id per sample; the fits
     by :func:`robust_fit_groups`), with the same rules per piece as matching it alone.
-    ``angle_deg`` holds each segment's angle from the rows (:func:`_angle_deg`); ``taken`` (bool per
+    ``angle_deg`` holds each segment's angle from the rows (:func:`curves.angle_deg`); ``taken`` (bool per
     right run) marks right crossings that belong to another piece. A curve's ``right_runs`` are the
     right crossings it used. Without ``taken`` (the first fit), the curves are then carried on past
     occluders along their own rows (:func:`grow`) and onto pieces that found nothing
@@ -470,7 +464,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
     runs_r = find_runs(sm.right_mask, soft=True)
-    angle = {s: _angle_deg(graph.to_full(yx)) for s, yx in enumerate(graph.seg_yx)
+    angle = {s: angle_deg(graph.to_full(yx)) for s, yx in enumerate(graph.seg_yx)
              if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2}
     steep = [s for s, a in angle.items() if a >= cfg.max_horizontal_deg]
     flat = [s for s, a in angle.items() if a < cfg.max_horizontal_deg]

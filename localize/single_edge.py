@@ -17,6 +17,7 @@ from appliance.localize.curves import (
     GroupPolys,
     Poly,
     Spliced,
+    angle_deg,
     degree_for,
     end_slopes,
     median,
@@ -313,13 +314,6 @@ def edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupP
     return te[o], de[o], re[o], ge[o]
 
 
-def _angle(pts: np.ndarray) -> float:
-    """Angle of a point set's main direction from the rows, degrees (0..90)."""
-    c = pts - pts.mean(0)
-    sxx, syy, sxy = float(c[:, 0] @ c[:, 0]), float(c[:, 1] @ c[:, 1]), float(c[:, 0] @ c[:, 1])
-    return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
-
-
 def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs,
                    runs_r: Runs, sm: StereoMasks, tol_px: float = 1.0,
                    min_share: float = 0.5, max_gradient: float = 0.25) -> dict[int, BranchCurve]:
@@ -333,10 +327,11 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
     right edges. The straight line d(row), its slope at most ``max_gradient`` px per row (a branch
     pointing ~15 deg off the line of sight), on which the most rows have a candidate (within
     ``tol_px``; a vote over 21 slopes and offset bins) is the piece's if at least ``min_share`` of
-    its rows (and 12) are on it and it lies in the working range. On each such row the agreeing edge's disparity moves onto the
-    axis (:func:`edge_to_axis`) and gives the centre (that edge less the half width: the 75th
-    percentile of the wider view's crossings, at most twice what the left mask's radius gives);
-    the centre line must run within a half width (+ 2 px) of the piece's skeleton.
+    its rows (and 12) are on it and it lies in the working range. On each such row the agreeing
+    edge's disparity moves onto the axis (:func:`edge_to_axis`) and gives the centre (that edge
+    less the half width: the 75th percentile of the wider view's crossings, at most twice what
+    the left mask's radius gives); the centre line must run within a half width (+ 2 px) of the
+    piece's skeleton.
     """
     out = {}
     taken = np.zeros(len(runs_r.row), bool)
@@ -406,7 +401,7 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
         w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
         half_px = 0.5 * float(np.percentile(w, 75))
         r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
-        sin_t = max(float(np.sin(np.radians(_angle(graph.to_full(yx))))), 0.2)
+        sin_t = max(float(np.sin(np.radians(angle_deg(graph.to_full(yx))))), 0.2)
         if half_px > 2.0 * r_px / sin_t + 2:
             continue
         e_l = np.where(side < 0, a_l[qs], b_l[qs])

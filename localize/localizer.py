@@ -163,7 +163,8 @@ class Localizer:
         stamp_ns : int
             Capture time, copied into the result.
         mask_left, mask_right : ndarray (H, W), optional
-            Branch masks from an external segmenter (non-zero = branch), in the original
+            Branch masks from an external segmenter (non-zero = branch; floating-point: a probability
+            0-1 per pixel, kept soft for sub-pixel outlines), in the original
             images; the embedded colour recogniser runs when they are not given.
 
         Raises

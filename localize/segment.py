@@ -187,7 +187,11 @@ def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.n
 
 
 def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:
-    """Validate an external mask: size, non-empty; returns uint8 0/255.
+    """Validate an external mask: size, non-empty; returns uint8 coverage 0-255.
+
+    A floating-point mask is a probability (or coverage) of branch per pixel, 0-1: kept soft
+    (0-255; branch where >= 0.5), so its outline places edges to a fraction of a pixel as the
+    colour recogniser's soft outlines do. Any other mask is binary: non-zero = branch (255).
 
     Raises
     ------
@@ -199,6 +203,11 @@ def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:
         m = m.max(axis=2)
     if m.shape != tuple(shape):
         raise LocalizeError(f"{what}: mask is {m.shape[1]}x{m.shape[0]}, the image is {shape[1]}x{shape[0]}")
+    if np.issubdtype(m.dtype, np.floating):
+        m = np.clip(np.nan_to_num(m) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        if not cv2.countNonZero(cv2.threshold(m, 127, 255, cv2.THRESH_BINARY)[1]):
+            raise LocalizeError(f"{what}: mask is empty (no pixel of probability 0.5 or more)")
+        return m
     m = binary(m, 255)
     if not cv2.countNonZero(m):
         raise LocalizeError(f"{what}: mask is empty (no branch pixel)")

@@ -163,3 +163,25 @@ def test_a_piece_keeps_only_its_longest_run_inside_the_working_range():
     np.testing.assert_array_equal(longest_run(uvd, ok), uvd[3:9])
     assert longest_run(uvd, np.ones(len(d), bool)) is uvd
     assert len(longest_run(uvd, np.zeros(len(d), bool))) == 0
+
+
+def test_a_probability_mask_is_kept_soft():
+    # an external segmenter's probabilities (floats 0-1) keep their outline's coverage; other masks
+    # are binary (non-zero = branch)
+    from appliance.localize.segment import as_mask
+
+    p = np.zeros((4, 6))
+    p[1:3, 2:5] = [[0.2, 1.0, 0.6], [0.49, 0.51, 1.0]]
+    m = as_mask(p, (4, 6), "left mask")
+    assert m.dtype == np.uint8 and m[1, 2] == 51 and m[1, 3] == 255 and m[2, 2] == 125 and m[2, 3] == 130
+    assert set(np.unique(as_mask((p * 7).astype(np.uint8), (4, 6), "left mask"))) == {0, 255}
+    with pytest.raises(LocalizeError, match=r"left mask: mask is empty \(no pixel of probability 0.5"):
+        as_mask(p * 0.45, (4, 6), "left mask")
+    # the drawn branch with its segmenter's probabilities: the same depths as with binary masks
+    calib = ideal_rig()
+    left, right, _, _, d = branch_pair(calib, 1000.0)
+    soft = [np.clip((cv2.cvtColor(g, cv2.COLOR_BGR2GRAY) - 40.0) / 160.0, 0, 1) for g in (left, right)]
+    res = Localizer(calib, CFG, "improved").localize(left, right, mask_left=soft[0], mask_right=soft[1])
+    z = res.branches[0].polyline_mm[1:-1, 2]
+    assert np.abs(z - 1000.0).max() < 0.1 * 1000.0 / d
+    assert len([f for f in res.features if f.kind == "endpoint"]) == 2

@@ -24,6 +24,18 @@ def read_image(path: Path, what: str, grey: bool = False):
     return img
 
 
+def mask_from_file(img):
+    """A mask file's pixels as the localizer takes them: binary (two values at most: non-zero =
+    branch) as they are; grey levels between (a segmenter's probability map saved as 8 bits, or
+    the anti-aliased outline of a drawn mask) as a probability, value / 255, kept soft."""
+    import numpy as np
+
+    lo, hi = int(img.min()), int(img.max())
+    if np.count_nonzero((img != lo) & (img != hi)) == 0:
+        return img
+    return img.astype(np.float32) / 255.0
+
+
 def load_inputs(calib_path: Path, left: Path, right: Path, mask_left: Path | None, mask_right: Path | None):
     """Calibration, images and optional masks, checked: sizes match the calibration."""
     from appliance.calibrate.model import load_calibration
@@ -39,8 +51,9 @@ def load_inputs(calib_path: Path, left: Path, right: Path, mask_left: Path | Non
         if img.shape[:2] != (h, w):
             raise LocalizeError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, the calibration {calib_path} "
                                 f"is for {w}x{h}")
+    masks = [mask_from_file(m) for m in masks]
     for path, m in zip((mask_left, mask_right), masks):
-        if not m.any():
+        if not ((m >= 0.5) if m.dtype.kind == "f" else m).any():
             raise LocalizeError(f"{path}: mask is empty (no branch pixel)")
     return calib, images, (masks or [None, None])
 
@@ -53,7 +66,8 @@ def command(
     overlay: Annotated[Path | None, typer.Option("--overlay", help="Also draw the result into this PNG.")] = None,
     paper: Annotated[bool, typer.Option("--paper", help="Run the paper's method instead of the improved one.")] = False,
     mask_left: Annotated[Path | None, typer.Option(
-        "--mask-left", help="Branch mask of the left image from an external segmenter (non-zero = branch).")] = None,
+        "--mask-left", help="Branch mask of the left image from an external segmenter: 0/non-zero, or grey levels "
+                            "0-255 as a probability (soft outline).")] = None,
     mask_right: Annotated[Path | None, typer.Option("--mask-right", help="Branch mask of the right image.")] = None,
     config: ConfigOption = None,
 ) -> None:

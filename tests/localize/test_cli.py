@@ -51,6 +51,31 @@ def test_paper_variant_with_external_masks(tmp_path):
     assert data["variant"] == "paper" and len(data["features"]) >= 3
 
 
+def test_a_grey_level_mask_file_is_a_probability_not_non_zero(tmp_path):
+    # a segmenter's probability map saved as 8 bits: soft outlines, and a faint background (0.12)
+    # that "non-zero = branch" would have taken for branch everywhere
+    truth = load_truth(FIXTURES / "scenes" / "truth_00.json")
+    paths = {}
+    for side, m in (("left", truth.mask_left), ("right", truth.mask_right)):
+        binary = m.astype(np.uint8) * 255
+        soft = np.clip(cv2.GaussianBlur(binary.astype(np.float32), (0, 0), 1.0) + 30, 0, 255).astype(np.uint8)
+        for kind, img in (("binary", binary), ("soft", soft)):
+            paths[kind, side] = tmp_path / f"{kind}_{side}.png"
+            cv2.imwrite(str(paths[kind, side]), img)
+    results = {}
+    for kind in ("binary", "soft"):
+        out = tmp_path / f"{kind}.json"
+        p = run("localize", "--calib", RIG, LEFT, RIGHT, "--json", out,
+                "--mask-left", paths[kind, "left"], "--mask-right", paths[kind, "right"])
+        assert p.returncode == 0, p.stderr
+        results[kind] = LocalizationResult.from_dict(json.loads(out.read_text()))
+    hard, soft = results["binary"].features, results["soft"].features
+    assert len(hard) >= 5 and abs(len(soft) - len(hard)) <= 2
+    # the same features, at depths within a few mm (sub-pixel outlines move them a little)
+    same = [min(np.hypot(*np.subtract(f.left_px, g.left_px)) for g in hard) for f in soft]
+    assert np.mean(np.array(same) <= 3.0) >= 0.8
+
+
 @pytest.mark.parametrize("case", ["size", "unreadable", "missing", "empty-mask"])
 def test_bad_input_is_one_clear_line(tmp_path, case):
     args = ["localize", "--calib", RIG, LEFT, RIGHT, "--json", tmp_path / "r.json"]

@@ -534,5 +534,5 @@ def render(scene: Scene, rig: Rig, seed: int = 0, ss: int = 2, jpeg_quality: int
                 depth = np.where(cover["left"] >= 0.5, z / n, np.nan).astype(np.float32)
     features = _features(scene, rig, seg, hits, ss)
     truth = SceneTruth(rig, list(scene.branches), features, depth, cover["left"] >= 0.5, cover["right"] >= 0.5,
-                       scene.seed)
+                       scene.seed, *(cover[side].astype(np.float32) for side in ("left", "right")))
     return images["left"], images["right"], truth

@@ -111,6 +111,9 @@ class SceneTruth:
     mask_left, mask_right : ndarray (H, W) bool
         Pixels at least half covered by a visible branch (pixels hidden by leaves/apples are not in it).
     seed : int
+    cover_left, cover_right : ndarray (H, W) float32 or None
+        Share 0-1 of each pixel's supersamples on a visible branch: the exact soft masks (their 0.5
+        level is ``mask_*``); None in truth files written before they were kept.
     """
 
     rig: Rig
@@ -120,6 +123,15 @@ class SceneTruth:
     mask_left: np.ndarray
     mask_right: np.ndarray
     seed: int = 0
+    cover_left: np.ndarray | None = None
+    cover_right: np.ndarray | None = None
+
+    def exact_masks(self, soft: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The exact branch masks (left, right): the soft coverage (float 0-1) where known and
+        ``soft``, else the binary masks."""
+        if soft and self.cover_left is not None and self.cover_right is not None:
+            return self.cover_left, self.cover_right
+        return self.mask_left, self.mask_right
 
 
 def _rig_dict(rig: Rig) -> dict:
@@ -155,8 +167,10 @@ def save_truth(truth: SceneTruth, stem: str | Path) -> tuple[Path, Path]:
     stem.parent.mkdir(parents=True, exist_ok=True)
     json_path, npz_path = stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")
     json_path.write_text(json.dumps(truth_to_dict(truth), indent=1) + "\n")
+    cover = {f"cover_{side}": np.rint(255.0 * c).astype(np.uint8)
+             for side, c in (("left", truth.cover_left), ("right", truth.cover_right)) if c is not None}
     np.savez_compressed(npz_path, depth_left_mm=truth.depth_left_mm.astype(np.float32),
-                        mask_left=truth.mask_left, mask_right=truth.mask_right)
+                        mask_left=truth.mask_left, mask_right=truth.mask_right, **cover)
     return json_path, npz_path
 
 
@@ -194,7 +208,8 @@ def load_truth(json_path: str | Path) -> SceneTruth:
         raise TruthError(f"{json_path}: malformed truth ({e})") from None
     with np.load(npz_path) as z:
         try:
+            cover = [z[k].astype(np.float32) / 255.0 if k in z else None for k in ("cover_left", "cover_right")]
             return SceneTruth(rig, branches, features, z["depth_left_mm"], z["mask_left"].astype(bool),
-                              z["mask_right"].astype(bool), int(d.get("seed", 0)))
+                              z["mask_right"].astype(bool), int(d.get("seed", 0)), *cover)
         except KeyError as e:
             raise TruthError(f"{npz_path}: array {e} missing") from None

@@ -122,12 +122,26 @@ def test_fixture_is_what_the_generator_makes():
         assert diff.mean() < 0.05 and diff.max() <= 3
 
 
+def test_soft_coverage_is_the_masks_with_their_outline_in_quarters(truth):
+    # 2x2 supersamples: a pixel's coverage is 0, 1/4, 1/2, 3/4 or 1, and its half level is the mask
+    for cover, mask in ((truth.cover_left, truth.mask_left), (truth.cover_right, truth.mask_right)):
+        assert cover.dtype == np.float32 and cover.shape == mask.shape
+        assert np.array_equal(cover >= 0.5, mask)
+        assert np.allclose(np.rint(cover * 4) / 4, cover, atol=0.01)
+        partial = (cover > 0) & (cover < 1)
+        # partly covered pixels are the outline: about one per outline pixel of the mask
+        outline = mask & ~cv2.erode(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+        assert 0.3 < partial.sum() / outline.sum() < 3
+    assert truth.exact_masks()[0] is truth.cover_left and truth.exact_masks(soft=False)[0] is truth.mask_left
+
+
 def test_truth_files_round_trip(tmp_path, truth):
     json_path, npz_path = save_truth(truth, tmp_path / "t")
     back = load_truth(json_path)
     assert np.allclose(back.features.left_px, truth.features.left_px, atol=1e-4)
     assert (back.features.kind == truth.features.kind).all()
     assert np.array_equal(back.mask_right, truth.mask_right)
+    assert np.array_equal(back.cover_left, truth.cover_left)
     assert np.allclose(back.rig.T, truth.rig.T)
     npz_path.unlink()
     with pytest.raises(TruthError, match="t.npz"):

@@ -137,16 +137,17 @@ def variants(cfg: LocalizeConfig) -> dict[str, LocalizeConfig]:
     return {"paper": paper_config(cfg), "improved": cfg}
 
 
-def draw(img: np.ndarray, mask: np.ndarray, res: ChainResult, title: str, r_max: float, zoom: int = 2) -> np.ndarray:
-    """One panel: the image ``zoom`` times larger with the chain's result (see module docstring)."""
+def draw(img: np.ndarray, mask: np.ndarray, res: ChainResult, title: str, r_max: float, zoom: float = 2.0) -> np.ndarray:
+    """One panel: the image ``zoom`` times larger with the chain's result (see module docstring)
+    under a line naming the variant and its counts."""
     out = cv2.resize(img, None, fx=zoom, fy=zoom, interpolation=cv2.INTER_CUBIC)
     out = (0.55 * out + 0.45 * 255).astype(np.uint8)          # paler, so the drawing stands out
-    big = cv2.resize(mask, None, fx=zoom, fy=zoom, interpolation=cv2.INTER_NEAREST)
+    big = cv2.resize(mask, (out.shape[1], out.shape[0]), interpolation=cv2.INTER_NEAREST)
     contours, _ = cv2.findContours(big, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     cv2.drawContours(out, contours, -1, (110, 110, 110), 1)
     g = res.graph
     lut = cv2.applyColorMap(np.arange(256, dtype=np.uint8)[:, None], cv2.COLORMAP_TURBO)[:, 0]
-    dot = max(1, g.scale * zoom // 2)
+    dot = max(1, int(g.scale * zoom / 2))
 
     def at(xy):
         return (int(round((xy[0] + 0.5) * zoom - 0.5)), int(round((xy[1] + 0.5) * zoom - 0.5)))
@@ -173,15 +174,16 @@ def draw(img: np.ndarray, mask: np.ndarray, res: ChainResult, title: str, r_max:
             cv2.drawMarker(out, c, colour, cv2.MARKER_CROSS, 11, 1)
             cv2.putText(out, str(n), (c[0] + 4, c[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.33, colour, 1, cv2.LINE_AA)
             n += 1
-    ne, nb = len(res.endpoints_xy), len(res.bifurcations_xy)
-    label = f"{title}: {ne} endpoints, {nb} bifurcations, {res.bridged} bridged"
-    cv2.putText(out, label, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 2, cv2.LINE_AA)
-    cv2.putText(out, label, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
     bar = np.repeat(lut[None, :, :], 8, 0)[:, ::2]
     h = out.shape[0]
-    out[h - 22:h - 14, 6:6 + bar.shape[1]] = bar
+    out[h - 12:h - 4, 6:6 + bar.shape[1]] = bar
     for txt, x in (("r 0", 6), (f"{r_max:.0f} px", 6 + bar.shape[1] - 30)):
-        cv2.putText(out, txt, (x, h - 26), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(out, txt, (x, h - 16), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    head = np.full((22, out.shape[1], 3), 255, np.uint8)
+    label = (f"{title}: {len(res.endpoints_xy)} endpoints, {len(res.bifurcations_xy)} bifurcations, "
+             f"{res.bridged} bridged")
+    cv2.putText(head, label, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    out = np.vstack([head, out])
     return out
 
 
@@ -199,7 +201,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", help="one fixture name")
     ap.add_argument("--runs", type=int, default=5, help="runs per chain (stage times: median)")
     ap.add_argument("--figures", type=Path, default=REPO / "docs" / "figures")
-    ap.add_argument("--quality", type=int, default=80, help="JPEG quality of the figures")
+    ap.add_argument("--quality", type=int, default=70, help="JPEG quality of the figures")
+    ap.add_argument("--panel-px", type=int, default=900, help="longest side of a figure panel (px)")
+    ap.add_argument("--panel-area", type=int, default=400_000, help="largest area of a figure panel (px)")
     args = ap.parse_args(argv)
     real = load_real()
     cfg = load_config().localize
@@ -223,7 +227,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"{f['spurs']:>5} {f['bridged']:>7} {f['loops']:>5} {f['radius_med_px']:>8.2f}  "
                   + " ".join(f"{res.timings_ms[s]:>8.2f}" for s in STAGES), flush=True)
         r_max = max(8.0, float(np.percentile(np.concatenate([r.radius_px() for r in results.values()]), 99)))
-        panels = [draw(img, mask, res, v, r_max) for v, res in results.items()]
+        zoom = min(4.0, args.panel_px / max(img.shape[:2]), np.sqrt(args.panel_area / img[..., 0].size))
+        panels = [draw(img, mask, res, v, r_max, zoom) for v, res in results.items()]
         sep = np.full((panels[0].shape[0], 6, 3), 255, np.uint8)
         path = args.figures / f"real_{fx.name}.jpg"
         cv2.imwrite(str(path), np.hstack([panels[0], sep, panels[1]]), [cv2.IMWRITE_JPEG_QUALITY, args.quality])

@@ -206,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--figures", type=Path, default=REPO / "docs" / "figures")
     ap.add_argument("--quality", type=int, default=70, help="JPEG quality of the figures")
     ap.add_argument("--panel-px", type=int, default=900, help="longest side of a figure panel (px)")
-    ap.add_argument("--panel-area", type=int, default=400_000, help="largest area of a figure panel (px)")
+    ap.add_argument("--panel-area", type=int, default=300_000, help="largest area of a figure panel (px)")
     args = ap.parse_args(argv)
     real = load_real()
     cfg = load_config().localize

@@ -107,3 +107,15 @@ def test_limb_radius_as_measured_by_hand(limb, variant, lo, hi):
     sel = (xy[:, 0] >= 10) & (xy[:, 0] <= 50) & (xy[:, 1] > 40)
     assert sel.sum() >= 5
     assert lo <= np.median(radius_at(res.radius, xy[sel])) <= hi
+
+
+@pytest.mark.parametrize("name", [fx.name for fx in real.FIXTURES])
+def test_every_committed_mask_is_what_the_script_makes(name):
+    img, mask = real.load(name)
+    assert mask.shape == img.shape[:2] and np.count_nonzero(mask) > 1000
+    assert np.mean(real.branch_mask(img, real.fixture(name)) != mask) < 1e-3
+
+
+def test_photographs_are_the_committed_ones():
+    for ph in real.PHOTOS.values():
+        assert real.sha256(real.HERE / ph.file) == ph.sha256, ph.file

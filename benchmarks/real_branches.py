@@ -14,8 +14,9 @@ stages run on the given mask with the library's own functions, chained as
 - ``full``: the improved pruning and recovery on the paper's full-size skeleton (table only).
 
 Prints per fixture and variant: mask px, skeleton px, endpoints / bifurcations before and
-after pruning, spurs pruned (endpoints removed by pruning), gaps bridged, loops (independent
-cycles of the final skeleton: twigs that cross in the image, or holes in the mask), radius
+after pruning, spurs pruned (endpoints removed by pruning), gaps bridged, loops (closed loops
+of the final skeleton: twigs that cross in the image, or holes in the mask), bumps (one-pixel
+side segments that make a false bifurcation, see ``ChainResult.bumps``), radius
 median px (over the final skeleton's pixels), and stage times (median of ``--runs``, ms).
 Writes one figure per fixture, ``real_<name>.jpg``: the paper variant on the left, the
 improved one on the right; mask outline grey, skeleton coloured by radius (turbo: blue thin
@@ -95,6 +96,15 @@ class ChainResult:
         background of the 8-connected skeleton, less the outer one)."""
         bg = cv2.copyMakeBorder(1 - self.graph.image(), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=1)
         return cv2.connectedComponents(bg, connectivity=4)[0] - 2
+
+    @property
+    def bumps(self) -> int:
+        """One-pixel segments touching one junction only: a pixel on the outside of a turn of the
+        skeleton that ``remove_corners`` keeps; it has two neighbours (so it is no endpoint and
+        pruning never sees it) and makes its neighbours a false junction."""
+        g = self.graph
+        loose = (g.seg_nodes < 0).sum(axis=1) == 1
+        return int(sum(1 for k in np.flatnonzero(loose & ~g.seg_recovered) if len(g.seg_yx[k]) == 1))
 
     def radius_px(self) -> np.ndarray:
         """Radius at every pixel of the final (seen) skeleton, full-resolution px."""
@@ -195,7 +205,7 @@ def figures_row(name: str, res: ChainResult) -> dict:
     ep1, bf1 = len(res.endpoints_xy), len(res.bifurcations_xy)
     r = res.radius_px()
     return {"skeleton_px": int(res.graph.image().sum()), "ep_raw": ep0, "bf_raw": bf0, "ep": ep1, "bf": bf1,
-            "spurs": res.spurs_pruned, "bridged": res.bridged, "loops": res.loops,
+            "spurs": res.spurs_pruned, "bridged": res.bridged, "loops": res.loops, "bumps": res.bumps,
             "radius_med_px": float(np.median(r)) if len(r) else float("nan")}
 
 
@@ -211,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     real = load_real()
     cfg = load_config().localize
     head = (f"{'fixture':<13} {'variant':<9} {'size':>8} {'mask px':>8} {'skel px':>7} {'ep raw':>6} "
-            f"{'bf raw':>6} {'ep':>4} {'bf':>4} {'spurs':>5} {'bridged':>7} {'loops':>5} {'r med px':>8}  "
+            f"{'bf raw':>6} {'ep':>4} {'bf':>4} {'spurs':>5} {'bridged':>7} {'loops':>5} {'bumps':>5} {'r med px':>8}  "
             + " ".join(f"{s:>8}" for s in STAGES) + "  (ms)")
     print(head)
     args.figures.mkdir(parents=True, exist_ok=True)
@@ -227,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
             f = figures_row(fx.name, res)
             print(f"{fx.name:<13} {vname:<9} {img.shape[1]:>4}x{img.shape[0]:<3} {int(np.count_nonzero(mask)):>8} "
                   f"{f['skeleton_px']:>7} {f['ep_raw']:>6} {f['bf_raw']:>6} {f['ep']:>4} {f['bf']:>4} "
-                  f"{f['spurs']:>5} {f['bridged']:>7} {f['loops']:>5} {f['radius_med_px']:>8.2f}  "
+                  f"{f['spurs']:>5} {f['bridged']:>7} {f['loops']:>5} {f['bumps']:>5} {f['radius_med_px']:>8.2f}  "
                   + " ".join(f"{res.timings_ms[s]:>8.2f}" for s in STAGES), flush=True)
         r_max = max(8.0, float(np.percentile(np.concatenate([r.radius_px() for r in results.values()]), 99)))
         zoom = min(4.0, args.panel_px / max(img.shape[:2]), np.sqrt(args.panel_area / img[..., 0].size))

@@ -129,7 +129,7 @@ def run_chain(mask: np.ndarray, cfg: LocalizeConfig) -> ChainResult:
     lap()
     radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
     lap()
-    raw = build_graph(skel)      # (for the figures before pruning; prune builds its own)
+    raw = build_graph(skel)      # the counts before pruning (prune builds its own): not timed
     t[-1] = time.perf_counter()
     _, graph = prune(skel, cfg.prune.min_length_px, cfg.prune.radius_factor, radius,
                      keep_border=cfg.prune.keep_border_spurs)
@@ -200,7 +200,8 @@ def draw(img: np.ndarray, mask: np.ndarray, res: ChainResult, title: str, r_max:
     return out
 
 
-def figures_row(name: str, res: ChainResult) -> dict:
+def figures_row(res: ChainResult) -> dict:
+    """The printed figures of one chain."""
     ep0, bf0 = count_kinds(res.raw)
     ep1, bf1 = len(res.endpoints_xy), len(res.bifurcations_xy)
     r = res.radius_px()
@@ -234,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
             runs = [run_chain(mask, vcfg) for _ in range(max(1, args.runs) + 1)][1:]   # first: warm-up
             res = replace(runs[-1], timings_ms={s: float(np.median([r.timings_ms[s] for r in runs])) for s in STAGES})
             results[vname] = res
-            f = figures_row(fx.name, res)
+            f = figures_row(res)
             print(f"{fx.name:<13} {vname:<9} {img.shape[1]:>4}x{img.shape[0]:<3} {int(np.count_nonzero(mask)):>8} "
                   f"{f['skeleton_px']:>7} {f['ep_raw']:>6} {f['bf_raw']:>6} {f['ep']:>4} {f['bf']:>4} "
                   f"{f['spurs']:>5} {f['bridged']:>7} {f['loops']:>5} {f['bumps']:>5} {f['radius_med_px']:>8.2f}  "

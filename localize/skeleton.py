@@ -150,9 +150,9 @@ def neighbour_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     components : (256,) uint8
         Number of 8-connected groups the set neighbours form (crossing number).
     corner : (256,) bool
-        The pixel is a redundant staircase corner: one group, and two perpendicular
-        4-neighbours set with the pixel between them diagonal to nothing else, so its
-        removal keeps the skeleton connected.
+        The pixel is redundant, so its removal keeps the skeleton connected: a staircase
+        corner (one group, and two perpendicular 4-neighbours set with the pixel between them
+        diagonal to nothing else), or a bump (exactly two neighbours, touching each other).
     """
     bits = (np.arange(256)[:, None] >> np.arange(8)) & 1
     count = bits.sum(1).astype(np.uint8)
@@ -164,12 +164,14 @@ def neighbour_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         comps[code] = _groups(pos[on])
         four = [k for k in (0, 2, 4, 6) if bits[code, k]]
         perpendicular = any((b - a) % 8 in (2, 6) for a in four for b in four if a < b)
-        corner[code] = comps[code] == 1 and count[code] >= 2 and perpendicular
+        # (or any pixel whose only two neighbours touch each other: a one-pixel bump on the outside
+        # of a turn, which would make its two neighbours a false junction with a dangling segment)
+        corner[code] = comps[code] == 1 and (count[code] >= 2 and perpendicular or count[code] == 2)
     return count, comps, corner
 
 
 def remove_corners(skel01: np.ndarray) -> np.ndarray:
-    """Remove redundant staircase corner pixels (two passes by pixel parity); uint8 0/1.
+    """Remove redundant staircase corner and bump pixels (two passes by pixel parity); uint8 0/1.
 
     After this every pixel of a simple path has exactly two neighbours, so the paper's
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.

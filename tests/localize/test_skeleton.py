@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize.skeleton import SparseImage, block_mean, neighbour_code, remove_corners, skeletonize, zhang_suen
+from appliance.localize.graph import ENDPOINT, build_graph
+from appliance.localize.skeleton import (
+    Skeleton,
+    SparseImage,
+    block_mean,
+    neighbour_code,
+    remove_corners,
+    skeletonize,
+    zhang_suen,
+)
 
 from tests.localize.shapes import y_shape
 
@@ -34,6 +43,19 @@ def test_remove_corners_keeps_paths_connected_and_thin():
     assert skel.image.sum() < thin.sum()                              # staircase corners went
     n, _ = cv2.connectedComponents(skel.image, connectivity=8)
     assert n - 1 == 1
+
+
+def test_a_one_pixel_bump_on_a_turn_goes_and_makes_no_junction():
+    # Zhang-Suen leaves such a pixel on the outside of a turn (seen on real photographs): its two
+    # neighbours touch each other, so it is redundant; kept, it made them a false junction
+    img = np.zeros((10, 9), np.uint8)
+    path = [(1, 2), (2, 3), (3, 4), (4, 5), (5, 5), (6, 5), (7, 5), (8, 5)]
+    for y, x in path + [(4, 6)]:
+        img[y, x] = 1
+    out = remove_corners(img)
+    assert out[4, 6] == 0 and all(out[y, x] for y, x in path)
+    g = build_graph(Skeleton(out, 1, img))
+    assert list(g.node_kind) == [ENDPOINT, ENDPOINT] and len(g.seg_yx) == 1
 
 
 def test_fast_skeleton_block_mean_thresholds_as_one_area_resize():

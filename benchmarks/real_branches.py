@@ -42,6 +42,7 @@ from appliance.localize.localizer import paper_config
 from appliance.localize.prune import prune
 from appliance.localize.radius import RadiusMap, radius_at, ridge_radius_map
 from appliance.localize.recover import recover
+from appliance.localize.segment import occluder_at
 from appliance.localize.skeleton import skeletonize
 
 REPO = Path(__file__).resolve().parents[1]
@@ -117,9 +118,11 @@ def count_kinds(graph: SkeletonGraph) -> tuple[int, int]:
     return int((graph.node_kind == ENDPOINT).sum()), int((graph.node_kind == JUNCTION).sum())
 
 
-def run_chain(mask: np.ndarray, cfg: LocalizeConfig) -> ChainResult:
+def run_chain(mask: np.ndarray, cfg: LocalizeConfig, img: np.ndarray | None = None) -> ChainResult:
     """The localizer's single-image stages on a branch mask (H, W) uint8 0/255, as
-    ``Localizer._graph`` runs them, then the features (endpoints and bifurcations)."""
+    ``Localizer._graph`` runs them, then the features (endpoints and bifurcations). With the
+    photograph ``img`` (BGR), a long gap is bridged only over a leaf or an apple, as the localizer
+    does with external masks."""
     t = [time.perf_counter()]
 
     def lap():
@@ -134,7 +137,8 @@ def run_chain(mask: np.ndarray, cfg: LocalizeConfig) -> ChainResult:
     _, graph = prune(skel, cfg.prune.min_length_px, cfg.prune.radius_factor, radius,
                      keep_border=cfg.prune.keep_border_spurs)
     lap()
-    graph = recover(graph, cfg.recover, radius, None)
+    occluded = None if img is None else (lambda xy: occluder_at(img, xy, cfg.segment, bgr=True))
+    graph = recover(graph, cfg.recover, radius, occluded)
     lap()
     ends = graph.to_full(graph.node_yx[graph.node_kind == ENDPOINT])
     forks = graph.to_full(graph.node_yx[graph.node_kind == JUNCTION])
@@ -232,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
         img, mask = real.load(fx.name)
         results = {}
         for vname, vcfg in variants(cfg).items():
-            runs = [run_chain(mask, vcfg) for _ in range(max(1, args.runs) + 1)][1:]   # first: warm-up
+            runs = [run_chain(mask, vcfg, img) for _ in range(max(1, args.runs) + 1)][1:]   # first: warm-up
             res = replace(runs[-1], timings_ms={s: float(np.median([r.timings_ms[s] for r in runs])) for s in STAGES})
             results[vname] = res
             f = figures_row(res)

@@ -119,7 +119,7 @@ class Localizer:
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):
         """Rectified branch coverage of both images (uint8 0-255), and the left image's
-        occluder test for recovery (None without the colour recogniser)."""
+        occluder test for recovery (None for the paper's Hough recovery)."""
         seg = self.cfg.segment
         occluded = None
         if mask_left is not None or mask_right is not None:
@@ -127,6 +127,11 @@ class Localizer:
                 raise LocalizeError("masks: give both the left and the right mask, or neither")
             ml = as_mask(mask_left, left.shape[:2], "left mask")
             mr = as_mask(mask_right, right.shape[:2], "right mask")
+            if self.cfg.recover.method == "collinear":
+                # the colour image still tells a leaf or an apple in a gap from open sky (only the
+                # few pixels asked about are converted)
+                def occluded(xy_rect: np.ndarray) -> np.ndarray:
+                    return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         else:
             ml, hsv = segment_color(left, seg)
             mr, _ = segment_color(right, seg)

@@ -53,14 +53,18 @@ def bark_hsv(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarra
     return hsv, hsv_bark(hsv, cfg)
 
 
-def occluder_at(hsv: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
+def occluder_at(img: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig, bgr: bool = False) -> np.ndarray:
     """Whether the pixels at ``xy_px`` (N, 2) (x, y; rounded) are a leaf or an apple: saturation
     above ``saturation_max`` and value at least ``value_min``; False outside the image. Tested at
-    the few points recovery asks about rather than over the whole image."""
-    h, w = hsv.shape[:2]
+    the few points recovery asks about rather than over the whole image. ``img``: the HSV image,
+    or with ``bgr`` the BGR image (only those pixels converted)."""
+    h, w = img.shape[:2]
     p = np.rint(np.asarray(xy_px, float).reshape(-1, 2)).astype(int)
     ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
-    px = hsv[p[ok, 1], p[ok, 0]].astype(int)
+    px = img[p[ok, 1], p[ok, 0]]
+    if bgr:
+        px = cv2.cvtColor(px.reshape(1, -1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3) if len(px) else px
+    px = px.astype(int)
     out = np.zeros(len(p), bool)
     out[ok] = (px[:, 1] > cfg.saturation_max) & (px[:, 2] >= cfg.value_min)
     return out

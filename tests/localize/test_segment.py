@@ -34,8 +34,11 @@ def test_colour_recogniser_finds_bark_and_tells_leaves_at_points():
     cv2.circle(img, (30, 60), 15, (40, 170, 60), -1)             # a green leaf
     mask, hsv = segment_color(img, cfg)
     assert mask[:, 72:88].all() and not mask[:, :65].any() and not mask[:, 95:].any()
-    got = occluder_at(hsv, np.array([[30, 60], [80, 60], [150, 10], [-5, 60], [30, 200]]), cfg)
+    pts = np.array([[30, 60], [80, 60], [150, 10], [-5, 60], [30, 200]])
+    got = occluder_at(hsv, pts, cfg)
     assert got.tolist() == [True, False, False, False, False]
+    # with external masks the localizer asks the BGR image itself, converting only those pixels
+    assert occluder_at(img, pts, cfg, bgr=True).tolist() == got.tolist()
 
 
 def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():

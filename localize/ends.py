@@ -238,6 +238,7 @@ class EndPlacer:
             # places may be a px or two apart, as with noisy masks)
             if d_out is not None and 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
                 d, agree = d_out, True
+        from_outline = agree
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
         agree = agree or child_ok and _agree(at(child), d)
@@ -247,12 +248,29 @@ class EndPlacer:
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
+        if parents and agree and not from_outline:
+            # the reported disparity from the pieces whose fits reach the fork (a piece fitted on a
+            # few rows and carried far past them is barely known there)
+            reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+            near_p = [s for s in parents if reach[s] <= 0]
+            if near_p and len(near_p) < len(parents):
+                self.uvd[node][2] = float(np.mean([at(s) for s in near_p]))
+            elif not near_p and child_ok and reach[child] <= 0:
+                self.uvd[node][2] = float(at(child))
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _reach(self, s: int, xy: np.ndarray) -> float:
+        """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,
+        beyond what its span vouches for (half the span, at least 12): <= 0 when it is known there."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = c.t_of(xy)[0]
+        return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
                                  mask: np.ndarray | None = None) -> np.ndarray | None:

@@ -296,6 +296,35 @@ def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float
     return out[0], out[1]
 
 
+def end_slopes_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int,
+                      reach: float = 60.0) -> np.ndarray:
+    """:func:`end_slopes` of every group at once (``g`` (N,) group ids, any order): (G, 2) slopes at
+    each group's low and high end (the same rules; the sums in another order: equal up to rounding).
+    Groups without samples get 0."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    g = np.asarray(g, np.intp)
+    out = np.zeros((n_groups, 2))
+    if not len(t):
+        return out
+    lo, hi = np.full(n_groups, np.inf), np.full(n_groups, -np.inf)
+    np.minimum.at(lo, g, t)
+    np.maximum.at(hi, g, t)
+    for k, near in enumerate((t <= (lo + reach)[g], t >= (hi - reach)[g])):
+        n = np.bincount(g, near, n_groups)
+        t_lo, t_hi = np.full(n_groups, np.inf), np.full(n_groups, -np.inf)
+        np.minimum.at(t_lo, g[near], t[near])
+        np.maximum.at(t_hi, g[near], t[near])
+        whole = (n < 5) | (t_hi - t_lo < 5)                # too few near the end: all the samples
+        near = near | whole[g]
+        n = np.bincount(g, near, n_groups)
+        mean = np.bincount(g, np.where(near, t, 0.0), n_groups) / np.maximum(n, 1)
+        dt = np.where(near, t - mean[g], 0.0)
+        sxx = np.bincount(g, dt * dt, n_groups)
+        sxy = np.bincount(g, dt * y, n_groups)
+        out[:, k] = np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), 0.0)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class GroupPolys:
     """Polynomials of several groups of samples at once (one per branch piece), as :class:`Poly`.

@@ -26,7 +26,7 @@ from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
     Poly,
-    angle_deg,
+    angle_deg_groups,
     degree_for,
     end_slopes,
     end_slopes_groups,
@@ -474,8 +474,13 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
     runs_r = find_runs(sm.right_mask, soft=True)
-    angle = {s: angle_deg(graph.to_full(yx)) for s, yx in enumerate(graph.seg_yx)
-             if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2}
+    used = [s for s, yx in enumerate(graph.seg_yx)
+            if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2]
+    angle = {}
+    if used:                            # (all pieces at once: curves.angle_deg up to rounding)
+        yx = [graph.seg_yx[s] for s in used]
+        g = np.repeat(np.arange(len(used)), [len(a) for a in yx])
+        angle = dict(zip(used, angle_deg_groups(graph.to_full(np.concatenate(yx)), g, len(used)).tolist()))
     steep = [s for s, a in angle.items() if a >= cfg.max_horizontal_deg]
     flat = [s for s, a in angle.items() if a < cfg.max_horizontal_deg]
     curves = fit_steep_many(graph, steep, runs_l, runs_r, sm, angle)

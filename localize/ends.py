@@ -219,9 +219,9 @@ class EndPlacer:
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
             # the middle of the three pieces' disparities
-            d_par = [float(np.median([*d_par, at(child)]))]
+            d_par = [float(sorted([*d_par, at(child)])[1])]      # (the median of three, as np.median)
         if parents:
-            d = float(np.mean(d_par))
+            d = float(sum(d_par) / len(d_par))    # (np.mean's sums of one or two values, bit for bit)
         elif child_ok:
             d = float(at(child))
         else:

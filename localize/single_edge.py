@@ -21,6 +21,7 @@ from appliance.localize.curves import (
     degree_for,
     end_slopes,
     median,
+    percentile,
     robust_fit,
 )
 from appliance.localize.edges import Runs
@@ -399,7 +400,7 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
         # the half width along the rows: the wider of the two views' crossings, where it is whole,
         # but not much wider than the left mask's own (a crossing merged with another branch)
         w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
-        half_px = 0.5 * float(np.percentile(w, 75))
+        half_px = 0.5 * percentile(w, 75)                  # (np.percentile's value, bit for bit)
         r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
         sin_t = max(float(np.sin(np.radians(angle_deg(graph.to_full(yx))))), 0.2)
         if half_px > 2.0 * r_px / sin_t + 2:

@@ -477,8 +477,9 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
 
 
 def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
-                      rounds: int = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
-    """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int).
+                      rounds: int | np.ndarray = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
+    """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
+    ``rounds`` one for all or (G,) per group: each group's values are those of fitting it alone).
 
     Returns
     -------
@@ -489,7 +490,12 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     keep = np.ones(len(t), bool)
     fit = fit_groups(t, y, g, n_groups, degree)
     active = np.bincount(g, minlength=n_groups) > 0
-    for _ in range(rounds):
+    per_group = np.ndim(rounds) > 0
+    for r in range(int(np.max(rounds)) if per_group else rounds):
+        if per_group:
+            active &= rounds > r
+            if not active.any():
+                break
         res = y - fit(g, t)
         kr, kg = res[keep], g[keep]
         bounds = np.searchsorted(kg, np.arange(n_groups + 1)).tolist()

@@ -219,9 +219,15 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     gc = gq[chosen]
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    u_poly, u_inl = robust_fit_groups(tf, cf, gc, ng, degree, rounds=1)
-    # rows where the branch is partly hidden still show one true edge in both views
-    w_poly, _ = robust_fit_groups(tf, w_l[q[chosen]], gc, ng, np.ones(ng, int), rounds=2)
+    # the centre line (1 round), and the width (a line, 2 rounds): rows where the branch is partly hidden
+    # still show one true edge in both views. One call, the widths as groups ng..2ng-1 (the same values
+    # as two calls)
+    uw, uw_inl = robust_fit_groups(np.concatenate([tf, tf]), np.concatenate([cf, w_l[q[chosen]]]),
+                                   np.concatenate([gc, gc + ng]), 2 * ng,
+                                   np.concatenate([degree, np.ones(ng, int)]), rounds=np.repeat([1, 2], ng))
+    u_poly = GroupPolys(uw.coef[:ng], uw.t0[:ng], uw.ts[:ng], uw.degree[:ng])
+    w_poly = GroupPolys(uw.coef[ng:], uw.t0[ng:], uw.ts[ng:], uw.degree[ng:])
+    u_inl = uw_inl[:len(tf)]
     width = int(rows_all.max()) + 1
     key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
     used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)   # (np.isin by a table)
@@ -340,14 +346,19 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1
     best = count.argmax(1)
-    for m, k in enumerate(live.tolist()):
-        tk, dk = t[lo[m]:hi[m]], d[lo[m]:hi[m]]
-        if not ok[m].any():
-            polys[k] = Poly.constant(float(median(dk)))
-            continue
-        on = inl[starts[m]:starts[m] + hi[m] - lo[m], best[m]]
-        polys[k] = Poly.fit(tk[on], dk[on], 1)
-    return GroupPolys.of(polys)
+    # each piece's line fitted to its best hypothesis' inliers, all pieces at once (fit_groups: Poly.fit's
+    # least squares up to rounding); a piece without a pair 3 rows apart: the median of its candidates
+    on = inl[np.arange(len(g)), best[g]]
+    has = ok.any(1)
+    on &= has[g]
+    fit = fit_groups(ts[on], ds[on], g[on], len(live), np.ones(len(live), int))
+    coef, t0, ts_, deg = np.zeros((len(alive), 4)), np.zeros(len(alive)), np.ones(len(alive)), np.zeros(len(alive), int)
+    coef[live], t0[live], ts_[live], deg[live] = fit.coef, fit.t0, fit.ts, fit.degree
+    for m in np.flatnonzero(~has).tolist():
+        k = int(live[m])
+        coef[k], t0[k], ts_[k], deg[k] = 0.0, 0.0, 1.0, 0
+        coef[k, 3] = float(median(d[lo[m]:hi[m]]))
+    return GroupPolys(coef, t0, ts_, deg)
 
 
 def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:

@@ -9,10 +9,10 @@ the rectified outline to a small fraction of a pixel.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import cv2
 import numpy as np
+from appliance.localize.curves import cached
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -43,19 +43,19 @@ class Runs:
     left_px: np.ndarray
     right_px: np.ndarray
 
-    @cached_property
+    @cached
     def centre_px(self) -> np.ndarray:
         return _frozen(0.5 * (self.left_px + self.right_px))
 
-    @cached_property
+    @cached
     def span_px(self) -> np.ndarray:
         return _frozen(self.right_px - self.left_px)
 
-    @cached_property
+    @cached
     def _start_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.x0)
 
-    @cached_property
+    @cached
     def _centre_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.centre_px)
 

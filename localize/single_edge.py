@@ -33,8 +33,20 @@ from appliance.localize.radius import radius_at
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
-    uniq, inv = np.unique(t, return_inverse=True)
-    s_mean = np.bincount(inv, s) / np.bincount(inv)
+    t2 = t * 2.0
+    k = t2.astype(np.int64)
+    k0 = int(k.min()) if len(k) else 0
+    if len(k) and (k == t2).all() and int(k.max()) - k0 < 8 * len(k) + 4096:
+        # whole or half pixels (skeleton pixels at full resolution): the values by a bincount over
+        # their doubles, the same sorted values and per-value sums as np.unique's (~3x faster)
+        k -= k0
+        count = np.bincount(k)
+        nz = np.flatnonzero(count)
+        uniq = (nz + k0) / 2.0
+        s_mean = np.bincount(k, s)[nz] / count[nz]
+    else:
+        uniq, inv = np.unique(t, return_inverse=True)
+        s_mean = np.bincount(inv, s) / np.bincount(inv)
     half = (scale - 1) / 2
     ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
     return ts, np.interp(ts, uniq, s_mean)

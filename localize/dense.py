@@ -31,6 +31,7 @@ from appliance.localize.curves import (
     end_slopes,
     end_slopes_groups,
     fit_groups,
+    linspace,
     median,
     robust_fit,
     robust_fit_groups,
@@ -208,7 +209,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
         res = np.abs(cd - model(gq, t[q]))
         order = np.lexsort((res, q))
-        first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
+        first = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
         chosen = first[res[first] <= tol]
         alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
         chosen = chosen[alive[gq[chosen]]]
@@ -342,7 +343,7 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     res += d[i][g]
     np.subtract(ds[:, None], res, out=res)
     inl = np.abs(res, out=res) <= tol_px
-    starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
+    starts = np.concatenate([[0], np.cumsum(hi - lo)[:-1]])
     count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1
     best = count.argmax(1)
@@ -405,7 +406,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), max(1, int(0.6 * radius)))
     # a few patches searched over the whole range give a prior; all patches then search near it
-    coarse = np.unique(np.linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
+    coarse = np.unique(linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
     d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         d_surf, score = d0, s0
@@ -418,7 +419,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
                                           half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
-    xr = np.rint(u - np.nan_to_num(d_surf)).astype(int)
+    xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
     on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
     good &= on_right                                   # the match must land on a branch in the right view
     good[on_right] &= sm.right_mask[np.rint(uv[on_right, 1]).astype(int), xr[on_right]] >= 128
@@ -467,7 +468,7 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
             t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
             if abs(t_n - t_near) < 2:
                 continue
-            t = np.linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
+            t = linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
             ext = np.column_stack([c.uv_at(t), c.d_at(t)])
             e = ext[::-1] if k == 0 else ext
         else:

@@ -16,7 +16,7 @@ from bisect import bisect_left
 import cv2
 import numpy as np
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, median
+from appliance.localize.curves import BranchCurve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
@@ -109,7 +109,7 @@ class EndPlacer:
             return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            pts = c.uv_at(np.linspace(lo, hi, max(2, int(hi - lo) + 1)))
+            pts = c.uv_at(linspace(lo, hi, max(2, int(hi - lo) + 1)))
         else:
             pts = self.g.to_full(self.g.seg_yx[s])
         pts.setflags(write=False)
@@ -181,7 +181,7 @@ class EndPlacer:
             cc = self.curves[child]
             lo, hi = cc.t_range
             t_end = hi if abs(cc.t_of(p)[0] - hi) <= abs(cc.t_of(p)[0] - lo) else lo
-            c2, e2 = _line(cc.uv_at(np.linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
+            c2, e2 = _line(cc.uv_at(linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
         else:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
@@ -443,7 +443,7 @@ class EndPlacer:
         box = self._box_cache.get(s)
         if box is None:
             c = self.curves[s]
-            uv = c.uv_at(np.linspace(*c.t_range, 8))
+            uv = c.uv_at(linspace(*c.t_range, 8))
             box = self._box_cache[s] = (*uv.min(0).tolist(), *uv.max(0).tolist())
         return box
 

@@ -141,8 +141,8 @@ class Rectifier:
         if len(need) == 0:
             return need
         # neighbouring tiles of one tile row remapped by one call (fewer, wider calls)
-        start = np.flatnonzero(np.r_[True, (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])])
-        end = np.r_[start[1:], len(need)] - 1
+        start = np.flatnonzero(np.concatenate([[True], (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])]))
+        end = np.concatenate([start[1:], [len(need)]]) - 1
         return np.column_stack([need[start, :3], need[end, 3]])
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:

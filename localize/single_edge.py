@@ -20,6 +20,7 @@ from appliance.localize.curves import (
     angle_deg,
     degree_for,
     end_slopes,
+    linspace,
     median,
     percentile,
     robust_fit,
@@ -83,9 +84,9 @@ def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.
     rows overlap its span or lie further than ``reach_px`` from it."""
     lo, hi = c.t_range
     if rows.max() < lo:
-        end, t = lo, np.linspace(lo, min(hi, lo + reach_px), 8)
+        end, t = lo, linspace(lo, min(hi, lo + reach_px), 8)
     elif rows.min() > hi:
-        end, t = hi, np.linspace(max(lo, hi - reach_px), hi, 8)
+        end, t = hi, linspace(max(lo, hi - reach_px), hi, 8)
     else:
         return None
     if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:

@@ -158,7 +158,11 @@ def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
         sxx, sxy = float(x @ x), float(x @ y)
         det = n * sxx - sx * sx
         return np.array([(n * sxy - sx * sy) / det, (sxx * sy - sx * sxy) / det])
-    a = np.vander(x, degree + 1)
+    a = np.empty((len(x), degree + 1))          # np.vander(x, degree + 1): the same products, in order
+    a[:, degree] = 1.0
+    a[:, degree - 1] = x
+    for k in range(degree - 2, -1, -1):
+        np.multiply(a[:, k + 1], x, out=a[:, k])
     return _solve(a.T @ a, a.T @ y)
 
 

@@ -212,9 +212,11 @@ def median(a: np.ndarray) -> float:
     if n == 0:
         return np.nan                   # as np.median (without its warning)
     k = n // 2
+    p = np.array(a, copy=True)         # (np.partition's own steps: a copy partitioned in place)
     if n % 2:
-        return np.partition(a, k)[k]
-    p = np.partition(a, (k - 1, k))
+        p.partition(k)
+        return p[k]
+    p.partition((k - 1, k))
     return (p[k - 1] + p[k]) / 2
 
 

@@ -362,6 +362,14 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     return GroupPolys(coef, t0, ts_, deg)
 
 
+@functools.lru_cache(maxsize=64)
+def _triu(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n, 1)`` (cached, read-only: a few sizes recur every frame)."""
+    i, j = np.triu_indices(n, 1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
+
+
 def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:
     """Whether a flat piece's coarse texture disparities ``d`` at columns ``u`` (N,) agree: at least half
     of them (and 2) within ``tol_px`` of one value, or, from 4 on, at least half (and 3) within
@@ -374,7 +382,7 @@ def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px
         return True
     if n < 4:
         return False
-    i, j = np.triu_indices(n, 1)
+    i, j = _triu(n)
     du = u[j] - u[i]
     ok = du != 0
     slope = (d[j] - d[i])[ok] / du[ok]

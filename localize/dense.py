@@ -42,6 +42,7 @@ from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
 from appliance.localize.radius import radius_at
+from appliance.localize.rectify import ReadBox
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
@@ -415,7 +416,15 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     half_h = np.full(len(u), max(1, int(0.6 * radius)))
     # a few patches searched over the whole range give a prior; all patches then search near it
     coarse = np.unique(linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
-    d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
+    # both searches read one neighbourhood of each image: one lazy read each (the coarse search's
+    # strips over the whole range, with 8 px to spare for the fine one's around its prior)
+    ui = np.rint(uv).astype(int)
+    hh, hw = int(half_h[0]), 12
+    y0, y1, u0, u1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1, int(ui[:, 0].min()), int(ui[:, 0].max())
+    dmin, dmax = sm.d_range_px
+    left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
+    right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
+    d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         d_surf, score = d0, s0
         u, uv = u[coarse], uv[coarse]
@@ -424,7 +433,7 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         if not _coarse_agree(u[coarse][sure], d0[sure]):
             return None                     # the bark matches at several disparities: not guessed
         prior = float(median(d0[sure]))
-        d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
+        d_surf, score = surface_disparity(left, right, uv, half_h, (prior - 6, prior + 6),
                                           half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
     xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)

@@ -563,7 +563,8 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
         if not active.any():
             break
         keep = np.where(active[g], new, keep)
-        refit = fit_groups(t[keep], y[keep], g[keep], n_groups, degree)
+        sel = keep & active[g]                     # (the groups still refitted: their values as with all)
+        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree)
         fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
                            for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
                                            (refit.coef, refit.t0, refit.ts, refit.degree))))

@@ -431,11 +431,15 @@ class GroupPolys:
 
     def __call__(self, g: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Values at parameters ``t`` (N,) of samples of groups ``g`` (N,)."""
-        x = (np.asarray(t, float) - self.t0[g]) / self.ts[g]
-        c = self.coef                   # (a gather per coefficient: faster than of whole rows)
-        y = x * c[g, 0] + c[g, 1]
-        y = y * x + c[g, 2]
-        return y * x + c[g, 3]
+        x = (np.asarray(t, float) - self.t0.take(g)) / self.ts.take(g)
+        c0, c1, c2, c3 = self._coef_rows    # (a gather per coefficient, from contiguous rows: the same values)
+        y = x * c0.take(g) + c1.take(g)
+        y = y * x + c2.take(g)
+        return y * x + c3.take(g)
+
+    @cached
+    def _coef_rows(self) -> np.ndarray:
+        return np.ascontiguousarray(self.coef.T)
 
     def deriv(self) -> GroupPolys:
         d = np.zeros_like(self.coef)

@@ -496,7 +496,7 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     t_hi = np.maximum.reduceat(t_pad, pad)
     t_pad[-1] = np.inf
     ts = np.maximum(np.maximum(t_hi - t0, t0 - np.minimum.reduceat(t_pad, pad)), 1.0)
-    x = (t - t0[g]) / ts[g]
+    x = (t - t0.take(g)) / ts.take(g)
     dm = int(deg.max()) if n_groups else 0
     p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
     p[:, -1] = 0.0
@@ -555,19 +555,20 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
         med = np.zeros(n_groups)
         for k in live:
             med[k] = median(kr[bounds[k]:bounds[k + 1]])
-        dev = np.abs(kr - med[kg])                            # (each group's deviations: the same values)
+        dev = np.abs(kr - med.take(kg))                       # (each group's deviations: the same values)
         mad = np.zeros(n_groups)
         for k in live:
             mad[k] = median(dev[bounds[k]:bounds[k + 1]])
         thr = np.where(active, k_mad * (1.4826 * mad + 1e-3) + 0.05, np.inf)
-        new = np.abs(res) <= thr[g]
+        new = np.abs(res) <= thr.take(g)
         count = np.bincount(g[new], minlength=n_groups)
         changed = np.bincount(g[new != keep], minlength=n_groups) > 0
         active &= (count > degree + 1) & changed
         if not active.any():
             break
-        keep = np.where(active[g], new, keep)
-        sel = keep & active[g]                     # (the groups still refitted: their values as with all)
+        act = active.take(g)
+        keep = np.where(act, new, keep)
+        sel = keep & act                     # (the groups still refitted: their values as with all)
         refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree)
         fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
                            for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),

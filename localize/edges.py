@@ -64,11 +64,11 @@ class Runs:
         row = np.asarray(row, int)
         xi = np.rint(x).astype(int)
         key = row * self.width + xi
-        i = np.searchsorted(self._start_keys, key, side="right") - 1
+        i = self._start_keys.searchsorted(key, side="right") - 1
         ok = (i >= 0)
         i = np.maximum(i, 0)
         # (the last run starting at or before the key: on the query's row it starts at or before xi)
-        ok &= (self.row[i] == row) & (self.x1[i] >= xi)
+        ok &= (self.row.take(i) == row) & (self.x1.take(i) >= xi)
         return np.where(ok, i, -1)
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

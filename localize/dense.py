@@ -249,9 +249,9 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from
     # fitting each alone): to all samples (whole crossings and single edges) of the pieces with edge
-    # samples, to the whole crossings elsewhere. The centre line u(v) is fitted per curve: on exact
-    # drawings a branch centred on a pixel boundary (u = 320.5) is looked up there, and its 1e-13 noise
-    # flips which pixel (the tips and forks of tests/localize/test_ends.py move by 1-2 px)
+    # samples, to the whole crossings elsewhere. The centre line u(v) is fitted per curve: fitted all at
+    # once (coefficients ~1e-13 apart) it moved the fork and a tip of an exact drawing in
+    # tests/localize/test_ends.py by 1-2 px (docs/localize-speed.md, third pass)
     own = ~has_edges[gc]
     sel2 = np.flatnonzero(inl2)
     td = np.concatenate([tf[own], ts_[sel2]])

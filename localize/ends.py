@@ -641,7 +641,8 @@ class EndPlacer:
         rows = rows[(rows >= 0) & (rows < self.sm.right_mask.shape[0])]
         if len(rows) == 0:
             return False
-        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.clip(rows, *c.t_range)).mean()))
+        lo, hi = c.t_range
+        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi)).mean()))   # (np.clip's)
         ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
         return bool(((ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)).mean() >= 0.8)
 

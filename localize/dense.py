@@ -491,7 +491,7 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
         else:
             e = e[None]
         parts.insert(0 if k == 0 else len(parts), e)
-    return np.vstack(parts)
+    return np.concatenate(parts)                    # (2-D parts: np.vstack's array)
 
 
 def _slide(b: EndPlacer, f: FeatureUVD) -> float:

@@ -176,7 +176,7 @@ class EndPlacer:
         parents = [s for s in (pa, pb) if s in self.curves]
         if not parents and not final:
             return
-        c1, e1 = _line(np.vstack([near[pa], near[pb]]))
+        c1, e1 = _line(np.concatenate([near[pa], near[pb]]))      # (np.vstack's, of 2-D arrays)
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range

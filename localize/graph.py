@@ -142,7 +142,7 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
     node_yx = np.zeros((n_nodes, 2))
     if n_nodes:
-        nyx = np.vstack([jyx, eyx])
+        nyx = np.concatenate([jyx, eyx])                    # (2-D: np.vstack's)
         size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
         for c in (0, 1):
             node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
@@ -170,8 +170,8 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
         if k in (2, 3, 4, 5):        # E, SE, S, SW: each step along a segment counted once
             same = seg_flat[pidx + off[k]] == slab
             length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[same], minlength=n_s + 1)
-    sn = _unique_pairs(np.vstack(sn)) - 1                     # sorted by segment, then node
-    nn = _unique_pairs(np.vstack(nn)) - 1
+    sn = _unique_pairs(np.concatenate(sn)) - 1                # sorted by segment, then node (np.vstack's)
+    nn = _unique_pairs(np.concatenate(nn)) - 1
     ends = np.full((n_s, 2), -1)
     first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
     rank = np.arange(len(sn)) - first

@@ -44,7 +44,7 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     if x0 < 0 or y0 < 0 or x1 > w or y1 > h:
         return None
     patch = sm.left_mask[y0:y1, x0:x1].astype(np.float32)
-    yy, xx = np.mgrid[y0:y1, x0:x1]
+    yy, xx = np.arange(y0, y1)[:, None], np.arange(x0, x1)[None, :]      # (np.mgrid's values, broadcast)
     half = ((xx - centre_xy[0]) * out[0] + (yy - centre_xy[1]) * out[1] >= -half_px / 3).astype(np.float32)
     n = float(half.sum()) * 255.0 ** 2
     dmin, dmax = sm.d_range_px

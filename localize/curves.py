@@ -8,9 +8,30 @@ well; extrapolation beyond the fitted span is linear (for forks and tips).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
+from numpy.linalg import _umath_linalg
+
+
+class cached:
+    """``functools.cached_property`` without its per-class lock (Python 3.11 takes an RLock on every
+    first computation: ~2 us, ~120 times per pair): computed once per instance, then read from the
+    instance's ``__dict__`` (a non-data descriptor, so the stored value wins). Not thread-safe in the
+    sense that two threads may both compute it the first time (the same value)."""
+
+    def __init__(self, func):
+        self.func = func
+        self.name = func.__name__
+        self.__doc__ = func.__doc__
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        value = obj.__dict__[self.name] = self.func(obj)
+        return value
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,18 +69,19 @@ class Poly:
             y = y * x + ci
         return y
 
-    @cached_property
+    @cached
     def _coef_list(self) -> list[float]:
         return self.coef.tolist()
 
     def deriv(self) -> Poly:
         return self._deriv
 
-    @cached_property
+    @cached
     def _deriv(self) -> Poly:
         if len(self.coef) <= 1:
             return Poly(np.zeros(1), self.t0, self.ts)
-        return Poly(np.polyder(self.coef) / self.ts, self.t0, self.ts)
+        n = len(self.coef) - 1             # (np.polyder's product, without its checks)
+        return Poly(self.coef[:-1] * np.arange(n, 0, -1) / self.ts, self.t0, self.ts)
 
     @classmethod
     def constant(cls, value: float) -> Poly:
@@ -114,6 +136,17 @@ class Spliced:
                        self.above and self.above.deriv())
 
 
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(a, b)`` (the same LAPACK gufunc, the same values bit for bit) without its
+    wrapper's checks and error-state context (~3 of its ~8 us, ~50 calls per pair); a singular
+    system (non-finite result: never with the distinct parameters the fits ask for) goes through
+    ``np.linalg.solve``, which raises as before (after the gufunc's RuntimeWarning)."""
+    x = _umath_linalg.solve1(a, b) if b.ndim == a.ndim - 1 else _umath_linalg.solve(a, b)
+    if not np.isfinite(x).all():
+        return np.linalg.solve(a, b)
+    return x
+
+
 def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
     """Least-squares coefficients (highest power first) of a polynomial in ``x`` (scaled to
     [-1, 1], distinct values > ``degree``) by the normal equations: a (degree + 1)^2 system of
@@ -125,8 +158,33 @@ def _lstsq_poly(x: np.ndarray, y: np.ndarray, degree: int) -> np.ndarray:
         sxx, sxy = float(x @ x), float(x @ y)
         det = n * sxx - sx * sx
         return np.array([(n * sxy - sx * sy) / det, (sxx * sy - sx * sxy) / det])
-    a = np.vander(x, degree + 1)
-    return np.linalg.solve(a.T @ a, a.T @ y)
+    a = np.empty((len(x), degree + 1))          # np.vander(x, degree + 1): the same products, in order
+    a[:, degree] = 1.0
+    a[:, degree - 1] = x
+    for k in range(degree - 2, -1, -1):
+        np.multiply(a[:, k + 1], x, out=a[:, k])
+    return _solve(a.T @ a, a.T @ y)
+
+
+def linspace(lo: float, hi: float, n: int) -> np.ndarray:
+    """``np.linspace(lo, hi, n)`` of two scalars: the same values bit for bit (numpy's own steps: an
+    arange scaled in place by (hi - lo) / (n - 1), lo added, the last set to hi), without its
+    argument handling (~2 against ~7 us; ~65 calls per pair)."""
+    if n < 2:
+        return np.linspace(lo, hi, n)
+    lo, hi = float(lo), float(hi)
+    delta = hi - lo
+    div = n - 1
+    step = delta / div
+    y = np.arange(0, n, dtype=np.float64)
+    if step == 0:                       # (numpy's handling of denormal steps)
+        y /= div
+        y *= delta
+    else:
+        y *= step
+    y += lo
+    y[-1] = hi
+    return y
 
 
 def angle_deg(pts: np.ndarray) -> float:
@@ -136,6 +194,17 @@ def angle_deg(pts: np.ndarray) -> float:
     return abs(float(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy))))
 
 
+def angle_deg_groups(pts: np.ndarray, g: np.ndarray, n_groups: int) -> np.ndarray:
+    """:func:`angle_deg` of every group of points at once (``pts`` (N, 2) (x, y), group ids ``g`` (N,),
+    every group non-empty): (G,) degrees; the sums in another order (equal up to rounding)."""
+    n = np.bincount(g, minlength=n_groups)
+    c = pts - np.column_stack([np.bincount(g, pts[:, 0], n_groups), np.bincount(g, pts[:, 1], n_groups)])[g] / n[g, None]
+    sxx = np.bincount(g, c[:, 0] * c[:, 0], n_groups)
+    syy = np.bincount(g, c[:, 1] * c[:, 1], n_groups)
+    sxy = np.bincount(g, c[:, 0] * c[:, 1], n_groups)
+    return np.abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
+
+
 def median(a: np.ndarray) -> float:
     """``np.median`` of a 1-D float array (the same value, bit for bit) at a fraction
     of its cost (~1.5 against ~10 us on a few hundred values): ``np.partition`` at the middle."""
@@ -143,10 +212,31 @@ def median(a: np.ndarray) -> float:
     if n == 0:
         return np.nan                   # as np.median (without its warning)
     k = n // 2
+    p = np.array(a, copy=True)         # (np.partition's own steps: a copy partitioned in place)
     if n % 2:
-        return np.partition(a, k)[k]
-    p = np.partition(a, (k - 1, k))
+        p.partition(k)
+        return p[k]
+    p.partition((k - 1, k))
     return (p[k - 1] + p[k]) / 2
+
+
+def percentile(a: np.ndarray, q: float) -> float:
+    """``np.percentile(a, q)`` of a 1-D float array with its default (linear) method: the same value,
+    bit for bit (the same virtual index, partition and interpolation; checked for ``q / 100`` a binary
+    fraction, as 25, 50, 75: numpy's rounding of others may differ by an ulp), at a tenth of its cost
+    (~2 against ~20 us)."""
+    n = len(a)
+    if n == 0:
+        return float(np.percentile(a, q))                # (its error)
+    quant = q / 100
+    vi = n * quant + (1 + quant * (1 - 1 - 1)) - 1       # numpy's virtual index (alpha = beta = 1)
+    lo = min(max(int(np.floor(vi)), 0), n - 1)
+    hi = min(lo + 1, n - 1)
+    gamma = vi - np.floor(vi)
+    p = np.partition(a, (lo, hi)) if hi != lo else np.partition(a, lo)
+    x, y = float(p[lo]), float(p[hi])
+    diff = y - x
+    return y - diff * (1 - gamma) if gamma >= 0.5 else x + diff * gamma
 
 
 def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Poly, np.ndarray]:
@@ -266,7 +356,7 @@ class BranchCurve:
     def uvd(self, step_px: float = 4.0) -> np.ndarray:
         """Samples (N, 3) of (u, v, d) along the fitted span every ``step_px`` of t."""
         lo, hi = self.t_range
-        t = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
+        t = linspace(lo, hi, max(2, int(np.ceil((hi - lo) / step_px)) + 1))
         out = np.empty((len(t), 3))
         out[:, 1 if self.by_row else 0] = t
         if np.isfinite(t).all():            # inside the span: the polynomials themselves (as _eval)
@@ -296,6 +386,35 @@ def end_slopes(t: np.ndarray, y: np.ndarray, reach: float = 60.0) -> tuple[float
     return out[0], out[1]
 
 
+def end_slopes_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int,
+                      reach: float = 60.0) -> np.ndarray:
+    """:func:`end_slopes` of every group at once (``g`` (N,) group ids, any order): (G, 2) slopes at
+    each group's low and high end (the same rules; the sums in another order: equal up to rounding).
+    Groups without samples get 0."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    g = np.asarray(g, np.intp)
+    out = np.zeros((n_groups, 2))
+    if not len(t):
+        return out
+    lo, hi = np.full(n_groups, np.inf), np.full(n_groups, -np.inf)
+    np.minimum.at(lo, g, t)
+    np.maximum.at(hi, g, t)
+    for k, near in enumerate((t <= (lo + reach)[g], t >= (hi - reach)[g])):
+        n = np.bincount(g, near, n_groups)
+        t_lo, t_hi = np.full(n_groups, np.inf), np.full(n_groups, -np.inf)
+        np.minimum.at(t_lo, g[near], t[near])
+        np.maximum.at(t_hi, g[near], t[near])
+        whole = (n < 5) | (t_hi - t_lo < 5)                # too few near the end: all the samples
+        near = near | whole[g]
+        n = np.bincount(g, near, n_groups)
+        mean = np.bincount(g, np.where(near, t, 0.0), n_groups) / np.maximum(n, 1)
+        dt = np.where(near, t - mean[g], 0.0)
+        sxx = np.bincount(g, dt * dt, n_groups)
+        sxy = np.bincount(g, dt * y, n_groups)
+        out[:, k] = np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), 0.0)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class GroupPolys:
     """Polynomials of several groups of samples at once (one per branch piece), as :class:`Poly`.
@@ -312,11 +431,15 @@ class GroupPolys:
 
     def __call__(self, g: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Values at parameters ``t`` (N,) of samples of groups ``g`` (N,)."""
-        x = (np.asarray(t, float) - self.t0[g]) / self.ts[g]
-        c = self.coef                   # (a gather per coefficient: faster than of whole rows)
-        y = x * c[g, 0] + c[g, 1]
-        y = y * x + c[g, 2]
-        return y * x + c[g, 3]
+        x = (np.asarray(t, float) - self.t0.take(g)) / self.ts.take(g)
+        c0, c1, c2, c3 = self._coef_rows    # (a gather per coefficient, from contiguous rows: the same values)
+        y = x * c0.take(g) + c1.take(g)
+        y = y * x + c2.take(g)
+        return y * x + c3.take(g)
+
+    @cached
+    def _coef_rows(self) -> np.ndarray:
+        return np.ascontiguousarray(self.coef.T)
 
     def deriv(self) -> GroupPolys:
         d = np.zeros_like(self.coef)
@@ -373,7 +496,7 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     t_hi = np.maximum.reduceat(t_pad, pad)
     t_pad[-1] = np.inf
     ts = np.maximum(np.maximum(t_hi - t0, t0 - np.minimum.reduceat(t_pad, pad)), 1.0)
-    x = (t - t0[g]) / ts[g]
+    x = (t - t0.take(g)) / ts.take(g)
     dm = int(deg.max()) if n_groups else 0
     p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
     p[:, -1] = 0.0
@@ -401,13 +524,14 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
         if per_degree[d]:
             sd = s[deg == d]
             a, b = sd[:, _NORMAL_IDX[d][0]], sd[:, _NORMAL_IDX[d][1]]
-            coef[deg == d, 3 - d:] = np.linalg.solve(a, b[:, :, None])[:, :, 0]
+            coef[deg == d, 3 - d:] = _solve(a, b[:, :, None])[:, :, 0]
     return GroupPolys(coef, t0, ts, deg)
 
 
 def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
-                      rounds: int = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
-    """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int).
+                      rounds: int | np.ndarray = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
+    """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
+    ``rounds`` one for all or (G,) per group: each group's values are those of fitting it alone).
 
     Returns
     -------
@@ -418,7 +542,12 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     keep = np.ones(len(t), bool)
     fit = fit_groups(t, y, g, n_groups, degree)
     active = np.bincount(g, minlength=n_groups) > 0
-    for _ in range(rounds):
+    per_group = np.ndim(rounds) > 0
+    for r in range(int(np.max(rounds)) if per_group else rounds):
+        if per_group:
+            active &= rounds > r
+            if not active.any():
+                break
         res = y - fit(g, t)
         kr, kg = res[keep], g[keep]
         bounds = np.searchsorted(kg, np.arange(n_groups + 1)).tolist()
@@ -426,19 +555,21 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
         med = np.zeros(n_groups)
         for k in live:
             med[k] = median(kr[bounds[k]:bounds[k + 1]])
-        dev = np.abs(kr - med[kg])                            # (each group's deviations: the same values)
+        dev = np.abs(kr - med.take(kg))                       # (each group's deviations: the same values)
         mad = np.zeros(n_groups)
         for k in live:
             mad[k] = median(dev[bounds[k]:bounds[k + 1]])
         thr = np.where(active, k_mad * (1.4826 * mad + 1e-3) + 0.05, np.inf)
-        new = np.abs(res) <= thr[g]
+        new = np.abs(res) <= thr.take(g)
         count = np.bincount(g[new], minlength=n_groups)
         changed = np.bincount(g[new != keep], minlength=n_groups) > 0
         active &= (count > degree + 1) & changed
         if not active.any():
             break
-        keep = np.where(active[g], new, keep)
-        refit = fit_groups(t[keep], y[keep], g[keep], n_groups, degree)
+        act = active.take(g)
+        keep = np.where(act, new, keep)
+        sel = keep & act                     # (the groups still refitted: their values as with all)
+        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree)
         fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
                            for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
                                            (refit.coef, refit.t0, refit.ts, refit.degree))))

@@ -26,9 +26,12 @@ from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
     Poly,
-    angle_deg,
+    angle_deg_groups,
     degree_for,
     end_slopes,
+    end_slopes_groups,
+    fit_groups,
+    linspace,
     median,
     robust_fit,
     robust_fit_groups,
@@ -39,6 +42,7 @@ from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
 from appliance.localize.radius import radius_at
+from appliance.localize.rectify import ReadBox
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
@@ -206,7 +210,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
         res = np.abs(cd - model(gq, t[q]))
         order = np.lexsort((res, q))
-        first = order[np.r_[True, q[order][1:] != q[order][:-1]]]
+        first = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
         chosen = first[res[first] <= tol]
         alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
         chosen = chosen[alive[gq[chosen]]]
@@ -217,9 +221,15 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     gc = gq[chosen]
     tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
     wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    u_poly, u_inl = robust_fit_groups(tf, cf, gc, ng, degree, rounds=1)
-    # rows where the branch is partly hidden still show one true edge in both views
-    w_poly, _ = robust_fit_groups(tf, w_l[q[chosen]], gc, ng, np.ones(ng, int), rounds=2)
+    # the centre line (1 round), and the width (a line, 2 rounds): rows where the branch is partly hidden
+    # still show one true edge in both views. One call, the widths as groups ng..2ng-1 (the same values
+    # as two calls)
+    uw, uw_inl = robust_fit_groups(np.concatenate([tf, tf]), np.concatenate([cf, w_l[q[chosen]]]),
+                                   np.concatenate([gc, gc + ng]), 2 * ng,
+                                   np.concatenate([degree, np.ones(ng, int)]), rounds=np.repeat([1, 2], ng))
+    u_poly = GroupPolys(uw.coef[:ng], uw.t0[:ng], uw.ts[:ng], uw.degree[:ng])
+    w_poly = GroupPolys(uw.coef[ng:], uw.t0[ng:], uw.ts[ng:], uw.degree[ng:])
+    u_inl = uw_inl[:len(tf)]
     width = int(rows_all.max()) + 1
     key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
     used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)   # (np.isin by a table)
@@ -236,27 +246,35 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
     deg2 = _degrees(ts_, gs_, has_edges)
     inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
-    bc, be, ba = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge, gs_))
-    # each curve's polynomials refitted alone to its inliers: the same coefficients as fitting the
-    # piece alone, bit for bit (the batched sums differ in rounding, which matters on exact drawings)
+    bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
+    # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from
+    # fitting each alone): to all samples (whole crossings and single edges) of the pieces with edge
+    # samples, to the whole crossings elsewhere. The centre line u(v) is fitted per curve: fitted all at
+    # once (coefficients ~1e-13 apart) it moved the fork and a tip of an exact drawing in
+    # tests/localize/test_ends.py by 1-2 px (docs/localize-speed.md, third pass)
+    own = ~has_edges[gc]
+    sel2 = np.flatnonzero(inl2)
+    td = np.concatenate([tf[own], ts_[sel2]])
+    dd = np.concatenate([df[own], ds_[sel2]])
+    gd = np.concatenate([gc[own], gs_[sel2]])
+    o = np.argsort(gd, kind="stable")
+    td, dd, gd = td[o], dd[o], gd[o]
+    d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
+    slopes = end_slopes_groups(td, dd, gd, ng)
+    bd = np.searchsorted(gd, np.arange(ng + 1))
     curves = {}
     for k in np.flatnonzero(alive).tolist():
         a, b = bc[k], bc[k + 1]
         used = rr[chosen[a:b]]
         if has_edges[k]:
-            keep = inl2[ba[k]:ba[k + 1]]
-            tk, dk = ts_[ba[k]:ba[k + 1]][keep], ds_[ba[k]:ba[k + 1]][keep]
-            d_poly = Poly.fit(tk, dk, int(deg2[k]))
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
-        else:
-            tk, dk = tf[a:b], df[a:b]
-            d_poly = Poly.fit(tk, dk, int(degree[k]))
-        ku = u_inl[a:b]
+        tk = td[bd[k]:bd[k + 1]]
+        s = int(segs[k])
+        ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
         u_k = Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k]))
         radius = float(median(0.5 * wf[a:b] / np.sqrt(1 + u_k.deriv()(tf[a:b]) ** 2)))
-        s = int(segs[k])
-        curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_poly, radius,
-                                len(tk), end_slopes(tk, dk), used)
+        curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_polys.poly(k), radius,
+                                len(tk), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
         grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
@@ -326,18 +344,31 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     res += d[i][g]
     np.subtract(ds[:, None], res, out=res)
     inl = np.abs(res, out=res) <= tol_px
-    starts = np.r_[0, np.cumsum(hi - lo)[:-1]]
+    starts = np.concatenate([[0], np.cumsum(hi - lo)[:-1]])
     count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
     count[~ok] = -1
     best = count.argmax(1)
-    for m, k in enumerate(live.tolist()):
-        tk, dk = t[lo[m]:hi[m]], d[lo[m]:hi[m]]
-        if not ok[m].any():
-            polys[k] = Poly.constant(float(median(dk)))
-            continue
-        on = inl[starts[m]:starts[m] + hi[m] - lo[m], best[m]]
-        polys[k] = Poly.fit(tk[on], dk[on], 1)
-    return GroupPolys.of(polys)
+    # each piece's line fitted to its best hypothesis' inliers, all pieces at once (fit_groups: Poly.fit's
+    # least squares up to rounding); a piece without a pair 3 rows apart: the median of its candidates
+    on = inl[np.arange(len(g)), best[g]]
+    has = ok.any(1)
+    on &= has[g]
+    fit = fit_groups(ts[on], ds[on], g[on], len(live), np.ones(len(live), int))
+    coef, t0, ts_, deg = np.zeros((len(alive), 4)), np.zeros(len(alive)), np.ones(len(alive)), np.zeros(len(alive), int)
+    coef[live], t0[live], ts_[live], deg[live] = fit.coef, fit.t0, fit.ts, fit.degree
+    for m in np.flatnonzero(~has).tolist():
+        k = int(live[m])
+        coef[k], t0[k], ts_[k], deg[k] = 0.0, 0.0, 1.0, 0
+        coef[k, 3] = float(median(d[lo[m]:hi[m]]))
+    return GroupPolys(coef, t0, ts_, deg)
+
+
+@functools.lru_cache(maxsize=64)
+def _triu(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n, 1)`` (cached, read-only: a few sizes recur every frame)."""
+    i, j = np.triu_indices(n, 1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
 
 
 def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:
@@ -352,7 +383,7 @@ def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px
         return True
     if n < 4:
         return False
-    i, j = np.triu_indices(n, 1)
+    i, j = _triu(n)
     du = u[j] - u[i]
     ok = du != 0
     slope = (d[j] - d[i])[ok] / du[ok]
@@ -384,8 +415,16 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), max(1, int(0.6 * radius)))
     # a few patches searched over the whole range give a prior; all patches then search near it
-    coarse = np.unique(np.linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
-    d0, s0 = surface_disparity(sm.left_gray, sm.right_gray, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
+    coarse = np.unique(linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
+    # both searches read one neighbourhood of each image: one lazy read each (the coarse search's
+    # strips over the whole range, with 8 px to spare for the fine one's around its prior)
+    ui = np.rint(uv).astype(int)
+    hh, hw = int(half_h[0]), 12
+    y0, y1, u0, u1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1, int(ui[:, 0].min()), int(ui[:, 0].max())
+    dmin, dmax = sm.d_range_px
+    left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
+    right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
+    d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         d_surf, score = d0, s0
         u, uv = u[coarse], uv[coarse]
@@ -394,10 +433,10 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         if not _coarse_agree(u[coarse][sure], d0[sure]):
             return None                     # the bark matches at several disparities: not guessed
         prior = float(median(d0[sure]))
-        d_surf, score = surface_disparity(sm.left_gray, sm.right_gray, uv, half_h, (prior - 6, prior + 6),
+        d_surf, score = surface_disparity(left, right, uv, half_h, (prior - 6, prior + 6),
                                           half_w_px=12)
     good = np.isfinite(d_surf) & (score >= 0.6)
-    xr = np.rint(u - np.nan_to_num(d_surf)).astype(int)
+    xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
     on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
     good &= on_right                                   # the match must land on a branch in the right view
     good[on_right] &= sm.right_mask[np.rint(uv[on_right, 1]).astype(int), xr[on_right]] >= 128
@@ -446,13 +485,13 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
             t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
             if abs(t_n - t_near) < 2:
                 continue
-            t = np.linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
+            t = linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
             ext = np.column_stack([c.uv_at(t), c.d_at(t)])
             e = ext[::-1] if k == 0 else ext
         else:
             e = e[None]
         parts.insert(0 if k == 0 else len(parts), e)
-    return np.vstack(parts)
+    return np.concatenate(parts)                    # (2-D parts: np.vstack's array)
 
 
 def _slide(b: EndPlacer, f: FeatureUVD) -> float:
@@ -464,8 +503,13 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     """Dense matching of a left skeleton graph against the right mask (see module docstring)."""
     runs_l = find_runs(sm.left_mask, soft=True)
     runs_r = find_runs(sm.right_mask, soft=True)
-    angle = {s: angle_deg(graph.to_full(yx)) for s, yx in enumerate(graph.seg_yx)
-             if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2}
+    used = [s for s, yx in enumerate(graph.seg_yx)
+            if not graph.seg_recovered[s] and graph.seg_length_px[s] >= cfg.min_segment_px and len(yx) >= 2]
+    angle = {}
+    if used:                            # (all pieces at once: curves.angle_deg up to rounding)
+        yx = [graph.seg_yx[s] for s in used]
+        g = np.repeat(np.arange(len(used)), [len(a) for a in yx])
+        angle = dict(zip(used, angle_deg_groups(graph.to_full(np.concatenate(yx)), g, len(used)).tolist()))
     steep = [s for s, a in angle.items() if a >= cfg.max_horizontal_deg]
     flat = [s for s, a in angle.items() if a < cfg.max_horizontal_deg]
     curves = fit_steep_many(graph, steep, runs_l, runs_r, sm, angle)

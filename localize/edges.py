@@ -9,10 +9,10 @@ the rectified outline to a small fraction of a pixel.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import cv2
 import numpy as np
+from appliance.localize.curves import cached
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -43,19 +43,19 @@ class Runs:
     left_px: np.ndarray
     right_px: np.ndarray
 
-    @cached_property
+    @cached
     def centre_px(self) -> np.ndarray:
         return _frozen(0.5 * (self.left_px + self.right_px))
 
-    @cached_property
+    @cached
     def span_px(self) -> np.ndarray:
         return _frozen(self.right_px - self.left_px)
 
-    @cached_property
+    @cached
     def _start_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.x0)
 
-    @cached_property
+    @cached
     def _centre_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.centre_px)
 
@@ -64,11 +64,11 @@ class Runs:
         row = np.asarray(row, int)
         xi = np.rint(x).astype(int)
         key = row * self.width + xi
-        i = np.searchsorted(self._start_keys, key, side="right") - 1
+        i = self._start_keys.searchsorted(key, side="right") - 1
         ok = (i >= 0)
         i = np.maximum(i, 0)
         # (the last run starting at or before the key: on the query's row it starts at or before xi)
-        ok &= (self.row[i] == row) & (self.x1[i] >= xi)
+        ok &= (self.row.take(i) == row) & (self.x1.take(i) >= xi)
         return np.where(ok, i, -1)
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

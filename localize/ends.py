@@ -16,7 +16,7 @@ from bisect import bisect_left
 import cv2
 import numpy as np
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, median
+from appliance.localize.curves import BranchCurve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
@@ -109,7 +109,7 @@ class EndPlacer:
             return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            pts = c.uv_at(np.linspace(lo, hi, max(2, int(hi - lo) + 1)))
+            pts = c.uv_at(linspace(lo, hi, max(2, int(hi - lo) + 1)))
         else:
             pts = self.g.to_full(self.g.seg_yx[s])
         pts.setflags(write=False)
@@ -176,12 +176,12 @@ class EndPlacer:
         parents = [s for s in (pa, pb) if s in self.curves]
         if not parents and not final:
             return
-        c1, e1 = _line(np.vstack([near[pa], near[pb]]))
+        c1, e1 = _line(np.concatenate([near[pa], near[pb]]))      # (np.vstack's, of 2-D arrays)
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range
             t_end = hi if abs(cc.t_of(p)[0] - hi) <= abs(cc.t_of(p)[0] - lo) else lo
-            c2, e2 = _line(cc.uv_at(np.linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
+            c2, e2 = _line(cc.uv_at(linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
         else:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
@@ -219,9 +219,9 @@ class EndPlacer:
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
             # the middle of the three pieces' disparities
-            d_par = [float(np.median([*d_par, at(child)]))]
+            d_par = [float(sorted([*d_par, at(child)])[1])]      # (the median of three, as np.median)
         if parents:
-            d = float(np.mean(d_par))
+            d = float(sum(d_par) / len(d_par))    # (np.mean's sums of one or two values, bit for bit)
         elif child_ok:
             d = float(at(child))
         else:
@@ -461,7 +461,7 @@ class EndPlacer:
         box = self._box_cache.get(s)
         if box is None:
             c = self.curves[s]
-            uv = c.uv_at(np.linspace(*c.t_range, 8))
+            uv = c.uv_at(linspace(*c.t_range, 8))
             box = self._box_cache[s] = (*uv.min(0).tolist(), *uv.max(0).tolist())
         return box
 
@@ -659,7 +659,8 @@ class EndPlacer:
         rows = rows[(rows >= 0) & (rows < self.sm.right_mask.shape[0])]
         if len(rows) == 0:
             return False
-        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.clip(rows, *c.t_range)).mean()))
+        lo, hi = c.t_range
+        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi)).mean()))   # (np.clip's)
         ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
         return bool(((ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)).mean() >= 0.8)
 

@@ -102,7 +102,10 @@ def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
     """Pixels (N, 2) grouped by their label 1..n (row-major order kept), as a list of n arrays."""
     order = np.argsort(labels, kind="stable")
     counts = np.bincount(labels, minlength=n + 1)[1:]
-    return np.split(yx[order], np.cumsum(counts)[:-1]) if n else []
+    if not n:
+        return []
+    srt, ends = yx[order], np.cumsum(counts).tolist()       # (slices: np.split's arrays, without its overhead)
+    return [srt[a:b] for a, b in zip([0] + ends[:-1], ends)]
 
 
 def _labels(shape: tuple[int, int], yx: np.ndarray) -> tuple[int, np.ndarray]:
@@ -136,14 +139,14 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     n_j, jlab = _labels(s.shape, jyx)
     node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
     n_nodes = len(node_pixels)
-    node_of = np.r_[jlab, n_j + 1 + np.arange(len(eyx))]      # 1-based node id of each node pixel
+    node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
     node_yx = np.zeros((n_nodes, 2))
     if n_nodes:
-        nyx = np.vstack([jyx, eyx])
+        nyx = np.concatenate([jyx, eyx])                    # (2-D: np.vstack's)
         size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
         for c in (0, 1):
             node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
-    node_kind = np.r_[np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)].astype(int)
+    node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
 
     n_s, slab = _labels(s.shape, pyx)
     seg_yx = _group(slab, pyx, n_s)
@@ -152,7 +155,7 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     # at the skeleton pixels in flat, zero-padded id images
     node_flat = np.zeros(img.flat.shape, np.int64)
     seg_flat = np.zeros(img.flat.shape, np.int64)
-    nidx = np.r_[idx[n >= 3], idx[n == 1]]
+    nidx = np.concatenate([idx[n >= 3], idx[n == 1]])
     node_flat[nidx] = node_of
     seg_flat[pidx] = slab
     off = img.offsets()
@@ -167,8 +170,8 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
         if k in (2, 3, 4, 5):        # E, SE, S, SW: each step along a segment counted once
             same = seg_flat[pidx + off[k]] == slab
             length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[same], minlength=n_s + 1)
-    sn = _unique_pairs(np.vstack(sn)) - 1                     # sorted by segment, then node
-    nn = _unique_pairs(np.vstack(nn)) - 1
+    sn = _unique_pairs(np.concatenate(sn)) - 1                # sorted by segment, then node (np.vstack's)
+    nn = _unique_pairs(np.concatenate(nn)) - 1
     ends = np.full((n_s, 2), -1)
     first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
     rank = np.arange(len(sn)) - first
@@ -178,6 +181,6 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     length = length[1:] + filled                    # plus one step onto each end node
     seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
     seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
-    length = np.r_[length, np.ones(len(nn))] * skel.scale
+    length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
     return SkeletonGraph(s.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
                          seg_yx, length)

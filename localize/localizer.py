@@ -236,8 +236,8 @@ class Localizer:
         if kept:
             # all pieces triangulated at once (row by row the same values), then split
             uvd = np.vstack([u for _, u in kept])
-            polys = np.split(triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib),
-                             np.cumsum([len(u) for _, u in kept])[:-1])
+            xyz, ends = triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib), np.cumsum([len(u) for _, u in kept]).tolist()
+            polys = [xyz[a:b] for a, b in zip([0] + ends[:-1], ends)]      # (np.split's arrays)
             for (p, _), poly in zip(kept, polys):
                 radius_mm = float(p.radius_px * median(poly[:, 2]) / f)
                 ids = tuple(node_id.get(n, -1) for n in p.nodes)

@@ -141,8 +141,8 @@ class Rectifier:
         if len(need) == 0:
             return need
         # neighbouring tiles of one tile row remapped by one call (fewer, wider calls)
-        start = np.flatnonzero(np.r_[True, (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])])
-        end = np.r_[start[1:], len(need)] - 1
+        start = np.flatnonzero(np.concatenate([[True], (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])]))
+        end = np.concatenate([start[1:], [len(need)]]) - 1
         return np.column_stack([need[start, :3], need[end, 3]])
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
@@ -236,3 +236,30 @@ class LazyRectified:
         m1, m2 = self.rectifier.maps[self.side]
         return cv2.remap(src, m1[y0:y1, x0:x1], m2[y0:y1, x0:x1], cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+class ReadBox:
+    """Reads of an image (ndarray or :class:`LazyRectified`) served from one read of a rectangle
+    ``[y0:y1, x0:x1]`` (clipped to the image) where they lie inside it, from the image itself elsewhere:
+    several reads of one neighbourhood (a flat piece's coarse and fine texture searches) cost one
+    lazy remap. The values are the image's (a lazy read is per pixel: the same values whatever
+    rectangle they come with). Reads inside the rectangle are read-only views of one array."""
+
+    def __init__(self, image, y0: int, y1: int, x0: int, x1: int):
+        h, w = image.shape
+        self.image, self.shape, self.dtype = image, (h, w), image.dtype
+        self.box = (max(y0, 0), min(y1, h), max(x0, 0), min(x1, w))
+        y0, y1, x0, x1 = self.box
+        self.data = None
+        if y1 > y0 and x1 > x0:
+            self.data = np.asarray(image[y0:y1, x0:x1])
+            self.data.setflags(write=False)
+
+    def __getitem__(self, index):
+        ys, xs = index
+        a0, a1, _ = ys.indices(self.shape[0])
+        b0, b1, _ = xs.indices(self.shape[1])
+        y0, y1, x0, x1 = self.box
+        if self.data is not None and y0 <= a0 < a1 <= y1 and x0 <= b0 < b1 <= x1:
+            return self.data[a0 - y0:a1 - y0, b0 - x0:b1 - x0]
+        return self.image[ys, xs]

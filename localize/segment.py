@@ -174,7 +174,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     v = np.repeat(v, on.sum(1), axis=0)
     p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)
     cover = 1.0 - np.einsum("ij,ij->i", p, v)
-    out.reshape(-1)[fi] = np.clip(cover * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    out.reshape(-1)[fi] = np.minimum(np.maximum(cover * 255.0 + 0.5, 0), 255).astype(np.uint8)   # (np.clip's values)
     return out
 
 

@@ -20,7 +20,9 @@ from appliance.localize.curves import (
     angle_deg,
     degree_for,
     end_slopes,
+    linspace,
     median,
+    percentile,
     robust_fit,
 )
 from appliance.localize.edges import Runs
@@ -32,8 +34,20 @@ from appliance.localize.radius import radius_at
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
-    uniq, inv = np.unique(t, return_inverse=True)
-    s_mean = np.bincount(inv, s) / np.bincount(inv)
+    t2 = t * 2.0
+    k = t2.astype(np.int64)
+    k0 = int(k.min()) if len(k) else 0
+    if len(k) and (k == t2).all() and int(k.max()) - k0 < 8 * len(k) + 4096:
+        # whole or half pixels (skeleton pixels at full resolution): the values by a bincount over
+        # their doubles, the same sorted values and per-value sums as np.unique's (~3x faster)
+        k -= k0
+        count = np.bincount(k)
+        nz = np.flatnonzero(count)
+        uniq = (nz + k0) / 2.0
+        s_mean = np.bincount(k, s)[nz] / count[nz]
+    else:
+        uniq, inv = np.unique(t, return_inverse=True)
+        s_mean = np.bincount(inv, s) / np.bincount(inv)
     half = (scale - 1) / 2
     ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
     return ts, np.interp(ts, uniq, s_mean)
@@ -70,9 +84,9 @@ def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.
     rows overlap its span or lie further than ``reach_px`` from it."""
     lo, hi = c.t_range
     if rows.max() < lo:
-        end, t = lo, np.linspace(lo, min(hi, lo + reach_px), 8)
+        end, t = lo, linspace(lo, min(hi, lo + reach_px), 8)
     elif rows.min() > hi:
-        end, t = hi, np.linspace(max(lo, hi - reach_px), hi, 8)
+        end, t = hi, linspace(max(lo, hi - reach_px), hi, 8)
     else:
         return None
     if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
@@ -399,7 +413,7 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
         # the half width along the rows: the wider of the two views' crossings, where it is whole,
         # but not much wider than the left mask's own (a crossing merged with another branch)
         w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
-        half_px = 0.5 * float(np.percentile(w, 75))
+        half_px = 0.5 * percentile(w, 75)                  # (np.percentile's value, bit for bit)
         r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
         sin_t = max(float(np.sin(np.radians(angle_deg(graph.to_full(yx))))), 0.2)
         if half_px > 2.0 * r_px / sin_t + 2:

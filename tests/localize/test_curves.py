@@ -9,8 +9,13 @@ from appliance.localize.curves import (
     GroupPolys,
     Poly,
     Spliced,
+    _solve,
+    angle_deg,
+    angle_deg_groups,
     end_slopes,
+    end_slopes_groups,
     median,
+    percentile,
     robust_fit,
     robust_fit_groups,
 )
@@ -205,3 +210,32 @@ def test_evaluation_beyond_one_end_is_the_clipped_formula():
                 want = poly(tc) + np.where(tt < lo, slopes[0], slopes[1]) * (tt - tc)
                 got = c.s_at(tt) if poly is c.s_poly else c.d_at(tt)
                 assert np.array_equal(got, want)
+
+
+def test_group_angles_and_end_slopes_are_the_per_group_ones():
+    rng = np.random.default_rng(7)
+    sizes = [2, 5, 40, 130, 9, 300]
+    pts = [rng.integers(0, 240, (n, 2)) * 4 + 1.5 for n in sizes]
+    g = np.repeat(np.arange(len(sizes)), sizes)
+    np.testing.assert_allclose(angle_deg_groups(np.concatenate(pts), g, len(sizes)),
+                               [angle_deg(p) for p in pts], rtol=0, atol=1e-9)
+    ts = [np.sort(rng.uniform(0, 50 * n, n)) for n in sizes]
+    ys = [0.3 * t + rng.normal(0, 1, len(t)) + 0.001 * t ** 2 for t in ts]
+    got = end_slopes_groups(np.concatenate(ts), np.concatenate(ys), g, len(sizes) + 1)
+    np.testing.assert_allclose(got[:-1], [end_slopes(t, y) for t, y in zip(ts, ys)], rtol=1e-9, atol=1e-12)
+    assert (got[-1] == 0).all()                           # a group without samples
+
+
+def test_percentile_and_solve_are_numpys_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for n in [1, 2, 3, 4, 7, 10, 61, 200]:
+        a = np.round(rng.normal(0, 30, n) * 4) / 4 if n % 2 else rng.normal(0, 30, n)
+        for q in (25, 50, 75):
+            assert percentile(a, q) == np.percentile(a, q)
+    a = rng.normal(size=(5, 4, 4))
+    a = a @ a.transpose(0, 2, 1) + np.eye(4)
+    b = rng.normal(size=(5, 4, 1))
+    assert np.array_equal(_solve(a, b), np.linalg.solve(a, b))
+    assert np.array_equal(_solve(a[0], b[0, :, 0]), np.linalg.solve(a[0], b[0, :, 0]))
+    with pytest.raises(np.linalg.LinAlgError), pytest.warns(RuntimeWarning):   # (the gufunc warns first)
+        _solve(np.zeros((3, 3)), np.ones(3))

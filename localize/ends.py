@@ -100,6 +100,7 @@ class EndPlacer:
         self._node_r: np.ndarray | None = None
         self._near_cache: dict = {}
         self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
+        self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -590,6 +591,8 @@ class EndPlacer:
             # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
             # row by row
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
+            if d_end is None and c.segment in self.cap_segments:
+                d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
             if d_end is None:
                 self.hidden.add(int(node))
                 return

@@ -1,0 +1,140 @@
+"""Tips of short flat pieces the bark texture could not match, found by their round cap.
+
+A piece within ``match.max_horizontal_deg`` of the rows gets its disparity from the bark texture
+(:func:`dense._flat_curve`); a short fragment (a twig's last few radii past a fork, a leaf or
+another branch) often has too little texture and no curve, so its tip was never placed. Its
+round cap, though, is the one thing of a flat piece that is well placed along the rows: the
+left mask's patch around the end (:func:`caps.cap_disparity`: only its outward half, the cap
+and the background beyond it) slid along the right mask's rows fits in one place. That
+disparity, checked against the rows across the end (both views' run ends agree row by row)
+and against the piece's other end when that is placed, gives a short constant-disparity curve
+on which :meth:`ends.EndPlacer.tip` places the tip and checks it like any other flat tip (the
+run ends refine the disparity; an end cut obliquely or with something at its depth or nearer
+just beyond it is hidden).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from appliance.localize.caps import cap_disparity
+from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
+from appliance.localize.edges import Runs
+from appliance.localize.graph import ENDPOINT, JOINT
+
+# the end's disparity may differ from the piece's placed other end by this much (px, or share):
+# a short flat piece barely changes depth along its length
+MAX_END_GAP_PX = 2.0
+MAX_END_GAP_SHARE = 0.03
+# another fit of the cap along the rows within this share of the best: ambiguous (a flat cap's patch
+# also half fits along the piece's own body, whose outline runs along the rows)
+MIN_FIT_MARGIN = 0.08
+# a round cap's outline 0.7 radius off the axis ends r (1 - sqrt(1 - 0.7^2)) ~ 0.29 r behind the axis'
+# end; both sides must be back by at least this share of that (an apple's or a leaf's edge cutting
+# the piece runs straight or bulges into it)
+MIN_ROUNDNESS = 0.4
+
+
+def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
+    """Curves (by column) for flat pieces ``segs`` without one that end in a tip whose round
+    cap fits in the right view (:func:`caps.cap_disparity`).
+
+    Parameters
+    ----------
+    b : ends.EndPlacer
+        The placer of the graph (its mask runs, placed forks and joints).
+    segs : list of int
+        Flat pieces (within ``match.max_horizontal_deg`` of the rows) without a curve.
+    runs_lt : Runs
+        Runs of the transposed left mask (columns), for the piece's centre line and radius.
+
+    Returns
+    -------
+    dict
+        {segment: BranchCurve}: the straight centre line v(u) of the piece's last four radii
+        (middles of the left mask's columns), at the cap's constant disparity; a piece with two
+        such ends takes the first that fits.
+    """
+    g, sm = b.g, b.sm
+    out: dict[int, BranchCurve] = {}
+    dmin, dmax = sm.d_range_px
+    for s in segs:
+        if g.seg_recovered[s]:
+            continue
+        for k in (0, 1):
+            node = int(g.seg_nodes[s][k])
+            if node < 0 or g.node_kind[node] != ENDPOINT:
+                continue
+            c = _flat_cap_curve(b, s, node, runs_lt)
+            if c is None or not dmin <= c.d_poly.at(c.t_range[0]) <= dmax:
+                continue
+            # the other end joined across a gap to the same branch (a joint) has its depth; a fork
+            # there may be a crossing with another branch at another depth: no check
+            other = int(g.seg_nodes[s][1 - k])
+            if other >= 0 and other in b.uvd and g.node_kind[other] == JOINT:
+                d_o, d = float(b.uvd[other][2]), c.d_poly.at(c.t_range[0])
+                if abs(d - d_o) > max(MAX_END_GAP_PX, MAX_END_GAP_SHARE * d_o):
+                    continue
+            out[s] = c
+            b.cap_segments.add(s)
+            break
+    return out
+
+
+def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
+    """The curve of flat piece ``s`` from its end ``node``'s cap (see :func:`flat_cap_curves`)."""
+    g, sm = b.g, b.sm
+    end_xy = b.node_xy[node]
+    yx = [g.seg_yx[s].reshape(-1, 2), g.node_pixels[node]]
+    pts = g.to_full(np.concatenate(yx))
+    r0 = float(b._node_radius(node))
+    if r0 < 1.0:
+        return None
+    near = pts[np.hypot(*(pts - end_xy).T) <= max(4 * r0, 12.0) + g.scale]
+    if len(near) < 2 or np.ptp(near[:, 0]) < 2 or angle_deg(near) >= b.cfg.max_horizontal_deg:
+        return None
+    v_poly = Poly.fit(near[:, 0].astype(float), near[:, 1].astype(float), 1)
+    lo, hi = float(near[:, 0].min()), float(near[:, 0].max())
+    c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r0, len(near), (0.0, 0.0))
+    t_edge, sign = b._walk_out(c, node)
+    # the line moved onto the middles of the left mask's columns behind the cap (the skeleton's
+    # end lies inside the cap; the cap's own columns are shorter)
+    cols = t_edge - sign * np.arange(r0 + 2.0, r0 + 2.0 + max(3 * r0, 10.0))
+    it = runs_lt.find(np.rint(cols).astype(int), v_poly(cols))
+    ok = it >= 0
+    if ok.sum() < 3:
+        return None
+    cols = np.rint(cols[ok])
+    v_poly = Poly.fit(cols, runs_lt.centre_px[it[ok]], 1)
+    slope = v_poly.deriv().at(float(cols.mean()))
+    r = float(median(0.5 * runs_lt.span_px[it[ok]] / np.sqrt(1.0 + slope * slope)))
+    if r < 1.0:
+        return None
+    lo, hi = (float(cols.min()), t_edge) if sign > 0 else (t_edge, float(cols.max()))
+    c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r, int(ok.sum()), (0.0, 0.0))
+    t_edge, sign = b._walk_out(c, node)
+    uv_edge = c.uv_at(t_edge)[0]
+    direction = c.uv_at(t_edge + sign)[0] - uv_edge
+    direction /= max(float(np.hypot(*direction)), 1e-9)
+    # the cap's centre, one radius back from where the centre line leaves the mask
+    d = cap_disparity(sm, uv_edge - r * direction, max(4, int(round(2 * r))), direction, MIN_FIT_MARGIN)
+    if d is None:
+        return None
+    # the rows across the end end alike in both views at that disparity (a round cap; a right
+    # run merging there with something else does not)
+    if not b._end_outline_agrees(uv_edge, direction, d, r) or not round_end(b.runs_l, uv_edge, sign, r):
+        return None
+    return BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(d), r, int(ok.sum()), (0.0, 0.0))
+
+
+def round_end(runs_l: Runs, uv_edge: np.ndarray, sign: float, r: float) -> bool:
+    """Whether the end of a flat piece at ``uv_edge`` (x, y; the centre line's last point on the
+    mask, the piece running towards ``sign`` (+-1) along the rows) is a round cap of radius ``r``
+    (px): on the rows 0.7 r above and below the axis the mask ends at least
+    :data:`MIN_ROUNDNESS` of a circle's ``0.29 r`` behind the axis row's end."""
+    rows = np.rint(uv_edge[1] + np.array([0.0, -0.7 * r, 0.7 * r])).astype(int)
+    il = runs_l.find(rows, np.full(3, uv_edge[0] - sign * r))
+    if (il < 0).any():
+        return False
+    ends = runs_l.right_px[il] if sign > 0 else runs_l.left_px[il]
+    back = sign * (ends[0] - ends[1:])
+    return bool((back >= MIN_ROUNDNESS * (1.0 - np.sqrt(0.51)) * r).all())

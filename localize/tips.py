@@ -109,7 +109,9 @@ def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
     r = float(median(0.5 * runs_lt.span_px[it[ok]] / np.sqrt(1.0 + slope * slope)))
     if r < 1.0:
         return None
-    lo, hi = (float(cols.min()), t_edge) if sign > 0 else (t_edge, float(cols.max()))
+    # the span: from the end back past the skeleton's last points (the end's walk starts at the
+    # span's end nearer the node)
+    lo, hi = (min(float(cols.min()), lo), t_edge) if sign > 0 else (t_edge, max(float(cols.max()), hi))
     c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r, int(ok.sum()), (0.0, 0.0))
     t_edge, sign = b._walk_out(c, node)
     uv_edge = c.uv_at(t_edge)[0]

@@ -22,6 +22,7 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
+from appliance.localize.tips import occluder_confirmed
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
@@ -632,7 +633,8 @@ class EndPlacer:
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
-                           np.array([half]), self.sm.d_range_px[1]):
+                           np.array([half]), self.sm.d_range_px[1]) and \
+                occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
             self.hidden.add(int(node))
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:

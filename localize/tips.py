@@ -15,6 +15,7 @@ just beyond it is hidden).
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from appliance.localize.caps import cap_disparity
 from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
@@ -32,6 +33,10 @@ MIN_FIT_MARGIN = 0.08
 # end; both sides must be back by at least this share of that (an apple's or a leaf's edge cutting
 # the piece runs straight or bulges into it)
 MIN_ROUNDNESS = 0.4
+# the probe beyond a tip: a match within this (px of disparity) in front of the branch is an occluder
+# near it; one further in front must be found again by the next patch out, within CONFIRM_PX
+NEAR_FRONT_PX = 30.0
+CONFIRM_PX = 3.0
 
 
 def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
@@ -140,3 +145,51 @@ def round_end(runs_l: Runs, uv_edge: np.ndarray, sign: float, r: float) -> bool:
     ends = runs_l.right_px[il] if sign > 0 else runs_l.left_px[il]
     back = sign * (ends[0] - ends[1:])
     return bool((back >= MIN_ROUNDNESS * (1.0 - np.sqrt(0.51)) * r).all())
+
+
+def front_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_branch_px: float, half_px: int,
+                    d_max_px: float, margin_px: float = -3.0, min_score: float = 0.7,
+                    min_lead: float = 0.1) -> float | None:
+    """Disparity (px) of the patch at ``uv_px`` (x, y) when it lies in front of the branch, as
+    :func:`texture.nearer_in_front` decides it (best match in front scoring ``min_score`` or more
+    and ``min_lead`` above every match behind); None when it does not (or has no texture, or
+    leaves the image)."""
+    h, w = left.shape
+    u, v = (int(x) for x in np.rint(uv_px))
+    hh = int(half_px)
+    if v - hh < 0 or v + hh + 1 > h or u - hh < 0 or u + hh + 1 > w:
+        return None
+    x0 = max(int(u - np.ceil(d_max_px)) - hh, 0)
+    tmpl = np.ascontiguousarray(left[v - hh:v + hh + 1, u - hh:u + hh + 1])
+    strip = np.ascontiguousarray(right[v - hh:v + hh + 1, x0:u + hh])
+    if strip.shape[1] <= tmpl.shape[1] or float(tmpl.std()) < 2.0:
+        return None
+    c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+    d = u - (x0 + np.arange(len(c)) + hh)
+    front = d > d_branch_px + margin_px
+    if not front.any():
+        return None
+    k = int(np.argmax(np.where(front, c, -np.inf)))
+    best_behind = float(c[~front].max()) if (~front).any() else -1.0
+    if c[k] < min_score or c[k] < best_behind + min_lead:
+        return None
+    return float(d[k])
+
+
+def occluder_confirmed(sm, uv_edge: np.ndarray, out: np.ndarray, d_branch_px: float, half_px: int) -> bool:
+    """Whether something found in front of a tip by the probe just beyond it (the square patch
+    of half size ``half_px`` clear of the cap, as in :meth:`ends.EndPlacer.tip`) is an occluder.
+
+    A thing hiding a branch's end (a leaf, an apple, a twig) lies near the branch, within
+    :data:`NEAR_FRONT_PX` of its disparity; a match much further in front is taken only if
+    the next patch out along the branch finds the same disparity (:data:`CONFIRM_PX`): smooth,
+    blurred background behind a true tip matches by chance somewhere along the rows.
+    """
+    step = half_px * (abs(out[0]) + abs(out[1]))
+    p1 = uv_edge + out * (step + 2)
+    d1 = front_disparity(sm.left_gray, sm.right_gray, p1, d_branch_px, half_px, sm.d_range_px[1])
+    if d1 is None or d1 - d_branch_px <= NEAR_FRONT_PX:
+        return True                      # (as texture.nearer_in_front decided: near the branch)
+    d2 = front_disparity(sm.left_gray, sm.right_gray, uv_edge + out * (3 * step + 3), d_branch_px, half_px,
+                         sm.d_range_px[1])
+    return d2 is not None and abs(d2 - d1) <= CONFIRM_PX

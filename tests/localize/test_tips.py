@@ -1,5 +1,7 @@
 """Tips of short flat pieces found by their round cap (localize/tips.py; constructed masks)."""
 
+from types import SimpleNamespace
+
 import cv2
 import numpy as np
 from appliance.config import load_config
@@ -9,7 +11,7 @@ from appliance.localize.graph import build_graph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import ridge_radius_map
 from appliance.localize.skeleton import skeletonize
-from appliance.localize.tips import flat_cap_curves, round_end
+from appliance.localize.tips import flat_cap_curves, front_disparity, occluder_confirmed, round_end
 
 H, W, R = 200, 480, 6.0
 SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
@@ -71,3 +73,35 @@ def test_square_cut_end_is_no_cap():
     assert not round_end(runs_l, edge, -1.0, R)
     b_round, _, _ = _placer(150.0)
     assert round_end(find_runs(b_round.sm.left_mask, soft=True), np.array([CAP[0] - R + 0.2, CAP[1]]), -1.0, R)
+
+
+def _scene(d_occ: float, occ_x: tuple[int, int] = (300, 380)):
+    """Grey views: blurred noise background 20 px of disparity away, and a textured occluder
+    over columns ``occ_x`` of the left view at disparity ``d_occ`` (whole px)."""
+    rng = np.random.default_rng(5)
+    bg = cv2.GaussianBlur(rng.uniform(0, 255, (H, W + 450)).astype(np.float32), (0, 0), 2.0)
+    occ = cv2.GaussianBlur(rng.uniform(0, 255, (H, W)).astype(np.float32), (0, 0), 1.5)
+    left, right = bg[:, 400:400 + W].copy(), bg[:, 420:420 + W].copy()    # right: the same 20 px further left
+    a, z = occ_x
+    d = int(d_occ)
+    left[40:160, a:z] = occ[40:160, a:z]
+    right[40:160, a - d:z - d] = occ[40:160, a:z]
+    to8 = lambda im: np.clip(im, 0, 255).astype(np.uint8)          # noqa: E731
+    return SimpleNamespace(left_gray=to8(left), right_gray=to8(right), d_range_px=(100.0, 300.0))
+
+
+def test_front_disparity_finds_an_occluder_and_not_the_background():
+    sm = _scene(190.0)
+    assert abs(front_disparity(sm.left_gray, sm.right_gray, np.array([330.0, 100.0]), 150.0, 8, 300.0) - 190) <= 1
+    # behind the branch (the background, 20 px): nothing in front
+    assert front_disparity(sm.left_gray, sm.right_gray, np.array([200.0, 100.0]), 150.0, 8, 300.0) is None
+
+
+def test_an_occluder_far_in_front_must_show_in_the_next_patch_too():
+    right_dir = np.array([1.0, 0.0])
+    # near the branch's disparity (150): an occluder without more ado
+    assert occluder_confirmed(_scene(170.0), np.array([310.0, 100.0]), right_dir, 150.0, 8)
+    # far in front (250) and wide: the next patch out finds it again
+    assert occluder_confirmed(_scene(250.0), np.array([310.0, 100.0]), right_dir, 150.0, 8)
+    # far in front but only as wide as the first patch: the next patch sees the background
+    assert not occluder_confirmed(_scene(250.0, (315, 336)), np.array([310.0, 100.0]), right_dir, 150.0, 8)

@@ -11,7 +11,9 @@ from appliance.localize.graph import build_graph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import ridge_radius_map
 from appliance.localize.skeleton import skeletonize
-from appliance.localize.tips import flat_cap_curves, front_disparity, occluder_confirmed, round_end
+from appliance.localize.tips import (
+    flat_cap_curves, front_disparity, occluder_confirmed, round_end, silhouette_offset_px,
+)
 
 H, W, R = 200, 480, 6.0
 SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
@@ -105,3 +107,18 @@ def test_an_occluder_far_in_front_must_show_in_the_next_patch_too():
     assert occluder_confirmed(_scene(250.0), np.array([310.0, 100.0]), right_dir, 150.0, 8)
     # far in front but only as wide as the first patch: the next patch sees the background
     assert not occluder_confirmed(_scene(250.0, (315, 336)), np.array([310.0, 100.0]), right_dir, 150.0, 8)
+
+
+def test_silhouette_offset_matches_a_spheres_grazing_rays():
+    f, b, cx = 1450.0, 120.0, 640.0
+    for x_mm, z_mm, rho_mm in ((300.0, 1000.0, 5.0), (-250.0, 700.0, 8.0), (-400.0, 1400.0, 4.0)):
+        def extreme(x_cam, side):            # rectified column of the sphere's extreme seen from x_cam
+            dist = np.hypot(x_mm - x_cam, z_mm)
+            return cx + f * np.tan(np.arctan2(x_mm - x_cam, z_mm) + side * np.arcsin(rho_mm / dist))
+        u, d = cx + f * x_mm / z_mm, f * b / z_mm
+        half = f * rho_mm / z_mm
+        for side in (-1.0, 1.0):
+            exact = extreme(0.0, side) - extreme(b, side) - d
+            approx = silhouette_offset_px(u, d, half, side, f, cx)
+            assert abs(approx - exact) <= 0.02 * abs(exact) + 0.003
+            assert abs(exact) > 0.005                                  # (a real effect)

@@ -15,6 +15,8 @@ just beyond it is hidden).
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 from appliance.localize.caps import cap_disparity
@@ -122,13 +124,15 @@ def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
     uv_edge = c.uv_at(t_edge)[0]
     direction = c.uv_at(t_edge + sign)[0] - uv_edge
     direction /= max(float(np.hypot(*direction)), 1e-9)
+    if not round_end(b.runs_l, uv_edge, sign, r):     # (the cheap test first)
+        return None
     # the cap's centre, one radius back from where the centre line leaves the mask
     d = cap_disparity(sm, uv_edge - r * direction, max(4, int(round(2 * r))), direction, MIN_FIT_MARGIN)
     if d is None:
         return None
     # the rows across the end end alike in both views at that disparity (a round cap; a right
     # run merging there with something else does not)
-    if not b._end_outline_agrees(uv_edge, direction, d, r) or not round_end(b.runs_l, uv_edge, sign, r):
+    if not b._end_outline_agrees(uv_edge, direction, d, r):
         return None
     return BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(d), r, int(ok.sum()), (0.0, 0.0))
 
@@ -218,6 +222,13 @@ def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: fl
         Rectified focal length and principal point column (the image's middle column is close
         enough: 20 px off moves the result by ~1 %).
     """
+    if np.ndim(u_px) == 0 and np.ndim(d_px) == 0 and np.ndim(half_width_px) == 0 and np.ndim(side) == 0:
+        x_l = (float(u_px) - cx_px) / f_px         # (one point: the same sums in Python floats)
+        x_r = x_l - float(d_px) / f_px
+        rho = float(half_width_px) / f_px
+        e_l = math.tan(math.atan(x_l) + side * math.asin(min(rho / math.hypot(x_l, 1.0), 1.0)))
+        e_r = math.tan(math.atan(x_r) + side * math.asin(min(rho / math.hypot(x_r, 1.0), 1.0)))
+        return f_px * (e_l - e_r - (x_l - x_r))
     x_l = (np.asarray(u_px, float) - cx_px) / f_px
     x_r = x_l - np.asarray(d_px, float) / f_px
     rho = np.asarray(half_width_px, float) / f_px

@@ -22,7 +22,7 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import occluder_confirmed, silhouette_offset_px
+from appliance.localize.tips import occluder_confirmed, round_cap, silhouette_offset_px
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
@@ -630,6 +630,9 @@ class EndPlacer:
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return
+        if not round_cap(self.sm.left_mask, uv_edge, out, r):      # an occluder's edge ends it (tips.cap_shape)
+            self.hidden.add(int(node))
+            return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],

@@ -39,6 +39,11 @@ MIN_ROUNDNESS = 0.4
 # near it; one further in front must be found again by the next patch out, within CONFIRM_PX
 NEAR_FRONT_PX = 30.0
 CONFIRM_PX = 3.0
+# a tip's end read against a round cap (cap_shape): each side at least this share of a round cap's
+# setback, and at most MAX_CAP_BACK (a pointed end: a leaf's tip)
+MIN_CAP_BACK = 0.2
+MAX_CAP_BACK = 3.0
+TOUCH_BACK = -5.0
 
 
 def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
@@ -235,3 +240,77 @@ def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: fl
     ext_l = np.tan(np.arctan(x_l) + side * np.arcsin(np.minimum(rho / np.hypot(x_l, 1.0), 1.0)))
     ext_r = np.tan(np.arctan(x_r) + side * np.arcsin(np.minimum(rho / np.hypot(x_r, 1.0), 1.0)))
     return f_px * (ext_l - ext_r - (x_l - x_r))
+
+
+def _last_on(mask: np.ndarray, starts: np.ndarray, direction: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Where each line ``starts[k] + s direction`` (s ascending) last has the soft ``mask`` at or
+    above one half, interpolated between samples (K,); NaN where a line starts off the mask or
+    never leaves it. One bilinear read of all lines."""
+    pts = starts[:, None, :] + s[None, :, None] * direction[None, None, :]          # (K, S, 2)
+    v = cv2.remap(mask, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32), cv2.INTER_LINEAR,
+                  borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float32)
+    on = v >= 127.5
+    k = on.argmin(axis=1)                                # the first sample off (0 if all on)
+    ok = on[:, 0] & ~on.all(axis=1)
+    rows = np.arange(len(starts))
+    a, b = v[rows, np.maximum(k - 1, 0)], v[rows, k]
+    step = s[1] - s[0]
+    x = s[np.maximum(k - 1, 0)] + (a - 127.5) / np.maximum(a - b, 1e-6) * step
+    return np.where(ok, x, np.nan)
+
+
+def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float,
+              merged: bool = False) -> tuple[float, float, float] | None:
+    """A branch end's outline against a round cap's, from the soft mask (sub-pixel).
+
+    The branch's radius ``rho`` is half its width across, 1.5 ``r`` behind the end (``uv_edge``,
+    where the centre line leaves the mask going ``out``, unit (x, y); ``merged``: something touches
+    one side there, the shorter reach from the centre line is the radius); the lines 0.7 ``rho`` to
+    either side of the centre line leave the mask ``back`` behind where it does. A round cap gives
+    ``back = (1 - sqrt(1 - 0.7^2)) rho ~ 0.29 rho`` on both sides; an occluder's edge that ends
+    the branch (straight, or an apple's or a leaf's outline bulging into it) gives ~0 or less on
+    at least one side.
+
+    Returns
+    -------
+    (rho, back_a, back_b) or None
+        ``rho`` px; each side's ``back`` as a share of a round cap's (1 = round; -inf where that
+        side runs on past the reach); None where the outline cannot be read (the width, or the
+        centre line's end).
+    """
+    n = np.array([-out[1], out[0]])
+    p = uv_edge - 1.5 * r * out
+    s = np.arange(0.0, 3.0 * r + 4.0, 0.25)
+    wa = _last_on(mask, p[None], n, s)[0]
+    wb = _last_on(mask, p[None], -n, s)[0]
+    if not (np.isfinite(wa) and np.isfinite(wb)):
+        return None
+    if not merged:
+        rho = 0.5 * (wa + wb)
+        mid = p + 0.5 * (wa - wb) * n                    # the middle across, 1.5 r behind the end
+    else:                                                # merged on one side with something touching:
+        rho, mid = min(wa, wb), p                        # the other side's reach from the centre line
+    s2 = np.arange(0.0, 1.5 * r + 3.0 * rho + 4.0, 0.25)
+    e = _last_on(mask, np.stack([mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n]), out, s2)
+    if not np.isfinite(e[0]):
+        return None
+    e = np.where(np.isfinite(e), e, np.inf)              # a side that never leaves the mask runs on
+    expect = (1.0 - np.sqrt(0.51)) * rho
+    return float(rho), float((e[0] - e[1]) / expect), float((e[0] - e[2]) / expect)
+
+
+def round_cap(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> bool:
+    """Whether a branch end reads as a round cap (:func:`cap_shape`): both sides between
+    :data:`MIN_CAP_BACK` and :data:`MAX_CAP_BACK` of a round cap's, or one side so and the other
+    running on far past the end (:data:`TOUCH_BACK`: something touches the cap there, as a twig or
+    a leaf's stalk; an occluder's oblique edge moves the two sides about alike, one back and one
+    on); an end that cannot be read counts as round (no evidence against it). Read twice if need
+    be: with the width across the branch, then with its shorter half (merged on one side)."""
+    for merged in (False, True):         # (the width 1.5 r back may itself be merged on one side)
+        shape = cap_shape(mask, uv_edge, out, r, merged)
+        if shape is None:
+            return True
+        lo, hi = sorted(shape[1:])
+        if MIN_CAP_BACK <= hi <= MAX_CAP_BACK and (lo >= MIN_CAP_BACK or lo <= TOUCH_BACK):
+            return True
+    return False

@@ -12,7 +12,7 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import ridge_radius_map
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.tips import (
-    flat_cap_curves, front_disparity, occluder_confirmed, round_end, silhouette_offset_px,
+    cap_shape, flat_cap_curves, front_disparity, occluder_confirmed, round_cap, round_end, silhouette_offset_px,
 )
 
 H, W, R = 200, 480, 6.0
@@ -122,3 +122,30 @@ def test_silhouette_offset_matches_a_spheres_grazing_rays():
             approx = silhouette_offset_px(u, d, half, side, f, cx)
             assert abs(approx - exact) <= 0.02 * abs(exact) + 0.003
             assert abs(exact) > 0.005                                  # (a real effect)
+
+
+def _rod(square: bool = False, oblique: float = 0.0, touch: bool = False) -> np.ndarray:
+    """A vertical rod (radius R) ending at the top at y = 60: round, cut square, cut by an oblique
+    edge (``oblique``: the edge's slope), or round and touched on its right by a bar."""
+    m = np.zeros((H, W), np.uint8)
+    s = 1 << SHIFT
+    pts = np.array([[300 - R, 60.0], [300 + R, 60.0], [300 + R, 180.0], [300 - R, 180.0]])
+    cv2.fillPoly(m, [np.rint(pts * s).astype(np.int32)], 255, cv2.LINE_AA, SHIFT)
+    if not square and not oblique:
+        cv2.circle(m, (300 * s, 60 * s), int(R * s), 255, -1, cv2.LINE_AA, SHIFT)
+    if oblique:                                  # everything above the edge through (300, 62) goes
+        edge = np.array([[0, 62 - 300 * oblique], [W, 62 + (W - 300) * oblique], [W, 0], [0, 0]])
+        cv2.fillPoly(m, [np.rint(edge * s).astype(np.int32)], 0, cv2.LINE_AA, SHIFT)
+    if touch:
+        cv2.rectangle(m, (int((300 + R - 1) * s), 50 * s), (int((300 + R + 12) * s), 90 * s), 255, -1, cv2.LINE_AA, SHIFT)
+    return m
+
+
+def test_round_caps_and_occluders_edges():
+    up = np.array([0.0, -1.0])
+    assert round_cap(_rod(), np.array([300.0, 60.5 - R]), up, R)
+    shape = cap_shape(_rod(), np.array([300.0, 60.5 - R]), up, R)
+    assert abs(shape[0] - R) < 1.0 and 0.6 < shape[1] < 1.4 and 0.6 < shape[2] < 1.4   # (antialiased rim)
+    assert not round_cap(_rod(square=True), np.array([300.0, 60.5]), up, R)
+    assert not round_cap(_rod(oblique=0.5), np.array([300.0, 62.5]), up, R)
+    assert round_cap(_rod(touch=True), np.array([300.0, 60.5 - R]), up, R)      # touched on one side

@@ -126,7 +126,7 @@ def test_silhouette_offset_matches_a_spheres_grazing_rays():
 
 def _rod(square: bool = False, oblique: float = 0.0, touch: bool = False) -> np.ndarray:
     """A vertical rod (radius R) ending at the top at y = 60: round, cut square, cut by an oblique
-    edge (``oblique``: the edge's slope), or round and touched on its right by a bar."""
+    edge (``oblique``: the edge's slope), or round and touched on its right by a bar running on past it."""
     m = np.zeros((H, W), np.uint8)
     s = 1 << SHIFT
     pts = np.array([[300 - R, 60.0], [300 + R, 60.0], [300 + R, 180.0], [300 - R, 180.0]])
@@ -137,7 +137,8 @@ def _rod(square: bool = False, oblique: float = 0.0, touch: bool = False) -> np.
         edge = np.array([[0, 62 - 300 * oblique], [W, 62 + (W - 300) * oblique], [W, 0], [0, 0]])
         cv2.fillPoly(m, [np.rint(edge * s).astype(np.int32)], 0, cv2.LINE_AA, SHIFT)
     if touch:
-        cv2.rectangle(m, (int((300 + R - 1) * s), 50 * s), (int((300 + R + 12) * s), 90 * s), 255, -1, cv2.LINE_AA, SHIFT)
+        cv2.rectangle(m, (int((300 + R - 1) * s), 20 * s), (int((300 + R + 12) * s), 90 * s), 255, -1,
+                      cv2.LINE_AA, SHIFT)
     return m
 
 

@@ -242,27 +242,29 @@ def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: fl
     return f_px * (ext_l - ext_r - (x_l - x_r))
 
 
-def _last_on(mask: np.ndarray, starts: np.ndarray, direction: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Where each line ``starts[k] + s direction`` (s ascending) last has the soft ``mask`` at or
-    above one half, interpolated between samples (K,); NaN where a line starts off the mask or
-    never leaves it. One bilinear read of all lines."""
-    pts = starts[:, None, :] + s[None, :, None] * direction[None, None, :]          # (K, S, 2)
-    v = cv2.remap(mask, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32), cv2.INTER_LINEAR,
-                  borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float32)
-    on = v >= 127.5
+def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Where each line ``starts[k] + s directions[k]`` (s ascending, evenly spaced) last has the
+    soft ``mask`` at or above one half, interpolated between samples (K,); NaN where a line
+    starts off the mask or never leaves it. One bilinear read of all lines."""
+    s32 = s.astype(np.float32)
+    mx = starts[:, :1].astype(np.float32) + directions[:, :1].astype(np.float32) * s32      # (K, S)
+    my = starts[:, 1:].astype(np.float32) + directions[:, 1:].astype(np.float32) * s32
+    v = cv2.remap(mask, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    on = v >= 128
     k = on.argmin(axis=1)                                # the first sample off (0 if all on)
-    ok = on[:, 0] & ~on.all(axis=1)
     rows = np.arange(len(starts))
-    a, b = v[rows, np.maximum(k - 1, 0)], v[rows, k]
-    step = s[1] - s[0]
-    x = s[np.maximum(k - 1, 0)] + (a - 127.5) / np.maximum(a - b, 1e-6) * step
-    return np.where(ok, x, np.nan)
+    a = v[rows, k - 1].astype(np.float32)                # (k = 0: a line starting off, or never off)
+    b = v[rows, k]
+    x = s[k - 1] + (a - 127.5) / np.maximum(a - b, 1e-6) * (s[1] - s[0])
+    x[(k == 0) | ~on[:, 0]] = np.nan
+    return x
 
 
 def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float,
               merged: bool = False) -> tuple[float, float, float] | None:
     """A branch end's outline against a round cap's, from the soft mask (sub-pixel).
 
+    Read along lines at 0.5 px steps, the half-coverage crossing interpolated between samples.
     The branch's radius ``rho`` is half its width across, 1.5 ``r`` behind the end (``uv_edge``,
     where the centre line leaves the mask going ``out``, unit (x, y); ``merged``: something touches
     one side there, the shorter reach from the centre line is the radius); the lines 0.7 ``rho`` to
@@ -280,9 +282,7 @@ def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float,
     """
     n = np.array([-out[1], out[0]])
     p = uv_edge - 1.5 * r * out
-    s = np.arange(0.0, 3.0 * r + 4.0, 0.25)
-    wa = _last_on(mask, p[None], n, s)[0]
-    wb = _last_on(mask, p[None], -n, s)[0]
+    wa, wb = _last_on(mask, np.stack([p, p]), np.stack([n, -n]), np.arange(0.0, 3.0 * r + 4.0, 0.5))
     if not (np.isfinite(wa) and np.isfinite(wb)):
         return None
     if not merged:
@@ -290,8 +290,8 @@ def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float,
         mid = p + 0.5 * (wa - wb) * n                    # the middle across, 1.5 r behind the end
     else:                                                # merged on one side with something touching:
         rho, mid = min(wa, wb), p                        # the other side's reach from the centre line
-    s2 = np.arange(0.0, 1.5 * r + 3.0 * rho + 4.0, 0.25)
-    e = _last_on(mask, np.stack([mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n]), out, s2)
+    s2 = np.arange(0.0, 1.5 * r + 2.0 * rho + 4.0, 0.5)     # (a side running on further: touched)
+    e = _last_on(mask, np.stack([mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n]), np.stack([out, out, out]), s2)
     if not np.isfinite(e[0]):
         return None
     e = np.where(np.isfinite(e), e, np.inf)              # a side that never leaves the mask runs on

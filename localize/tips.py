@@ -260,54 +260,58 @@ def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np
     return x
 
 
-def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float,
-              merged: bool = False) -> tuple[float, float, float] | None:
+def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> list | None:
     """A branch end's outline against a round cap's, from the soft mask (sub-pixel).
 
     Read along lines at 0.5 px steps, the half-coverage crossing interpolated between samples.
     The branch's radius ``rho`` is half its width across, 1.5 ``r`` behind the end (``uv_edge``,
-    where the centre line leaves the mask going ``out``, unit (x, y); ``merged``: something touches
-    one side there, the shorter reach from the centre line is the radius); the lines 0.7 ``rho`` to
+    where the centre line leaves the mask going ``out``, unit (x, y)); the lines 0.7 ``rho`` to
     either side of the centre line leave the mask ``back`` behind where it does. A round cap gives
     ``back = (1 - sqrt(1 - 0.7^2)) rho ~ 0.29 rho`` on both sides; an occluder's edge that ends
     the branch (straight, or an apple's or a leaf's outline bulging into it) gives ~0 or less on
-    at least one side.
+    at least one side. The width there may itself be merged on one side with something touching
+    the branch: the second reading takes the shorter side's reach from the fitted centre line as
+    the radius, about that line.
 
     Returns
     -------
-    (rho, back_a, back_b) or None
-        ``rho`` px; each side's ``back`` as a share of a round cap's (1 = round; -inf where that
-        side runs on past the reach); None where the outline cannot be read (the width, or the
-        centre line's end).
+    list of two (rho, back_a, back_b) or None, or None
+        The two readings (across the width; the shorter side's): ``rho`` px, each side's ``back``
+        as a share of a round cap's (1 = round; -inf where that side runs on past the reach, 2 rho
+        beyond the middle's end at least); None where the outline cannot be read (the width; a
+        reading's centre-line end).
     """
     n = np.array([-out[1], out[0]])
     p = uv_edge - 1.5 * r * out
     wa, wb = _last_on(mask, np.stack([p, p]), np.stack([n, -n]), np.arange(0.0, 3.0 * r + 4.0, 0.5))
     if not (np.isfinite(wa) and np.isfinite(wb)):
         return None
-    if not merged:
-        rho = 0.5 * (wa + wb)
-        mid = p + 0.5 * (wa - wb) * n                    # the middle across, 1.5 r behind the end
-    else:                                                # merged on one side with something touching:
-        rho, mid = min(wa, wb), p                        # the other side's reach from the centre line
-    s2 = np.arange(0.0, 1.5 * r + 2.0 * rho + 4.0, 0.5)     # (a side running on further: touched)
-    e = _last_on(mask, np.stack([mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n]), np.stack([out, out, out]), s2)
-    if not np.isfinite(e[0]):
-        return None
-    e = np.where(np.isfinite(e), e, np.inf)              # a side that never leaves the mask runs on
-    expect = (1.0 - np.sqrt(0.51)) * rho
-    return float(rho), float((e[0] - e[1]) / expect), float((e[0] - e[2]) / expect)
+    variants = ((0.5 * (wa + wb), p + 0.5 * (wa - wb) * n),   # the middle across, 1.5 r behind the end
+                (min(wa, wb), p))                             # merged on one side: the other's reach
+    starts = np.stack([q for rho, mid in variants for q in (mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n)])
+    s2 = np.arange(0.0, 1.5 * r + 2.0 * variants[0][0] + 4.0, 0.5)     # (a side running on further: touched)
+    e = _last_on(mask, starts, np.broadcast_to(out, starts.shape), s2).reshape(2, 3)
+    shapes = []
+    for (rho, _), ev in zip(variants, e):
+        if not np.isfinite(ev[0]):
+            shapes.append(None)
+            continue
+        ev = np.where(np.isfinite(ev), ev, np.inf)          # a side that never leaves the mask runs on
+        expect = (1.0 - np.sqrt(0.51)) * rho
+        shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
+    return shapes
 
 
 def round_cap(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> bool:
-    """Whether a branch end reads as a round cap (:func:`cap_shape`): both sides between
-    :data:`MIN_CAP_BACK` and :data:`MAX_CAP_BACK` of a round cap's, or one side so and the other
-    running on far past the end (:data:`TOUCH_BACK`: something touches the cap there, as a twig or
-    a leaf's stalk; an occluder's oblique edge moves the two sides about alike, one back and one
-    on); an end that cannot be read counts as round (no evidence against it). Read twice if need
-    be: with the width across the branch, then with its shorter half (merged on one side)."""
-    for merged in (False, True):         # (the width 1.5 r back may itself be merged on one side)
-        shape = cap_shape(mask, uv_edge, out, r, merged)
+    """Whether a branch end reads as a round cap (:func:`cap_shape`, either reading): both sides
+    between :data:`MIN_CAP_BACK` and :data:`MAX_CAP_BACK` of a round cap's, or one side so and the
+    other running on far past the end (:data:`TOUCH_BACK`: something touches the cap there, as a
+    twig or a leaf's stalk; an occluder's oblique edge moves the two sides about alike, one back
+    and one on); an end that cannot be read counts as round (no evidence against it)."""
+    shapes = cap_shape(mask, uv_edge, out, r)
+    if shapes is None or shapes[0] is None:
+        return True
+    for shape in shapes:
         if shape is None:
             return True
         lo, hi = sorted(shape[1:])

@@ -145,7 +145,7 @@ def _rod(square: bool = False, oblique: float = 0.0, touch: bool = False) -> np.
 def test_round_caps_and_occluders_edges():
     up = np.array([0.0, -1.0])
     assert round_cap(_rod(), np.array([300.0, 60.5 - R]), up, R)
-    shape = cap_shape(_rod(), np.array([300.0, 60.5 - R]), up, R)
+    shape = cap_shape(_rod(), np.array([300.0, 60.5 - R]), up, R)[0]        # (the reading across the width)
     assert abs(shape[0] - R) < 1.0 and 0.6 < shape[1] < 1.4 and 0.6 < shape[2] < 1.4   # (antialiased rim)
     assert not round_cap(_rod(square=True), np.array([300.0, 60.5]), up, R)
     assert not round_cap(_rod(oblique=0.5), np.array([300.0, 62.5]), up, R)

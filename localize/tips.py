@@ -34,7 +34,7 @@ MIN_FIT_MARGIN = 0.08
 # a round cap's outline 0.7 radius off the axis ends r (1 - sqrt(1 - 0.7^2)) ~ 0.29 r behind the axis'
 # end; both sides must be back by at least this share of that (an apple's or a leaf's edge cutting
 # the piece runs straight or bulges into it)
-MIN_ROUNDNESS = 0.4
+MIN_ROUNDNESS = 0.2
 # the probe beyond a tip: a match within this (px of disparity) in front of the branch is an occluder
 # near it; one further in front must be found again by the next patch out, within CONFIRM_PX
 NEAR_FRONT_PX = 30.0

@@ -27,10 +27,12 @@ MAX_FIT_ERROR = 0.15
 MIN_FIT_MARGIN = 0.15
 
 
-def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray) -> float | None:
+def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray,
+                  min_margin: float = MIN_FIT_MARGIN) -> float | None:
     """Disparity (px) at which the left mask's square patch around ``centre_xy`` (x, y) fits the
     right mask best along the same rows, within the working range; None when it fits nowhere
-    well (:data:`MAX_FIT_ERROR`), or about as well at another place (:data:`MIN_FIT_MARGIN`).
+    well (:data:`MAX_FIT_ERROR`), or about as well at another place (``min_margin``, by default
+    :data:`MIN_FIT_MARGIN`).
     Sub-pixel by a parabola through the best fit and its neighbours.
 
     Only the patch's half towards ``out`` (unit (x, y), from the piece to its end) counts: the
@@ -56,7 +58,7 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     k = int(np.argmin(err))
     best = float(err[k])
     far = np.abs(np.arange(len(err)) - k) > half_px
-    if best > MAX_FIT_ERROR or (far.any() and float(err[far].min()) < best + MIN_FIT_MARGIN):
+    if best > MAX_FIT_ERROR or (far.any() and float(err[far].min()) < best + min_margin):
         return None
     off = 0.0
     if 0 < k < len(err) - 1:

@@ -37,6 +37,7 @@ from appliance.localize.curves import (
     robust_fit_groups,
 )
 from appliance.localize.caps import cap_curves
+from appliance.localize.tips import flat_cap_curves
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -535,6 +536,8 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
+    if flat:            # short flat pieces without texture: their tips by the round cap (tips.py)
+        curves.update(flat_cap_curves(b, [s for s in flat if s not in curves], runs_lt))
     for node in np.flatnonzero(kinds == ENDPOINT):
         b.tip(node)
     for node in np.flatnonzero(kinds == JOINT):

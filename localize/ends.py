@@ -22,6 +22,7 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
+from appliance.localize.tips import occluder_confirmed, round_cap, silhouette_offset_px
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
@@ -100,6 +101,7 @@ class EndPlacer:
         self._node_r: np.ndarray | None = None
         self._near_cache: dict = {}
         self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
+        self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -608,6 +610,8 @@ class EndPlacer:
             # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
             # row by row
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
+            if d_end is None and c.segment in self.cap_segments:
+                d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
             if d_end is None:
                 self.hidden.add(int(node))
                 return
@@ -644,10 +648,14 @@ class EndPlacer:
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return
+        if not round_cap(self.sm.left_mask, uv_edge, out, r):      # an occluder's edge ends it (tips.cap_shape)
+            self.hidden.add(int(node))
+            return
         half = max(4, int(round(r)))
         probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
         if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
-                           np.array([half]), self.sm.d_range_px[1]):
+                           np.array([half]), self.sm.d_range_px[1]) and \
+                occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
             self.hidden.add(int(node))
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
@@ -721,7 +729,10 @@ class EndPlacer:
                 e_l = lo_l[side] if lo_side else hi_l[side]
                 ir = runs_r.find(rows[side], e_l - d_prior + (1.5 if lo_side else -1.5))
                 e_r = np.where(ir >= 0, runs_r.left_px[ir] if lo_side else runs_r.right_px[ir], np.nan)
-                de = (e_l - e_r) * scale[side]
+                # (an edge's disparity is its silhouette's: taken back to the middle's)
+                half = w_lo[side] if lo_side else w_hi[side]
+                de = (e_l - e_r - silhouette_offset_px(s_rows[side], e_l - e_r, half, -1.0 if lo_side else 1.0,
+                                                       sm.f_px, 0.5 * (sm.left_mask.shape[1] - 1))) * scale[side]
                 d.append(de[np.abs(de - d_prior) <= 2.5])
         d = np.concatenate(d)
         if len(d) < 3:
@@ -771,8 +782,10 @@ class EndPlacer:
         d = d[ok]
         d = float(d[np.argmin(np.abs(d - d_prior))])
         k = int(0.5 * r)
+        # the run ends' disparity is their silhouette's, not the cap centre's (tips.silhouette_offset_px)
+        cx = 0.5 * (sm.left_mask.shape[1] - 1)
         if k < 1:
-            return d
+            return d - silhouette_offset_px(uv_edge[0], d, r, 1.0 if right_end else -1.0, sm.f_px, cx)
         # the rows within half a radius of the axis end alike in both views too (the cap's sphere):
         # the median of their run ends' disparities near the axis row's (1 px)
         rows = row + np.arange(-k, k + 1)
@@ -785,7 +798,8 @@ class EndPlacer:
         er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
         de = el - er
         de = de[np.abs(de - d) <= 1.0]
-        return float(median(de)) if len(de) >= 3 else d
+        d = float(median(de)) if len(de) >= 3 else d
+        return d - silhouette_offset_px(uv_edge[0], d, r, sgn, sm.f_px, cx)
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
         """Whether a flat piece's end has the same outline in both views at disparity ``d``.

@@ -1,0 +1,320 @@
+"""Tips of short flat pieces the bark texture could not match, found by their round cap.
+
+A piece within ``match.max_horizontal_deg`` of the rows gets its disparity from the bark texture
+(:func:`dense._flat_curve`); a short fragment (a twig's last few radii past a fork, a leaf or
+another branch) often has too little texture and no curve, so its tip was never placed. Its
+round cap, though, is the one thing of a flat piece that is well placed along the rows: the
+left mask's patch around the end (:func:`caps.cap_disparity`: only its outward half, the cap
+and the background beyond it) slid along the right mask's rows fits in one place. That
+disparity, checked against the rows across the end (both views' run ends agree row by row)
+and against the piece's other end when that is placed, gives a short constant-disparity curve
+on which :meth:`ends.EndPlacer.tip` places the tip and checks it like any other flat tip (the
+run ends refine the disparity; an end cut obliquely or with something at its depth or nearer
+just beyond it is hidden).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from appliance.localize.caps import cap_disparity
+from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
+from appliance.localize.edges import Runs
+from appliance.localize.graph import ENDPOINT, JOINT
+
+# the end's disparity may differ from the piece's placed other end by this much (px, or share):
+# a short flat piece barely changes depth along its length
+MAX_END_GAP_PX = 2.0
+MAX_END_GAP_SHARE = 0.03
+# another fit of the cap along the rows within this share of the best: ambiguous (a flat cap's patch
+# also half fits along the piece's own body, whose outline runs along the rows)
+MIN_FIT_MARGIN = 0.08
+# a round cap's outline 0.7 radius off the axis ends r (1 - sqrt(1 - 0.7^2)) ~ 0.29 r behind the axis'
+# end; both sides must be back by at least this share of that (an apple's or a leaf's edge cutting
+# the piece runs straight or bulges into it)
+MIN_ROUNDNESS = 0.2
+# the probe beyond a tip: a match within this (px of disparity) in front of the branch is an occluder
+# near it; one further in front must be found again by the next patch out, within CONFIRM_PX
+NEAR_FRONT_PX = 30.0
+CONFIRM_PX = 3.0
+# a tip's end read against a round cap (cap_shape): each side at least this share of a round cap's
+# setback, and at most MAX_CAP_BACK (a pointed end: a leaf's tip)
+MIN_CAP_BACK = 0.2
+MAX_CAP_BACK = 3.0
+TOUCH_BACK = -5.0
+
+
+def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
+    """Curves (by column) for flat pieces ``segs`` without one that end in a tip whose round
+    cap fits in the right view (:func:`caps.cap_disparity`).
+
+    Parameters
+    ----------
+    b : ends.EndPlacer
+        The placer of the graph (its mask runs, placed forks and joints).
+    segs : list of int
+        Flat pieces (within ``match.max_horizontal_deg`` of the rows) without a curve.
+    runs_lt : Runs
+        Runs of the transposed left mask (columns), for the piece's centre line and radius.
+
+    Returns
+    -------
+    dict
+        {segment: BranchCurve}: the straight centre line v(u) of the piece's last four radii
+        (middles of the left mask's columns), at the cap's constant disparity; a piece with two
+        such ends takes the first that fits.
+    """
+    g, sm = b.g, b.sm
+    out: dict[int, BranchCurve] = {}
+    dmin, dmax = sm.d_range_px
+    for s in segs:
+        if g.seg_recovered[s]:
+            continue
+        for k in (0, 1):
+            node = int(g.seg_nodes[s][k])
+            if node < 0 or g.node_kind[node] != ENDPOINT:
+                continue
+            c = _flat_cap_curve(b, s, node, runs_lt)
+            if c is None or not dmin <= c.d_poly.at(c.t_range[0]) <= dmax:
+                continue
+            # the other end joined across a gap to the same branch (a joint) has its depth; a fork
+            # there may be a crossing with another branch at another depth: no check
+            other = int(g.seg_nodes[s][1 - k])
+            if other >= 0 and other in b.uvd and g.node_kind[other] == JOINT:
+                d_o, d = float(b.uvd[other][2]), c.d_poly.at(c.t_range[0])
+                if abs(d - d_o) > max(MAX_END_GAP_PX, MAX_END_GAP_SHARE * d_o):
+                    continue
+            out[s] = c
+            b.cap_segments.add(s)
+            break
+    return out
+
+
+def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
+    """The curve of flat piece ``s`` from its end ``node``'s cap (see :func:`flat_cap_curves`)."""
+    g, sm = b.g, b.sm
+    end_xy = b.node_xy[node]
+    yx = [g.seg_yx[s].reshape(-1, 2), g.node_pixels[node]]
+    pts = g.to_full(np.concatenate(yx))
+    r0 = float(b._node_radius(node))
+    if r0 < 1.0:
+        return None
+    near = pts[np.hypot(*(pts - end_xy).T) <= max(4 * r0, 12.0) + g.scale]
+    if len(near) < 2 or np.ptp(near[:, 0]) < 2 or angle_deg(near) >= b.cfg.max_horizontal_deg:
+        return None
+    v_poly = Poly.fit(near[:, 0].astype(float), near[:, 1].astype(float), 1)
+    lo, hi = float(near[:, 0].min()), float(near[:, 0].max())
+    c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r0, len(near), (0.0, 0.0))
+    t_edge, sign = b._walk_out(c, node)
+    # the line moved onto the middles of the left mask's columns behind the cap (the skeleton's
+    # end lies inside the cap; the cap's own columns are shorter)
+    cols = t_edge - sign * np.arange(r0 + 2.0, r0 + 2.0 + max(3 * r0, 10.0))
+    it = runs_lt.find(np.rint(cols).astype(int), v_poly(cols))
+    ok = it >= 0
+    if ok.sum() < 3:
+        return None
+    cols = np.rint(cols[ok])
+    v_poly = Poly.fit(cols, runs_lt.centre_px[it[ok]], 1)
+    slope = v_poly.deriv().at(float(cols.mean()))
+    r = float(median(0.5 * runs_lt.span_px[it[ok]] / np.sqrt(1.0 + slope * slope)))
+    if r < 1.0:
+        return None
+    # the span: from the end back past the skeleton's last points (the end's walk starts at the
+    # span's end nearer the node)
+    lo, hi = (min(float(cols.min()), lo), t_edge) if sign > 0 else (t_edge, max(float(cols.max()), hi))
+    c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r, int(ok.sum()), (0.0, 0.0))
+    t_edge, sign = b._walk_out(c, node)
+    uv_edge = c.uv_at(t_edge)[0]
+    direction = c.uv_at(t_edge + sign)[0] - uv_edge
+    direction /= max(float(np.hypot(*direction)), 1e-9)
+    if not round_end(b.runs_l, uv_edge, sign, r):     # (the cheap test first)
+        return None
+    # the cap's centre, one radius back from where the centre line leaves the mask
+    d = cap_disparity(sm, uv_edge - r * direction, max(4, int(round(2 * r))), direction, MIN_FIT_MARGIN)
+    if d is None:
+        return None
+    # the rows across the end end alike in both views at that disparity (a round cap; a right
+    # run merging there with something else does not)
+    if not b._end_outline_agrees(uv_edge, direction, d, r):
+        return None
+    return BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(d), r, int(ok.sum()), (0.0, 0.0))
+
+
+def round_end(runs_l: Runs, uv_edge: np.ndarray, sign: float, r: float) -> bool:
+    """Whether the end of a flat piece at ``uv_edge`` (x, y; the centre line's last point on the
+    mask, the piece running towards ``sign`` (+-1) along the rows) is a round cap of radius ``r``
+    (px): on the rows 0.7 r above and below the axis the mask ends at least
+    :data:`MIN_ROUNDNESS` of a circle's ``0.29 r`` behind the axis row's end."""
+    rows = np.rint(uv_edge[1] + np.array([0.0, -0.7 * r, 0.7 * r])).astype(int)
+    il = runs_l.find(rows, np.full(3, uv_edge[0] - sign * r))
+    if (il < 0).any():
+        return False
+    ends = runs_l.right_px[il] if sign > 0 else runs_l.left_px[il]
+    back = sign * (ends[0] - ends[1:])
+    return bool((back >= MIN_ROUNDNESS * (1.0 - np.sqrt(0.51)) * r).all())
+
+
+def front_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_branch_px: float, half_px: int,
+                    d_max_px: float, margin_px: float = -3.0, min_score: float = 0.7,
+                    min_lead: float = 0.1) -> float | None:
+    """Disparity (px) of the patch at ``uv_px`` (x, y) when it lies in front of the branch, as
+    :func:`texture.nearer_in_front` decides it (best match in front scoring ``min_score`` or more
+    and ``min_lead`` above every match behind); None when it does not (or has no texture, or
+    leaves the image)."""
+    h, w = left.shape
+    u, v = (int(x) for x in np.rint(uv_px))
+    hh = int(half_px)
+    if v - hh < 0 or v + hh + 1 > h or u - hh < 0 or u + hh + 1 > w:
+        return None
+    x0 = max(int(u - np.ceil(d_max_px)) - hh, 0)
+    tmpl = np.ascontiguousarray(left[v - hh:v + hh + 1, u - hh:u + hh + 1])
+    strip = np.ascontiguousarray(right[v - hh:v + hh + 1, x0:u + hh])
+    if strip.shape[1] <= tmpl.shape[1] or float(tmpl.std()) < 2.0:
+        return None
+    c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+    d = u - (x0 + np.arange(len(c)) + hh)
+    front = d > d_branch_px + margin_px
+    if not front.any():
+        return None
+    k = int(np.argmax(np.where(front, c, -np.inf)))
+    best_behind = float(c[~front].max()) if (~front).any() else -1.0
+    if c[k] < min_score or c[k] < best_behind + min_lead:
+        return None
+    return float(d[k])
+
+
+def occluder_confirmed(sm, uv_edge: np.ndarray, out: np.ndarray, d_branch_px: float, half_px: int) -> bool:
+    """Whether something found in front of a tip by the probe just beyond it (the square patch
+    of half size ``half_px`` clear of the cap, as in :meth:`ends.EndPlacer.tip`) is an occluder.
+
+    A thing hiding a branch's end (a leaf, an apple, a twig) lies near the branch, within
+    :data:`NEAR_FRONT_PX` of its disparity; a match much further in front is taken only if
+    the next patch out along the branch finds the same disparity (:data:`CONFIRM_PX`): smooth,
+    blurred background behind a true tip matches by chance somewhere along the rows.
+    """
+    step = half_px * (abs(out[0]) + abs(out[1]))
+    p1 = uv_edge + out * (step + 2)
+    d1 = front_disparity(sm.left_gray, sm.right_gray, p1, d_branch_px, half_px, sm.d_range_px[1])
+    if d1 is None or d1 - d_branch_px <= NEAR_FRONT_PX:
+        return True                      # (as texture.nearer_in_front decided: near the branch)
+    d2 = front_disparity(sm.left_gray, sm.right_gray, uv_edge + out * (3 * step + 3), d_branch_px, half_px,
+                         sm.d_range_px[1])
+    return d2 is not None and abs(d2 - d1) <= CONFIRM_PX
+
+
+def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: float):
+    """Disparity (px) of a round outline's extreme along the row (its left edge, ``side`` -1, or
+    right edge, +1) less that of the middle it is round about (a cap's centre, a branch's axis).
+
+    Each camera sees the outline's extreme where its own ray grazes the round surface, and the
+    two rays graze it at different points: a sphere (or a row's section of a branch) of radius
+    ``rho`` around ``(X, Z)`` has its extreme at ``f tan(phi + side asin(rho / D))`` in each view
+    (``phi``, ``D``: the centre's direction and distance from that camera), whose difference exceeds
+    the centre's disparity by about ``side rho f b (X - b / 2) / (D Z^2)``: up to ~0.3 px for a
+    6 px radius at the image's side. An outline pointing away from the middle between the
+    cameras is seen nearer than it is. Exact for a sphere, in units of the centre's depth
+    (``X / Z = (u - cx) / f``, ``rho / Z = w / f``, ``b / Z = d / f``).
+
+    Parameters
+    ----------
+    u_px, d_px, half_width_px : float or ndarray
+        The middle's column and disparity, and the outline's half width, px (rectified).
+    side : float or ndarray
+        -1 for a left edge or an end pointing left (-u), +1 for a right one.
+    f_px, cx_px : float
+        Rectified focal length and principal point column (the image's middle column is close
+        enough: 20 px off moves the result by ~1 %).
+    """
+    if np.ndim(u_px) == 0 and np.ndim(d_px) == 0 and np.ndim(half_width_px) == 0 and np.ndim(side) == 0:
+        x_l = (float(u_px) - cx_px) / f_px         # (one point: the same sums in Python floats)
+        x_r = x_l - float(d_px) / f_px
+        rho = float(half_width_px) / f_px
+        e_l = math.tan(math.atan(x_l) + side * math.asin(min(rho / math.hypot(x_l, 1.0), 1.0)))
+        e_r = math.tan(math.atan(x_r) + side * math.asin(min(rho / math.hypot(x_r, 1.0), 1.0)))
+        return f_px * (e_l - e_r - (x_l - x_r))
+    x_l = (np.asarray(u_px, float) - cx_px) / f_px
+    x_r = x_l - np.asarray(d_px, float) / f_px
+    rho = np.asarray(half_width_px, float) / f_px
+    ext_l = np.tan(np.arctan(x_l) + side * np.arcsin(np.minimum(rho / np.hypot(x_l, 1.0), 1.0)))
+    ext_r = np.tan(np.arctan(x_r) + side * np.arcsin(np.minimum(rho / np.hypot(x_r, 1.0), 1.0)))
+    return f_px * (ext_l - ext_r - (x_l - x_r))
+
+
+def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Where each line ``starts[k] + s directions[k]`` (s ascending, evenly spaced) last has the
+    soft ``mask`` at or above one half, interpolated between samples (K,); NaN where a line
+    starts off the mask or never leaves it. One bilinear read of all lines."""
+    s32 = s.astype(np.float32)
+    mx = starts[:, :1].astype(np.float32) + directions[:, :1].astype(np.float32) * s32      # (K, S)
+    my = starts[:, 1:].astype(np.float32) + directions[:, 1:].astype(np.float32) * s32
+    v = cv2.remap(mask, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    on = v >= 128
+    k = on.argmin(axis=1)                                # the first sample off (0 if all on)
+    rows = np.arange(len(starts))
+    a = v[rows, k - 1].astype(np.float32)                # (k = 0: a line starting off, or never off)
+    b = v[rows, k]
+    x = s[k - 1] + (a - 127.5) / np.maximum(a - b, 1e-6) * (s[1] - s[0])
+    x[(k == 0) | ~on[:, 0]] = np.nan
+    return x
+
+
+def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> list | None:
+    """A branch end's outline against a round cap's, from the soft mask (sub-pixel).
+
+    Read along lines at 0.5 px steps, the half-coverage crossing interpolated between samples.
+    The branch's radius ``rho`` is half its width across, 1.5 ``r`` behind the end (``uv_edge``,
+    where the centre line leaves the mask going ``out``, unit (x, y)); the lines 0.7 ``rho`` to
+    either side of the centre line leave the mask ``back`` behind where it does. A round cap gives
+    ``back = (1 - sqrt(1 - 0.7^2)) rho ~ 0.29 rho`` on both sides; an occluder's edge that ends
+    the branch (straight, or an apple's or a leaf's outline bulging into it) gives ~0 or less on
+    at least one side. The width there may itself be merged on one side with something touching
+    the branch: the second reading takes the shorter side's reach from the fitted centre line as
+    the radius, about that line.
+
+    Returns
+    -------
+    list of two (rho, back_a, back_b) or None, or None
+        The two readings (across the width; the shorter side's): ``rho`` px, each side's ``back``
+        as a share of a round cap's (1 = round; -inf where that side runs on past the reach, 2 rho
+        beyond the middle's end at least); None where the outline cannot be read (the width; a
+        reading's centre-line end).
+    """
+    n = np.array([-out[1], out[0]])
+    p = uv_edge - 1.5 * r * out
+    wa, wb = _last_on(mask, np.stack([p, p]), np.stack([n, -n]), np.arange(0.0, 3.0 * r + 4.0, 0.5))
+    if not (np.isfinite(wa) and np.isfinite(wb)):
+        return None
+    variants = ((0.5 * (wa + wb), p + 0.5 * (wa - wb) * n),   # the middle across, 1.5 r behind the end
+                (min(wa, wb), p))                             # merged on one side: the other's reach
+    starts = np.stack([q for rho, mid in variants for q in (mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n)])
+    s2 = np.arange(0.0, 1.5 * r + 2.0 * variants[0][0] + 4.0, 0.5)     # (a side running on further: touched)
+    e = _last_on(mask, starts, np.broadcast_to(out, starts.shape), s2).reshape(2, 3)
+    shapes = []
+    for (rho, _), ev in zip(variants, e):
+        if not np.isfinite(ev[0]):
+            shapes.append(None)
+            continue
+        ev = np.where(np.isfinite(ev), ev, np.inf)          # a side that never leaves the mask runs on
+        expect = (1.0 - np.sqrt(0.51)) * rho
+        shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
+    return shapes
+
+
+def round_cap(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> bool:
+    """Whether a branch end reads as a round cap (:func:`cap_shape`, either reading): both sides
+    between :data:`MIN_CAP_BACK` and :data:`MAX_CAP_BACK` of a round cap's, or one side so and the
+    other running on far past the end (:data:`TOUCH_BACK`: something touches the cap there, as a
+    twig or a leaf's stalk; an occluder's oblique edge moves the two sides about alike, one back
+    and one on); an end that cannot be read counts as round (no evidence against it)."""
+    shapes = cap_shape(mask, uv_edge, out, r)
+    if shapes is None or shapes[0] is None:
+        return True
+    for shape in shapes:
+        if shape is None:
+            return True
+        lo, hi = sorted(shape[1:])
+        if MIN_CAP_BACK <= hi <= MAX_CAP_BACK and (lo >= MIN_CAP_BACK or lo <= TOUCH_BACK):
+            return True
+    return False

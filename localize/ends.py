@@ -252,11 +252,15 @@ class EndPlacer:
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
         if parents and agree and not from_outline:
             # the reported disparity from the pieces whose fits reach the fork (a piece fitted on a
-            # few rows and carried far past them is barely known there)
+            # few rows and carried far past them is barely known there), where the others move it
+            # by more than half a pixel (within that, both sides' means average out the crotch's
+            # bias on each)
             reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
             near_p = [s for s in parents if reach[s] <= 0]
             if near_p and len(near_p) < len(parents):
-                self.uvd[node][2] = float(np.mean([at(s) for s in near_p]))
+                d_near = float(np.mean([at(s) for s in near_p]))
+                if abs(d_near - self.uvd[node][2]) > 0.5:
+                    self.uvd[node][2] = d_near
             elif not near_p and child_ok and reach[child] <= 0:
                 self.uvd[node][2] = float(at(child))
         if not parents or not agree or outline is None:

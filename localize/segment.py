@@ -70,7 +70,16 @@ def _hsv_threshold(bgr: np.ndarray, cfg: SegmentConfig, dst: np.ndarray | None =
     return m
 
 
-def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int = 32) -> np.ndarray:
+def sample_nearest(img: np.ndarray, factor: int) -> np.ndarray:
+    """Every ``factor``-th pixel of every ``factor``-th row (the whole blocks' first pixels: a
+    nearest-neighbour resize), shape (H // factor, W // factor[, C])."""
+    h, w = img.shape[:2]
+    hs, ws = h // factor, w // factor
+    return cv2.resize(img[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+
+
+def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int = 32,
+              small: np.ndarray | None = None) -> np.ndarray:
     """:func:`bark_hsv`'s raw bark mask (uint8 0/255, (H, W)), converted and thresholded only near bark.
 
     Every ``sample``-th pixel of every ``sample``-th row is tested first (a nearest-neighbour copy:
@@ -80,13 +89,16 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     neighbours (a twig under ~4 px wide and ~3 tiles long lying between the sampled rows, or a speck)
     is lost: the clean-up's opening and ``min_area_px`` drop such areas anyway. The fixture scenes
     and the 28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested).
+
+    ``small``: the sample, :func:`sample_nearest` (``bgr``, ``sample``), when already taken.
     """
     h, w = bgr.shape[:2]
     hs, ws = h // sample, w // sample
     out = np.zeros((h, w), np.uint8)
     if hs < 1 or ws < 1 or sample <= 1:
         return _hsv_threshold(bgr, cfg, dst=out)
-    small = cv2.resize(bgr[:hs * sample, :ws * sample], (ws, hs), interpolation=cv2.INTER_NEAREST)
+    if small is None:
+        small = sample_nearest(bgr, sample)
     hit = _hsv_threshold(small, cfg)
     b = max(1, tile_px // sample)                                # sampled pixels per tile side
     th, tw = -(-hs // b), -(-ws // b)
@@ -172,7 +184,8 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
 
 
 def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int = 1, factor: int = 4,
-                out: np.ndarray | None = None, scratch: np.ndarray | None = None) -> np.ndarray:
+                out: np.ndarray | None = None, scratch: np.ndarray | None = None,
+                small: np.ndarray | None = None) -> np.ndarray:
     """Soft branch coverage at the mask's outline: each pixel of the outline (morphological
     gradient over (2 ``band_px`` + 1)^2: the pixels up to ``band_px`` inside and outside the mask's
     edge) gets the share of bark in its colour, 0-255; the rest of ``mask`` (uint8 0/255, (H, W))
@@ -194,7 +207,8 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
 
     ``out`` (may be ``mask`` itself) receives the result, a copy of ``mask`` by default;
     ``scratch``, a uint8 (H, W) array that may be overwritten (not ``mask``), holds the outline.
-    Both save allocating a full-size image.
+    Both save allocating a full-size image. ``small``: :func:`sample_nearest` (``bgr``, ``factor``)
+    when already taken.
     """
     h, w = mask.shape
     hs, ws = h // factor, w // factor
@@ -206,7 +220,8 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
         out[...] = mask
     if blocks is None:
         return out
-    small = cv2.resize(bgr[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+    if small is None:
+        small = sample_nearest(bgr, factor)
     ms = cv2.resize(mask[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
     chi = np.array(cv2.mean(small, mask=cv2.erode(ms, _K3))[:3], np.float32)
     if not chi.any():                                            # only thin twigs: their whole mask
@@ -252,11 +267,12 @@ def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     """:func:`segment_color`'s mask without the HSV image, the bark test run only near bark
     (:func:`bark_mask`): what the localizer uses (its occluder test converts the few pixels it
     asks about, :func:`occluder_at` with ``bgr``)."""
-    raw = bark_mask(bgr, cfg)
+    small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
+    raw = bark_mask(bgr, cfg, small=small)
     mask = clean_mask(raw, cfg)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
-                           scratch=None if raw is mask else raw)
+                           scratch=None if raw is mask else raw, small=small)
     return mask
 
 

@@ -177,10 +177,11 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.
     """
     _, _, corner = neighbour_tables()
-    img = SparseImage.from_image(skel01)
-    yx = pixels(binary(skel01))
-    idx = img.index(yx[:, 0], yx[:, 1])
-    parity = yx.sum(1) & 1
+    s = binary(skel01)
+    h, w = s.shape
+    img = SparseImage(cv2.copyMakeBorder(s, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1), (h, w))
+    idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
+    parity = (idx // (w + 2) + idx % (w + 2)) & 1         # (of the padded position: the same parity)
     for p in (0, 1):            # each pass decided on the image as the previous pass left it
         at = idx[parity == p]
         img.flat[at[corner[img.codes(at)]]] = 0

@@ -294,7 +294,12 @@ def as_mask(mask: np.ndarray, shape: tuple[int, int], what: str) -> np.ndarray:
     if m.shape != tuple(shape):
         raise LocalizeError(f"{what}: mask is {m.shape[1]}x{m.shape[0]}, the image is {shape[1]}x{shape[0]}")
     if np.issubdtype(m.dtype, np.floating):
-        m = np.clip(np.nan_to_num(m) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        # clip(nan_to_num(m) * 255 + 0.5, 0, 255) as uint8, in place; nan_to_num (~3 ms per 1280x960
+        # image) only when something is not finite (it is the identity otherwise)
+        with np.errstate(over="ignore"):                   # (an infinity: the largest float, x 255)
+            v = (m if np.isfinite(m).all() else np.nan_to_num(m)) * 255.0
+        v += 0.5
+        m = np.clip(v, 0, 255, out=v).astype(np.uint8)
         if not cv2.countNonZero(cv2.threshold(m, 127, 255, cv2.THRESH_BINARY)[1]):
             raise LocalizeError(f"{what}: mask is empty (no pixel of probability 0.5 or more)")
         return m

@@ -159,3 +159,22 @@ def test_segment_mask_tests_bark_only_near_bark_and_gives_the_same_mask():
     img[5:7, 10:120] = (40, 60, 90)
     assert not bark_mask(img, cfg).any() and bark_hsv(img, cfg)[1][5:7, 10:120].all()
     assert np.array_equal(bark_mask(img, cfg, sample=1), bark_hsv(img, cfg)[1])
+
+
+def test_a_probability_mask_is_coverage_rounded_half_up_and_clipped():
+    """as_mask's float path (in place, nan_to_num only when needed) is clip(nan_to_num(p) * 255 + 0.5,
+    0, 255) as uint8, NaN and infinities included."""
+    from appliance.localize.segment import as_mask
+
+    rng = np.random.default_rng(4)
+    for dtype in (np.float32, np.float64):
+        p = rng.normal(0.5, 0.6, (60, 80)).astype(dtype)
+        p.flat[:1000] = (np.arange(1000) / 999 * 1.2 - 0.1).astype(dtype)
+        want = np.clip(p * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        assert np.array_equal(as_mask(p, p.shape, "m"), want)
+        p.flat[rng.integers(0, p.size, 50)] = np.nan
+        p.flat[1:3], p.flat[3:5] = np.inf, -np.inf
+        with np.errstate(over="ignore"):
+            want = np.clip(np.nan_to_num(p) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        got = as_mask(p, p.shape, "m")
+        assert np.array_equal(got, want) and got[0, 1] == 255 and got[0, 3] == 0

@@ -128,9 +128,12 @@ def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
 def build_graph(skel: Skeleton) -> SkeletonGraph:
     """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
     s = binary(skel.image)
-    img = SparseImage.from_image(s)
-    yx = pixels(s)                                            # row-major
-    idx = img.index(yx[:, 0], yx[:, 1])
+    h, w = s.shape
+    img = SparseImage(cv2.copyMakeBorder(s, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1), (h, w))
+    idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
+    yx = np.empty((len(idx), 2), np.int64)
+    yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
+    yx -= 1
     count, _, _ = neighbour_tables()
     n = count[img.codes(idx)]
     jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
@@ -152,26 +155,28 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     seg_yx = _group(slab, pyx, n_s)
 
     # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
-    # at the skeleton pixels in flat, zero-padded id images
-    node_flat = np.zeros(img.flat.shape, np.int64)
-    seg_flat = np.zeros(img.flat.shape, np.int64)
+    # at the skeleton pixels in flat, zero-padded id images, all 8 neighbours at once
+    node_flat = np.zeros(img.flat.shape, np.int32)
+    seg_flat = np.zeros(img.flat.shape, np.int32)
     nidx = np.concatenate([idx[n >= 3], idx[n == 1]])
     node_flat[nidx] = node_of
     seg_flat[pidx] = slab
     off = img.offsets()
-    sn, nn = [], []
+    at = pidx[:, None] + off                                    # (P, 8)
+    nb = node_flat.take(at)
+    hit = nb > 0
+    sn = np.column_stack([np.broadcast_to(slab[:, None], nb.shape)[hit], nb[hit]])
+    nb = node_flat.take(nidx[:, None] + off)
+    hit = (nb > 0) & (nb != node_of[:, None])
+    nn = np.sort(np.column_stack([np.broadcast_to(node_of[:, None], nb.shape)[hit], nb[hit]]), axis=1)
+    # E, SE, S, SW: each step along a segment counted once; added direction by direction (the same sums)
+    same = seg_flat.take(at[:, 2:6]) == slab[:, None]
+    steps = np.bincount((slab[:, None] + np.arange(4) * (n_s + 1))[same], minlength=4 * (n_s + 1)).reshape(4, n_s + 1)
     length = np.zeros(n_s + 1)
-    for k in range(8):
-        nb = node_flat[pidx + off[k]]
-        sn.append(np.column_stack([slab[nb > 0], nb[nb > 0]]))
-        nb = node_flat[nidx + off[k]]
-        hit = (nb > 0) & (nb != node_of)
-        nn.append(np.sort(np.column_stack([node_of[hit], nb[hit]]), axis=1))
-        if k in (2, 3, 4, 5):        # E, SE, S, SW: each step along a segment counted once
-            same = seg_flat[pidx + off[k]] == slab
-            length += (np.sqrt(2) if k in (3, 5) else 1.0) * np.bincount(slab[same], minlength=n_s + 1)
-    sn = _unique_pairs(np.concatenate(sn)) - 1                # sorted by segment, then node (np.vstack's)
-    nn = _unique_pairs(np.concatenate(nn)) - 1
+    for k in range(4):
+        length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
+    sn = _unique_pairs(sn) - 1                                  # sorted by segment, then node
+    nn = _unique_pairs(nn) - 1
     ends = np.full((n_s, 2), -1)
     first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
     rank = np.arange(len(sn)) - first

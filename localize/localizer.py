@@ -29,7 +29,7 @@ from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover
 from appliance.localize.rectify import LazyRectified, Rectifier
 from appliance.localize.result import Branch, Feature, LocalizationResult
-from appliance.localize.segment import as_mask, occluder_at, segment_color
+from appliance.localize.segment import as_mask, occluder_at, segment_mask
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.triangulate import disparity_range_px, triangulate
 
@@ -133,11 +133,10 @@ class Localizer:
                 def occluded(xy_rect: np.ndarray) -> np.ndarray:
                     return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         else:
-            ml, hsv = segment_color(left, seg)
-            mr, _ = segment_color(right, seg)
+            ml, mr = segment_mask(left, seg), segment_mask(right, seg)
             if self.cfg.recover.method == "collinear":
-                def occluded(xy_rect: np.ndarray) -> np.ndarray:
-                    return occluder_at(hsv, self.rectifier.to_original(xy_rect, 0), seg)
+                def occluded(xy_rect: np.ndarray) -> np.ndarray:     # (the pixels asked about converted)
+                    return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries

@@ -89,13 +89,19 @@ def _bridge(graph: SkeletonGraph, ends: EndGeometry, pairs: list[tuple[int, int]
     return graph.with_segments(np.array(nodes), pixels, np.array(lengths), np.array(nodes).ravel())
 
 
-def _covered(occluded: Callable[[np.ndarray], np.ndarray] | None, a: np.ndarray, b: np.ndarray) -> float:
-    """Fraction of the segment a-b (full-resolution px) over occluder pixels (1 if unknown)."""
-    if occluded is None:
-        return 1.0
-    n = int(np.hypot(*(b - a))) + 2
-    t = np.linspace(0, 1, n)[:, None]
-    return float(np.mean(occluded(a + t * (b - a))))
+def _covered_many(occluded: Callable[[np.ndarray], np.ndarray] | None, segments: list) -> list[float]:
+    """Fraction of each segment (a, b) (full-resolution px) over occluder pixels (1 if unknown);
+    the occluder asked once about all their points."""
+    if occluded is None or not segments:
+        return [1.0] * len(segments)
+    pts, counts = [], []
+    for a, b in segments:
+        n = int(np.hypot(*(b - a))) + 2
+        pts.append(a + np.linspace(0, 1, n)[:, None] * (b - a))
+        counts.append(n)
+    hit = occluded(np.concatenate(pts))
+    ends = np.cumsum(counts).tolist()
+    return [float(np.mean(hit[e - n:e])) for e, n in zip(ends, counts)]
 
 
 def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.ndarray,
@@ -122,11 +128,13 @@ def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.n
     cost = (np.arccos(np.clip(cos_i, -1, 1)) + np.arccos(np.clip(cos_j, -1, 1))) + dist / max(cfg.max_gap_px, 1)
     used, pairs = set(), []
     cand = sorted(zip(cost[ok], *np.nonzero(ok)))
+    # the long gaps' occluder cover, for all candidates at once (one occluder call)
+    long_gap = [(i, j) for _, i, j in cand if dist[i, j] > 4 * (r[i] + r[j]) / 2]
+    cover = dict(zip(long_gap, _covered_many(occluded, [(ends.xy_px[i], ends.xy_px[j]) for i, j in long_gap])))
     for _, i, j in cand:
         if i in used or j in used:
             continue
-        long_gap = dist[i, j] > 4 * (r[i] + r[j]) / 2
-        if long_gap and _covered(occluded, ends.xy_px[i], ends.xy_px[j]) < 0.5:
+        if cover.get((i, j), 1.0) < 0.5:
             continue
         used.update((i, j))
         pairs.append((int(i), int(j)))

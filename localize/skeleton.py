@@ -177,10 +177,11 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.
     """
     _, _, corner = neighbour_tables()
-    img = SparseImage.from_image(skel01)
-    yx = pixels(binary(skel01))
-    idx = img.index(yx[:, 0], yx[:, 1])
-    parity = yx.sum(1) & 1
+    s = binary(skel01)
+    h, w = s.shape
+    img = SparseImage(cv2.copyMakeBorder(s, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1), (h, w))
+    idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
+    parity = (idx // (w + 2) + idx % (w + 2)) & 1         # (of the padded position: the same parity)
     for p in (0, 1):            # each pass decided on the image as the previous pass left it
         at = idx[parity == p]
         img.flat[at[corner[img.codes(at)]]] = 0
@@ -224,32 +225,40 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     tables = zhang_suen_tables()
     m = binary(mask)
     h, w = m.shape
-    img = SparseImage.from_image(m)
-    pad = img.flat.reshape(h + 2, w + 2)
+    # ``flat``: the image 0/1 with a zero border (the neighbour codes); ``live``: the pixels that may
+    # still go (foreground, not on the image border), 0/1 bytes read as bool
+    flat = cv2.copyMakeBorder(m, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1)
+    live = flat.copy()
+    pad = live.reshape(h + 2, w + 2)
     for edge in (pad[1], pad[h], pad[:, 1], pad[:, w]):
-        edge *= 2                      # 2: foreground on the image border, never deleted
-    start = img.index(*pixels(m - cv2.erode(m, np.ones((3, 3), np.uint8))).T)
-    start = start[img.flat[start] == 1]
-    off = img.offsets()
+        edge[:] = 0                    # foreground on the image border is never deleted
+    outline = cv2.copyMakeBorder(m - cv2.erode(m, np.ones((3, 3), np.uint8)), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    start = np.flatnonzero(outline.reshape(-1).view(bool))        # row-major, as pixels()
+    start = start[live.take(start).view(bool)]
+    off = DY * (w + 2) + DX
     near = [start, start]              # pixels next to a deletion in the last two sub-iterations
-    stamp = np.zeros(img.flat.shape, np.int64)
+    stamp = np.zeros(flat.shape, np.int64)
     i, quiet = 0, 0
     while quiet < 2:
         if i == 0:
             cand = start
         else:
             cand = np.concatenate(near)
-            cand = cand[img.flat[cand] == 1]
+            cand = cand[live.take(cand).view(bool)]
             order = np.arange(len(cand))
             stamp[cand] = order
-            cand = cand[stamp[cand] == order]          # each pixel once
-        gone = cand[tables[i & 1][img.codes(cand)]]
-        img.flat[gone] = 0
-        nb = (gone[:, None] + off).ravel()
-        near[i & 1] = nb[img.flat[nb] == 1]
+            cand = cand[stamp.take(cand) == order]          # each pixel once
+        nb = flat.take(cand[:, None] + off)                # (N, 8) bytes 0/1: SparseImage.codes
+        code = (nb.view(np.uint64)[:, 0] * _GATHER_BITS) >> _TOP_BYTE if _LITTLE_ENDIAN else \
+            np.packbits(nb, axis=1, bitorder="little").reshape(-1)
+        gone = cand[tables[i & 1].take(code)]
+        flat[gone] = 0
+        live[gone] = 0
+        nb = (gone[:, None] + off).reshape(-1)
+        near[i & 1] = nb[live.take(nb).view(bool)]
         quiet = 0 if len(gone) else quiet + 1
         i += 1
-    return binary(img.image())
+    return binary(flat.reshape(h + 2, w + 2)[1:-1, 1:-1])
 
 
 def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:

@@ -135,3 +135,46 @@ def test_unmix_edges_band_reaches_an_outline_smeared_over_two_pixels():
     err = [np.abs(unmix_edges(img, hard, 20, band).astype(float) / 255 - cover)[8:-8].max() for band in (1, 2)]
     assert (cover[0] % 1 > 0.2).sum() == 4                     # two mixed pixels at each side
     assert err[0] > 0.25 and err[1] < 0.06
+
+
+def test_segment_mask_tests_bark_only_near_bark_and_gives_the_same_mask():
+    """The localizer's recogniser converts and thresholds only the tiles near sampled bark: on the
+    fixture scenes the cleaned, unmixed mask is segment_color's pixel for pixel, and the raw mask
+    only lacks pixels (never adds any) far from everything the clean-up keeps."""
+    from pathlib import Path
+
+    from appliance.config import load_config
+    from appliance.localize.segment import bark_hsv, bark_mask, segment_color, segment_mask
+
+    cfg = load_config().localize.segment
+    root = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+    for name in ("left_00.png", "right_01.png", "left_02.png", "right_03.png"):
+        img = cv2.imread(str(root / name))
+        _, ref = bark_hsv(img, cfg)
+        raw = bark_mask(img, cfg)
+        assert cv2.countNonZero(raw & ~ref) == 0 and cv2.countNonZero(raw) > 0.99 * cv2.countNonZero(ref)
+        assert np.array_equal(segment_mask(img, cfg), segment_color(img, cfg)[0])
+    # bark nowhere near a sampled pixel: a 2 px wide line between the sampled rows is not tested
+    img = np.full((128, 128, 3), (235, 206, 135), np.uint8)
+    img[5:7, 10:120] = (40, 60, 90)
+    assert not bark_mask(img, cfg).any() and bark_hsv(img, cfg)[1][5:7, 10:120].all()
+    assert np.array_equal(bark_mask(img, cfg, sample=1), bark_hsv(img, cfg)[1])
+
+
+def test_a_probability_mask_is_coverage_rounded_half_up_and_clipped():
+    """as_mask's float path (in place, nan_to_num only when needed) is clip(nan_to_num(p) * 255 + 0.5,
+    0, 255) as uint8, NaN and infinities included."""
+    from appliance.localize.segment import as_mask
+
+    rng = np.random.default_rng(4)
+    for dtype in (np.float32, np.float64):
+        p = rng.normal(0.5, 0.6, (60, 80)).astype(dtype)
+        p.flat[:1000] = (np.arange(1000) / 999 * 1.2 - 0.1).astype(dtype)
+        want = np.clip(p * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        assert np.array_equal(as_mask(p, p.shape, "m"), want)
+        p.flat[rng.integers(0, p.size, 50)] = np.nan
+        p.flat[1:3], p.flat[3:5] = np.inf, -np.inf
+        with np.errstate(over="ignore"):
+            want = np.clip(np.nan_to_num(p) * 255.0 + 0.5, 0, 255).astype(np.uint8)
+        got = as_mask(p, p.shape, "m")
+        assert np.array_equal(got, want) and got[0, 1] == 255 and got[0, 3] == 0

@@ -244,31 +244,41 @@ class EndPlacer:
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
         agree = agree or child_ok and _agree(at(child), d)
+        # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
+        # provisional place (no outline) is hidden whatever agrees: its checks run only when that
+        # disparity would differ (the same results, the work skipped otherwise)
+        d_known = self._known_disparity(parents, child, child_ok, xy, d, at) \
+            if parents and not from_outline else None
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
-        if parents and not agree:         # the child's own crossings next to the parent
+        if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
-        if parents and agree and not from_outline:
-            # the reported disparity from the pieces whose fits reach the fork (a piece fitted on a
-            # few rows and carried far past them is barely known there), where the others move it
-            # by more than half a pixel (within that, both sides' means average out the crotch's
-            # bias on each)
-            reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
-            near_p = [s for s in parents if reach[s] <= 0]
-            if near_p and len(near_p) < len(parents):
-                d_near = float(np.mean([at(s) for s in near_p]))
-                if abs(d_near - self.uvd[node][2]) > 0.5:
-                    self.uvd[node][2] = d_near
-            elif not near_p and child_ok and reach[child] <= 0:
-                self.uvd[node][2] = float(at(child))
+        if agree and d_known is not None:
+            self.uvd[node][2] = d_known
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _known_disparity(self, parents: list, child: int, child_ok: bool, xy: np.ndarray, d: float,
+                         at) -> float | None:
+        """The disparity (px) an agreed fork at ``xy`` (placed at disparity ``d``) takes from the pieces
+        whose fits reach it (a piece fitted on a few rows and carried far past them is barely known
+        there), where the others move it by more than half a pixel (within that, both sides' means
+        average out the crotch's bias on each); None to keep ``d``. ``at(s)``: piece s's disparity at
+        the fork."""
+        reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        near_p = [s for s in parents if reach[s] <= 0]
+        if near_p and len(near_p) < len(parents):
+            d_near = float(np.mean([at(s) for s in near_p]))
+            return d_near if abs(d_near - d) > 0.5 else None
+        if not near_p and child_ok and reach[child] <= 0:
+            return float(at(child))
+        return None
 
     def _reach(self, s: int, xy: np.ndarray) -> float:
         """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,

@@ -446,6 +446,8 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         # texture disparities are noisy: a constant for short pieces, a line for long ones
         d_poly, inl_d = robust_fit(u[good], d_axis, 0 if hi - lo < 100 else 1)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
+    for n in g.seg_nodes[s]:
+        b.place_pending(n)                # (a provisional fork, made when read)
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
     if len(ends) == 0:
         return None
@@ -523,8 +525,13 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind
     flat_set = set(flat)
-    for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture
-        b.fork(node, needed=not flat_set.isdisjoint(b.incident[node]))
+    needed = []
+    for node in np.flatnonzero(kinds == JUNCTION).tolist():      # anchors for flat pieces without texture
+        if flat_set.isdisjoint(b.incident[node]):
+            b.fork(node, needed=False)
+        else:
+            needed.append(node)
+    b.defer_forks(needed)                 # (made when read: most are replaced whole by the final round)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:

@@ -101,6 +101,8 @@ class EndPlacer:
         self._node_r: np.ndarray | None = None
         self._near_cache: dict = {}
         self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
+        self._pending: set[int] = set()           # junctions whose provisional place is made when read
+        self._pending_curves: dict | None = None  # (the curves it is made with: those before the flat pieces')
         self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
 
     def seg_points(self, s: int) -> np.ndarray:
@@ -230,6 +232,8 @@ class EndPlacer:
             if final and node in self._deferred:
                 self._deferred.discard(node)
                 self.fork(node)                   # the provisional place stands
+            elif final:
+                self.place_pending(node)          # (if not made yet: it stands)
             return
         agree = False
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
@@ -263,6 +267,25 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def defer_forks(self, nodes) -> None:
+        """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their
+        place: :meth:`place_pending`, by a flat piece's ends or a final round that finds no place),
+        with the curves as they are now: the same places as making them now. The final round
+        replaces every other one whole (place, radius, hidden), so those are never made."""
+        self._pending.update(int(n) for n in nodes)
+        self._pending_curves = dict(self.curves)
+
+    def place_pending(self, node: int) -> None:
+        """Make ``node``'s provisional fork now if it is still pending (:meth:`defer_forks`)."""
+        if node not in self._pending:
+            return
+        self._pending.discard(node)
+        now, self.curves = self.curves, self._pending_curves
+        try:
+            self.fork(node)
+        finally:
+            self.curves = now
 
     def _known_disparity(self, parents: list, child: int, child_ok: bool, xy: np.ndarray, d: float,
                          at) -> float | None:

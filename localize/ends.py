@@ -11,8 +11,6 @@ across an occluder stands only if both sides' curves meet.
 
 from __future__ import annotations
 
-from bisect import bisect_left
-
 import cv2
 import numpy as np
 from numpy.linalg import _umath_linalg

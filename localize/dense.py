@@ -54,6 +54,7 @@ from appliance.localize.single_edge import (
 from appliance.localize.subpixel import near_points, refine_runs
 from appliance.localize.texture import (
     surface_disparity,
+    surface_disparity_many,
     surface_to_axis,
 )
 
@@ -394,7 +395,31 @@ def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px
 
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     """A flat piece: centre line v(u) from the columns; disparity from the bark texture, or
-    else from the forks/joints at its ends."""
+    else from the forks/joints at its ends (:func:`_flat_curves` of one piece)."""
+    return _flat_curves(b, [s], runs_lt).get(s)
+
+
+def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, BranchCurve]:
+    """:func:`_flat_curve` of several pieces: {piece: curve} of those that get one. The pieces'
+    fine texture searches run together (:func:`texture.surface_disparity_many`: each patch's
+    result is its own); each piece's curve is as if found alone."""
+    found = [_flat_search(b, s, runs_lt) for s in segs]
+    fine = [f for f in found if f is not None and f[7] is not None]
+    for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
+        f[6] = res
+    out = {}
+    for s, f in zip(segs, found):
+        c = _flat_finish(b, s, *f[:7]) if f is not None else None
+        if c is not None:
+            out[s] = c
+    return out
+
+
+def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
+    """:func:`_flat_curve`'s centre line and coarse texture search: None (no curve), or
+    ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine search's
+    job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
+    or None when the coarse search's stand."""
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
@@ -427,15 +452,20 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
     d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
-        d_surf, score = d0, s0
-        u, uv = u[coarse], uv[coarse]
-    else:
-        sure = np.isfinite(d0) & (s0 >= 0.6)
-        if not _coarse_agree(u[coarse][sure], d0[sure]):
-            return None                     # the bark matches at several disparities: not guessed
-        prior = float(median(d0[sure]))
-        d_surf, score = surface_disparity(left, right, uv, half_h, (prior - 6, prior + 6),
-                                          half_w_px=12)
+        return [v_poly, radius, lo, hi, u[coarse], uv[coarse], (d0, s0), None]
+    sure = np.isfinite(d0) & (s0 >= 0.6)
+    if not _coarse_agree(u[coarse][sure], d0[sure]):
+        return None                     # the bark matches at several disparities: not guessed
+    prior = float(median(d0[sure]))
+    return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
+
+
+def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
+                 uv: np.ndarray, found: tuple) -> BranchCurve | None:
+    """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
+    ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
+    g, sm = b.g, b.sm
+    d_surf, score = found
     good = np.isfinite(d_surf) & (score >= 0.6)
     xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
     on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
@@ -536,10 +566,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         b.joint(node)
     if flat:
         runs_lt = find_runs(sm.left_mask.T, soft=True)
-        for s in flat:
-            c = _flat_curve(b, s, runs_lt)
-            if c is not None:
-                curves[s] = c
+        curves.update(_flat_curves(b, flat, runs_lt))      # (in the pieces' order, as one by one)
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))

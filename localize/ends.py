@@ -11,6 +11,8 @@ across an occluder stands only if both sides' curves meet.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 from numpy.linalg import _umath_linalg
@@ -569,6 +571,69 @@ class EndPlacer:
         self.hidden.discard(int(node))
         return True
 
+    def prewalk(self, nodes) -> None:
+        """The plain walks (:meth:`_walk_out`: the end's first fitted piece's centre line, followed
+        outwards until it leaves the left mask) of the ends ``nodes`` all at once, into the cache
+        the walks read: the same parameters, points and results as walking each alone (a walk's
+        points all lie beyond one end of the span: that end's value and slope, as
+        :meth:`BranchCurve.uv_at`), one mask read for all."""
+        ks, ts, vals = [], [], []
+        for node in nodes:
+            segs = [s for s in self.incident[node] if s in self.curves]
+            if not segs:
+                continue
+            c = self.curves[segs[0]]
+            hit = self._walk_cache.get((node, id(c)))
+            if hit is not None and hit[0] is c:
+                continue
+            lo, hi = c.t_range
+            t_node = self.node_xy[node][1 if c.by_row else 0]            # (c.t_of's)
+            start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
+            reach = 3 * c.radius_px + 3 * self.g.scale + 4
+            n_t = math.ceil(reach / 0.25)                 # (len(np.arange(0, reach, 0.25)): 0.25 divides exactly)
+            if n_t < 2:
+                continue
+            ks.append((node, c, sign))
+            ts.append(n_t)
+            vals.append((start, sign, c.s_poly.at(start), c.s_poly.deriv().at(start), c.by_row))
+        if not ks:
+            return
+        n = ts
+        start, sign, value, slope, by_row = (np.repeat(np.array(a), n) for a in zip(*vals))
+        ends = np.cumsum(n)
+        steps = np.arange(ends[-1]) - (ends - n).repeat(n)       # each walk's 0, 1, 2, ...
+        t_all = start + sign * (steps * 0.25)              # (np.arange(0, reach, 0.25)'s values, each walk's t)
+        s_all = value + slope * (t_all - start)            # (_eval beyond one end: the same sums)
+        uv_all = np.empty((len(t_all), 2))
+        uv_all[:, 0] = np.where(by_row, s_all, t_all)
+        uv_all[:, 1] = np.where(by_row, t_all, s_all)
+        on = self._on_mask(uv_all, self.sm.left_mask)
+        off = np.flatnonzero(~on)
+        first_off = off[np.minimum(np.searchsorted(off, ends - n), max(len(off) - 1, 0))] if len(off) else None
+        for i, (node, c, sign) in enumerate(ks):
+            a, b = ends[i] - n[i], ends[i]
+            t = t_all[a:b]
+            k = int(first_off[i]) - a if first_off is not None and a <= first_off[i] < b else 0
+            last = k - 1 if not on[a + k] else len(t) - 1
+            res = (float(t[max(last, 0)] + sign * 0.5), sign)
+            self._walk_cache[node, id(c)] = [c, t, sign, uv_all[a:b], None, {(0.0, False): res}]
+
+    @staticmethod
+    def _on_mask(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """Whether the pixels nearest points ``uv`` (N, 2) are on ``mask`` (>= 128; off outside)."""
+        uv = np.rint(uv).astype(np.intp)
+        h, w = mask.shape
+        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
+        # read a clipped pixel, then count as off)
+        x, y = uv[:, 0], uv[:, 1]
+        inside = x.view(np.uintp) < w
+        inside &= y.view(np.uintp) < h
+        idx = y * w
+        idx += x
+        on = mask.reshape(-1).take(idx, mode="clip") >= 128
+        on &= inside
+        return on
+
     def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
@@ -596,18 +661,7 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        uv = np.rint(uv).astype(np.intp)
-        mask = self.sm.right_mask if right else self.sm.left_mask
-        h, w = mask.shape
-        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
-        # read a clipped pixel, then count as off)
-        x, y = uv[:, 0], uv[:, 1]
-        inside = x.view(np.uintp) < w
-        inside &= y.view(np.uintp) < h
-        idx = y * w
-        idx += x
-        on = mask.reshape(-1).take(idx, mode="clip") >= 128
-        on &= inside
+        on = self._on_mask(uv, self.sm.right_mask if right else self.sm.left_mask)
         k = int(on.argmin())                        # the first point off the mask (if any is)
         last = k - 1 if not on[k] else len(t) - 1
         res = done[offset_px, right] = (float(t[max(last, 0)] + sign * 0.5), sign)

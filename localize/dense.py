@@ -572,9 +572,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
     if flat:            # short flat pieces without texture: their tips by the round cap (tips.py)
         curves.update(flat_cap_curves(b, [s for s in flat if s not in curves], runs_lt))
-    b.prewalk(np.flatnonzero(kinds == ENDPOINT).tolist())     # (the tips' walks out, all at once)
-    for node in np.flatnonzero(kinds == ENDPOINT):
-        b.tip(node)
+    ends = np.flatnonzero(kinds == ENDPOINT).tolist()
+    b.prewalk(ends)                     # (the tips' walks out, all at once)
+    b.tips(ends)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     kinds = kinds.copy()

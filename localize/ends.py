@@ -23,7 +23,7 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import occluder_confirmed, round_cap, silhouette_offset_px
+from appliance.localize.tips import occluder_confirmed, round_caps, silhouette_offset_px
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
@@ -675,9 +675,37 @@ class EndPlacer:
         occluder's edge, not the branch's own cap), or when something at the branch's depth
         or nearer lies just beyond it.
         """
+        self.tips([node])
+
+    def tips(self, nodes) -> None:
+        """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
+        the ends that reach them read the mask together (:func:`tips.round_caps`: each end's values
+        as alone), before the probes beyond them (both only hide an end: the order does not matter)."""
+        ends = []
+        for node in nodes:
+            end = self._tip_place(node)
+            if end is not None:
+                ends.append((node, *end))
+        if not ends:
+            return
+        round_ = round_caps(self.sm.left_mask, [end[1:] for end in ends])
+        for (node, uv_edge, out, r), is_round in zip(ends, round_):
+            if not is_round:            # an occluder's edge ends it (tips.cap_shape)
+                self.hidden.add(int(node))
+                continue
+            half = max(4, int(round(r)))
+            probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
+            if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
+                               np.array([half]), self.sm.d_range_px[1]) and \
+                    occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
+                self.hidden.add(int(node))
+
+    def _tip_place(self, node: int) -> tuple | None:
+        """:meth:`tip` up to its round-cap check: the end placed, hidden where its checks so far
+        say; ``(uv_edge, out, r)`` for the rest where it is not (yet) hidden, else None."""
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
-            return
+            return None
         c = self.curves[segs[0]]
         t_edge, sign = self._walk_out(c, node)
         uv_edge = c.uv_at(t_edge)[0]
@@ -691,7 +719,7 @@ class EndPlacer:
                 self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
-                return                               # the branch leaves the view: no tip seen
+                return None                          # the branch leaves the view: no tip seen
         else:
             back = r
         uv = uv_edge - out * back
@@ -709,7 +737,7 @@ class EndPlacer:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
             if d_end is None:
                 self.hidden.add(int(node))
-                return
+                return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
                 self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r):
@@ -721,14 +749,14 @@ class EndPlacer:
             # else the right run's end is not the cap's (something touches it there): the texture's stands
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
-            return
+            return None
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
         if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
-            return
+            return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
             if d_cap is not None:
@@ -742,16 +770,8 @@ class EndPlacer:
             t_b, _ = self._walk_out(c, node, -0.4 * r)
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
-                return
-        if not round_cap(self.sm.left_mask, uv_edge, out, r):      # an occluder's edge ends it (tips.cap_shape)
-            self.hidden.add(int(node))
-            return
-        half = max(4, int(round(r)))
-        probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
-        if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
-                           np.array([half]), self.sm.d_range_px[1]) and \
-                occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
-            self.hidden.add(int(node))
+                return None
+        return uv_edge, out, r
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left

@@ -264,19 +264,34 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
     slopes = end_slopes_groups(td, dd, gd, ng)
     bd = np.searchsorted(gd, np.arange(ng + 1))
+    live = np.flatnonzero(alive).tolist()
+    u_polys = []
+    for k in live:
+        a, b = bc[k], bc[k + 1]
+        ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
+        u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
+    # every curve's radius from its samples' widths across its centre line's slope, all samples at
+    # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
+    # Poly's), then each curve's median; each span's ends by one reduceat (min/max: exact)
+    sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
+    slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
+                                                         tf[sel]) if live else np.zeros(0)
+    ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
+    starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+    pairs = np.column_stack([bd[live], bd[np.add(live, 1)]]).ravel() if live else np.zeros(0, int)
+    td_pad = np.concatenate([td, [0.0]])                # (each curve's [start, end) pair; the end may be len(td))
+    t_lo = np.minimum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
+    t_hi = np.maximum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
     curves = {}
-    for k in np.flatnonzero(alive).tolist():
+    for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
         used = rr[chosen[a:b]]
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
-        tk = td[bd[k]:bd[k + 1]]
         s = int(segs[k])
-        ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
-        u_k = Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k]))
-        radius = float(median(0.5 * wf[a:b] / np.sqrt(1 + u_k.deriv()(tf[a:b]) ** 2)))
-        curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_polys.poly(k), radius,
-                                len(tk), (float(slopes[k, 0]), float(slopes[k, 1])), used)
+        radius = float(median(ratio[starts[i]:starts[i + 1]]))
+        curves[s] = BranchCurve(s, True, (float(t_lo[i]), float(t_hi[i])), u_polys[i], d_polys.poly(k), radius,
+                                int(bd[k + 1] - bd[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
         grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))

@@ -470,18 +470,22 @@ def _starts(g: np.ndarray, n_groups: int) -> np.ndarray:
     return np.searchsorted(g, np.arange(n_groups))
 
 
-def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray) -> GroupPolys:
+def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
+               increasing: bool | None = None) -> GroupPolys:
     """:meth:`Poly.fit` of every group at once (``g`` (N,) non-decreasing group ids; ``degree`` (G,)).
 
     The normal equations come from per-group power sums (one ``np.add.reduceat``), solved by one
     batched ``np.linalg.solve`` per degree: the same least squares as :meth:`Poly.fit` up to
-    rounding (~1e-16). Groups without samples get meaningless coefficients.
+    rounding (~1e-16). Groups without samples get meaningless coefficients. ``increasing``: whether
+    ``t`` is known to be strictly increasing within each group (None: tested here).
     """
     t, y = np.asarray(t, float), np.asarray(y, float)
     n = np.bincount(g, minlength=n_groups)
     starts = _starts(g, n_groups)
     deg = np.asarray(degree, int).copy()
-    if not ((t[1:] > t[:-1]) | (g[1:] != g[:-1])).all():      # not strictly increasing: count distinct values
+    if increasing is None:
+        increasing = _increasing(t, g)
+    if not increasing:                                        # not strictly increasing: count distinct values
         o = np.lexsort((t, g))
         st, sg = t[o], g[o]
         distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
@@ -528,6 +532,11 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
     return GroupPolys(coef, t0, ts, deg)
 
 
+def _increasing(t: np.ndarray, g: np.ndarray) -> bool:
+    """Whether ``t`` (N,) is strictly increasing within each group of ``g`` (N,) non-decreasing."""
+    return bool(((t[1:] > t[:-1]) | (g[1:] != g[:-1])).all())
+
+
 def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
                       rounds: int | np.ndarray = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
     """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
@@ -540,7 +549,8 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     t, y = np.asarray(t, float), np.asarray(y, float)
     degree = np.asarray(degree, int)
     keep = np.ones(len(t), bool)
-    fit = fit_groups(t, y, g, n_groups, degree)
+    increasing = _increasing(t, g)          # (so is every subset: the refits need not test it again)
+    fit = fit_groups(t, y, g, n_groups, degree, increasing)
     active = np.bincount(g, minlength=n_groups) > 0
     per_group = np.ndim(rounds) > 0
     for r in range(int(np.max(rounds)) if per_group else rounds):
@@ -569,7 +579,7 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
         act = active.take(g)
         keep = np.where(act, new, keep)
         sel = keep & act                     # (the groups still refitted: their values as with all)
-        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree)
+        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree, increasing or None)
         fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
                            for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
                                            (refit.coef, refit.t0, refit.ts, refit.degree))))

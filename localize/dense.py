@@ -54,6 +54,7 @@ from appliance.localize.single_edge import (
 from appliance.localize.subpixel import near_points, refine_runs
 from appliance.localize.texture import (
     surface_disparity,
+    surface_disparity_many,
     surface_to_axis,
 )
 
@@ -263,19 +264,34 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
     slopes = end_slopes_groups(td, dd, gd, ng)
     bd = np.searchsorted(gd, np.arange(ng + 1))
+    live = np.flatnonzero(alive).tolist()
+    u_polys = []
+    for k in live:
+        a, b = bc[k], bc[k + 1]
+        ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
+        u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
+    # every curve's radius from its samples' widths across its centre line's slope, all samples at
+    # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
+    # Poly's), then each curve's median; each span's ends by one reduceat (min/max: exact)
+    sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
+    slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
+                                                         tf[sel]) if live else np.zeros(0)
+    ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
+    starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+    pairs = np.column_stack([bd[live], bd[np.add(live, 1)]]).ravel() if live else np.zeros(0, int)
+    td_pad = np.concatenate([td, [0.0]])                # (each curve's [start, end) pair; the end may be len(td))
+    t_lo = np.minimum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
+    t_hi = np.maximum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
     curves = {}
-    for k in np.flatnonzero(alive).tolist():
+    for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
         used = rr[chosen[a:b]]
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
-        tk = td[bd[k]:bd[k + 1]]
         s = int(segs[k])
-        ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
-        u_k = Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k]))
-        radius = float(median(0.5 * wf[a:b] / np.sqrt(1 + u_k.deriv()(tf[a:b]) ** 2)))
-        curves[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_k, d_polys.poly(k), radius,
-                                len(tk), (float(slopes[k, 0]), float(slopes[k, 1])), used)
+        radius = float(median(ratio[starts[i]:starts[i + 1]]))
+        curves[s] = BranchCurve(s, True, (float(t_lo[i]), float(t_hi[i])), u_polys[i], d_polys.poly(k), radius,
+                                int(bd[k + 1] - bd[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
         grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
@@ -394,7 +410,31 @@ def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px
 
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     """A flat piece: centre line v(u) from the columns; disparity from the bark texture, or
-    else from the forks/joints at its ends."""
+    else from the forks/joints at its ends (:func:`_flat_curves` of one piece)."""
+    return _flat_curves(b, [s], runs_lt).get(s)
+
+
+def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, BranchCurve]:
+    """:func:`_flat_curve` of several pieces: {piece: curve} of those that get one. The pieces'
+    fine texture searches run together (:func:`texture.surface_disparity_many`: each patch's
+    result is its own); each piece's curve is as if found alone."""
+    found = [_flat_search(b, s, runs_lt) for s in segs]
+    fine = [f for f in found if f is not None and f[7] is not None]
+    for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
+        f[6] = res
+    out = {}
+    for s, f in zip(segs, found):
+        c = _flat_finish(b, s, *f[:7]) if f is not None else None
+        if c is not None:
+            out[s] = c
+    return out
+
+
+def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
+    """:func:`_flat_curve`'s centre line and coarse texture search: None (no curve), or
+    ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine search's
+    job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
+    or None when the coarse search's stand."""
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
@@ -427,15 +467,20 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
     d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
-        d_surf, score = d0, s0
-        u, uv = u[coarse], uv[coarse]
-    else:
-        sure = np.isfinite(d0) & (s0 >= 0.6)
-        if not _coarse_agree(u[coarse][sure], d0[sure]):
-            return None                     # the bark matches at several disparities: not guessed
-        prior = float(median(d0[sure]))
-        d_surf, score = surface_disparity(left, right, uv, half_h, (prior - 6, prior + 6),
-                                          half_w_px=12)
+        return [v_poly, radius, lo, hi, u[coarse], uv[coarse], (d0, s0), None]
+    sure = np.isfinite(d0) & (s0 >= 0.6)
+    if not _coarse_agree(u[coarse][sure], d0[sure]):
+        return None                     # the bark matches at several disparities: not guessed
+    prior = float(median(d0[sure]))
+    return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
+
+
+def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
+                 uv: np.ndarray, found: tuple) -> BranchCurve | None:
+    """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
+    ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
+    g, sm = b.g, b.sm
+    d_surf, score = found
     good = np.isfinite(d_surf) & (score >= 0.6)
     xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
     on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
@@ -446,6 +491,8 @@ def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
         # texture disparities are noisy: a constant for short pieces, a line for long ones
         d_poly, inl_d = robust_fit(u[good], d_axis, 0 if hi - lo < 100 else 1)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
+    for n in g.seg_nodes[s]:
+        b.place_pending(n)                # (a provisional fork, made when read)
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
     if len(ends) == 0:
         return None
@@ -523,23 +570,26 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
     kinds = graph.node_kind
     flat_set = set(flat)
-    for node in np.flatnonzero(kinds == JUNCTION):      # anchors for flat pieces without texture
-        b.fork(node, needed=not flat_set.isdisjoint(b.incident[node]))
+    needed = []
+    for node in np.flatnonzero(kinds == JUNCTION).tolist():      # anchors for flat pieces without texture
+        if flat_set.isdisjoint(b.incident[node]):
+            b.fork(node, needed=False)
+        else:
+            needed.append(node)
+    b.defer_forks(needed)                 # (made when read: most are replaced whole by the final round)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     if flat:
         runs_lt = find_runs(sm.left_mask.T, soft=True)
-        for s in flat:
-            c = _flat_curve(b, s, runs_lt)
-            if c is not None:
-                curves[s] = c
+        curves.update(_flat_curves(b, flat, runs_lt))      # (in the pieces' order, as one by one)
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
     if flat:            # short flat pieces without texture: their tips by the round cap (tips.py)
         curves.update(flat_cap_curves(b, [s for s in flat if s not in curves], runs_lt))
-    for node in np.flatnonzero(kinds == ENDPOINT):
-        b.tip(node)
+    ends = np.flatnonzero(kinds == ENDPOINT).tolist()
+    b.prewalk(ends)                     # (the tips' walks out, all at once)
+    b.tips(ends)
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
     kinds = kinds.copy()

@@ -56,6 +56,14 @@ class Runs:
         return _frozen(self.row * self.width + self.x0)
 
     @cached
+    def _find_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Start keys, rows and last pixels with a sentinel run first (no query's: the smallest
+        key, row and last pixel), so that :meth:`find`'s "last run starting at or before" always exists."""
+        lowest = np.iinfo(np.int64).min
+        return tuple(_frozen(np.concatenate([[lowest], a]).astype(np.int64))
+                     for a in (self._start_keys, self.row, self.x1))
+
+    @cached
     def _centre_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.centre_px)
 
@@ -64,12 +72,12 @@ class Runs:
         row = np.asarray(row, int)
         xi = np.rint(x).astype(int)
         key = row * self.width + xi
-        i = self._start_keys.searchsorted(key, side="right") - 1
-        ok = (i >= 0)
-        i = np.maximum(i, 0)
+        keys, rows, x1 = self._find_tables          # (a sentinel first: the same runs, two steps less)
+        i = keys.searchsorted(key, side="right") - 1
         # (the last run starting at or before the key: on the query's row it starts at or before xi)
-        ok &= (self.row.take(i) == row) & (self.x1.take(i) >= xi)
-        return np.where(ok, i, -1)
+        ok = rows.take(i) == row
+        ok &= x1.take(i) >= xi
+        return np.where(ok, i - 1, -1)
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Runs of ``row`` whose centre lies in [lo_px, hi_px], for each query.

@@ -11,18 +11,19 @@ across an occluder stands only if both sides' curves meet.
 
 from __future__ import annotations
 
-from bisect import bisect_left
+import math
 
 import cv2
 import numpy as np
+from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
-from appliance.localize.curves import BranchCurve, linspace, median
+from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import occluder_confirmed, round_cap, silhouette_offset_px
+from appliance.localize.tips import occluder_confirmed, round_caps, silhouette_offset_px
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline), flat pieces (from the texture: looser)
@@ -46,10 +47,11 @@ def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     """Intersection of the lines c1 + t e1 and c2 + s e2; None when (nearly) parallel."""
-    a = np.column_stack([e1, -e2])
-    if abs(np.linalg.det(a)) < 0.05:
+    a = np.array([[e1[0], -e2[0]], [e1[1], -e2[1]]])      # (np.column_stack's array)
+    # (np.linalg.det's and .solve's LAPACK gufuncs called directly: the same values, ~15 us less)
+    if abs(_umath_linalg.det(a, signature="d->d")) < 0.05:
         return None
-    t = np.linalg.solve(a, c2 - c1)
+    t = _solve(a, c2 - c1)
     return c1 + t[0] * e1
 
 
@@ -101,6 +103,8 @@ class EndPlacer:
         self._node_r: np.ndarray | None = None
         self._near_cache: dict = {}
         self._deferred: set[int] = set()          # junctions whose provisional place waits (fork)
+        self._pending: set[int] = set()           # junctions whose provisional place is made when read
+        self._pending_curves: dict | None = None  # (the curves it is made with: those before the flat pieces')
         self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
 
     def seg_points(self, s: int) -> np.ndarray:
@@ -230,6 +234,8 @@ class EndPlacer:
             if final and node in self._deferred:
                 self._deferred.discard(node)
                 self.fork(node)                   # the provisional place stands
+            elif final:
+                self.place_pending(node)          # (if not made yet: it stands)
             return
         agree = False
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
@@ -244,31 +250,60 @@ class EndPlacer:
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
         agree = agree or child_ok and _agree(at(child), d)
+        # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
+        # provisional place (no outline) is hidden whatever agrees: its checks run only when that
+        # disparity would differ (the same results, the work skipped otherwise)
+        d_known = self._known_disparity(parents, child, child_ok, xy, d, at) \
+            if parents and not from_outline else None
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
-        if parents and not agree:         # the child's own crossings next to the parent
+        if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
-        if parents and agree and not from_outline:
-            # the reported disparity from the pieces whose fits reach the fork (a piece fitted on a
-            # few rows and carried far past them is barely known there), where the others move it
-            # by more than half a pixel (within that, both sides' means average out the crotch's
-            # bias on each)
-            reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
-            near_p = [s for s in parents if reach[s] <= 0]
-            if near_p and len(near_p) < len(parents):
-                d_near = float(np.mean([at(s) for s in near_p]))
-                if abs(d_near - self.uvd[node][2]) > 0.5:
-                    self.uvd[node][2] = d_near
-            elif not near_p and child_ok and reach[child] <= 0:
-                self.uvd[node][2] = float(at(child))
+        if agree and d_known is not None:
+            self.uvd[node][2] = d_known
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def defer_forks(self, nodes) -> None:
+        """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their
+        place: :meth:`place_pending`, by a flat piece's ends or a final round that finds no place),
+        with the curves as they are now: the same places as making them now. The final round
+        replaces every other one whole (place, radius, hidden), so those are never made."""
+        self._pending.update(int(n) for n in nodes)
+        self._pending_curves = dict(self.curves)
+
+    def place_pending(self, node: int) -> None:
+        """Make ``node``'s provisional fork now if it is still pending (:meth:`defer_forks`)."""
+        if node not in self._pending:
+            return
+        self._pending.discard(node)
+        now, self.curves = self.curves, self._pending_curves
+        try:
+            self.fork(node)
+        finally:
+            self.curves = now
+
+    def _known_disparity(self, parents: list, child: int, child_ok: bool, xy: np.ndarray, d: float,
+                         at) -> float | None:
+        """The disparity (px) an agreed fork at ``xy`` (placed at disparity ``d``) takes from the pieces
+        whose fits reach it (a piece fitted on a few rows and carried far past them is barely known
+        there), where the others move it by more than half a pixel (within that, both sides' means
+        average out the crotch's bias on each); None to keep ``d``. ``at(s)``: piece s's disparity at
+        the fork."""
+        reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        near_p = [s for s in parents if reach[s] <= 0]
+        if near_p and len(near_p) < len(parents):
+            d_near = float(np.mean([at(s) for s in near_p]))
+            return d_near if abs(d_near - d) > 0.5 else None
+        if not near_p and child_ok and reach[child] <= 0:
+            return float(at(child))
+        return None
 
     def _reach(self, s: int, xy: np.ndarray) -> float:
         """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,
@@ -396,33 +431,37 @@ class EndPlacer:
         """Middle of the interval of ``val`` >= 128 (mask coverage 0-255 at the evenly spaced samples
         ``s``) nearest ``s_c``, its ends interpolated to where the coverage crosses 128, if it is as
         wide as the child crossed at ``sin_t``."""
-        on = val >= 128
         ds = s[1] - s[0]
         ic = int(np.rint((s_c - s[0]) / ds))
         w = int(2 * r_child / sin_t / ds)
         lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, len(s))
         if lo_i >= hi_i:
             return None
-        win = np.flatnonzero(on[lo_i:hi_i]).tolist()      # (indices, ascending)
-        if not win:
+        # (scans of the samples as Python ints, from the middle outwards: the same samples as
+        # searching the lists of all "on" and "off" indices, ~4 against ~16 us a call)
+        vals = val.tolist()
+        c = min(max(ic, lo_i), hi_i - 1)           # the nearest "on" sample to s_c in the window
+        k = None                                    # (at equal distances the one before)
+        for dd in range(max(c - lo_i, hi_i - 1 - c) + 1):
+            if c - dd >= lo_i and vals[c - dd] >= 128:
+                k = c - dd
+                break
+            if c + dd < hi_i and vals[c + dd] >= 128:
+                k = c + dd
+                break
+        if k is None:
             return None
-        c = min(max(ic - lo_i, 0), hi_i - lo_i - 1)      # the nearest "on" sample to s_c in the window
-        j = bisect_left(win, c)
-        right = win[j] - c if j < len(win) else None
-        left = 0 if right == 0 else c - win[j - 1] if j > 0 else None
-        if right is None or (left is not None and left <= right):
-            k = lo_i + c - left
-        else:
-            k = lo_i + c + right
-        off = np.flatnonzero(~on).tolist()
-        j = bisect_left(off, k)                     # (on[k]: k is not among them)
-        if j == 0 or j == len(off):
+        a = k - 1                                   # the last sample off before k
+        while a >= 0 and vals[a] >= 128:
+            a -= 1
+        b = k + 1                                   # the first off after k
+        while b < len(vals) and vals[b] >= 128:
+            b += 1
+        if a < 0 or b == len(vals):
             return None
-        a = off[j - 1]                              # the last sample off before k
-        b = off[j]                                  # the first off after k
-        va, vb = float(val[a]), float(val[b])
-        lo = s[a] + ds * (128.0 - va) / max(float(val[a + 1]) - va, 1e-9)
-        hi = s[b] - ds * (128.0 - vb) / max(float(val[b - 1]) - vb, 1e-9)
+        va, vb = float(vals[a]), float(vals[b])
+        lo = s[a] + ds * (128.0 - va) / max(float(vals[a + 1]) - va, 1e-9)
+        hi = s[b] - ds * (128.0 - vb) / max(float(vals[b - 1]) - vb, 1e-9)
         if abs((hi - lo) * sin_t - 2 * r_child) > 0.8 * r_child + 2:
             return None
         return 0.5 * (lo + hi)
@@ -532,6 +571,69 @@ class EndPlacer:
         self.hidden.discard(int(node))
         return True
 
+    def prewalk(self, nodes) -> None:
+        """The plain walks (:meth:`_walk_out`: the end's first fitted piece's centre line, followed
+        outwards until it leaves the left mask) of the ends ``nodes`` all at once, into the cache
+        the walks read: the same parameters, points and results as walking each alone (a walk's
+        points all lie beyond one end of the span: that end's value and slope, as
+        :meth:`BranchCurve.uv_at`), one mask read for all."""
+        ks, ts, vals = [], [], []
+        for node in nodes:
+            segs = [s for s in self.incident[node] if s in self.curves]
+            if not segs:
+                continue
+            c = self.curves[segs[0]]
+            hit = self._walk_cache.get((node, id(c)))
+            if hit is not None and hit[0] is c:
+                continue
+            lo, hi = c.t_range
+            t_node = self.node_xy[node][1 if c.by_row else 0]            # (c.t_of's)
+            start, sign = (hi, 1.0) if abs(t_node - hi) <= abs(t_node - lo) else (lo, -1.0)
+            reach = 3 * c.radius_px + 3 * self.g.scale + 4
+            n_t = math.ceil(reach / 0.25)                 # (len(np.arange(0, reach, 0.25)): 0.25 divides exactly)
+            if n_t < 2:
+                continue
+            ks.append((node, c, sign))
+            ts.append(n_t)
+            vals.append((start, sign, c.s_poly.at(start), c.s_poly.deriv().at(start), c.by_row))
+        if not ks:
+            return
+        n = ts
+        start, sign, value, slope, by_row = (np.repeat(np.array(a), n) for a in zip(*vals))
+        ends = np.cumsum(n)
+        steps = np.arange(ends[-1]) - (ends - n).repeat(n)       # each walk's 0, 1, 2, ...
+        t_all = start + sign * (steps * 0.25)              # (np.arange(0, reach, 0.25)'s values, each walk's t)
+        s_all = value + slope * (t_all - start)            # (_eval beyond one end: the same sums)
+        uv_all = np.empty((len(t_all), 2))
+        uv_all[:, 0] = np.where(by_row, s_all, t_all)
+        uv_all[:, 1] = np.where(by_row, t_all, s_all)
+        on = self._on_mask(uv_all, self.sm.left_mask)
+        off = np.flatnonzero(~on)
+        first_off = off[np.minimum(np.searchsorted(off, ends - n), max(len(off) - 1, 0))] if len(off) else None
+        for i, (node, c, sign) in enumerate(ks):
+            a, b = ends[i] - n[i], ends[i]
+            t = t_all[a:b]
+            k = int(first_off[i]) - a if first_off is not None and a <= first_off[i] < b else 0
+            last = k - 1 if not on[a + k] else len(t) - 1
+            res = (float(t[max(last, 0)] + sign * 0.5), sign)
+            self._walk_cache[node, id(c)] = [c, t, sign, uv_all[a:b], None, {(0.0, False): res}]
+
+    @staticmethod
+    def _on_mask(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """Whether the pixels nearest points ``uv`` (N, 2) are on ``mask`` (>= 128; off outside)."""
+        uv = np.rint(uv).astype(np.intp)
+        h, w = mask.shape
+        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
+        # read a clipped pixel, then count as off)
+        x, y = uv[:, 0], uv[:, 1]
+        inside = x.view(np.uintp) < w
+        inside &= y.view(np.uintp) < h
+        idx = y * w
+        idx += x
+        on = mask.reshape(-1).take(idx, mode="clip") >= 128
+        on &= inside
+        return on
+
     def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
@@ -559,18 +661,7 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        uv = np.rint(uv).astype(np.intp)
-        mask = self.sm.right_mask if right else self.sm.left_mask
-        h, w = mask.shape
-        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
-        # read a clipped pixel, then count as off)
-        x, y = uv[:, 0], uv[:, 1]
-        inside = x.view(np.uintp) < w
-        inside &= y.view(np.uintp) < h
-        idx = y * w
-        idx += x
-        on = mask.reshape(-1).take(idx, mode="clip") >= 128
-        on &= inside
+        on = self._on_mask(uv, self.sm.right_mask if right else self.sm.left_mask)
         k = int(on.argmin())                        # the first point off the mask (if any is)
         last = k - 1 if not on[k] else len(t) - 1
         res = done[offset_px, right] = (float(t[max(last, 0)] + sign * 0.5), sign)
@@ -584,9 +675,37 @@ class EndPlacer:
         occluder's edge, not the branch's own cap), or when something at the branch's depth
         or nearer lies just beyond it.
         """
+        self.tips([node])
+
+    def tips(self, nodes) -> None:
+        """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
+        the ends that reach them read the mask together (:func:`tips.round_caps`: each end's values
+        as alone), before the probes beyond them (both only hide an end: the order does not matter)."""
+        ends = []
+        for node in nodes:
+            end = self._tip_place(node)
+            if end is not None:
+                ends.append((node, *end))
+        if not ends:
+            return
+        round_ = round_caps(self.sm.left_mask, [end[1:] for end in ends])
+        for (node, uv_edge, out, r), is_round in zip(ends, round_):
+            if not is_round:            # an occluder's edge ends it (tips.cap_shape)
+                self.hidden.add(int(node))
+                continue
+            half = max(4, int(round(r)))
+            probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
+            if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
+                               np.array([half]), self.sm.d_range_px[1]) and \
+                    occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
+                self.hidden.add(int(node))
+
+    def _tip_place(self, node: int) -> tuple | None:
+        """:meth:`tip` up to its round-cap check: the end placed, hidden where its checks so far
+        say; ``(uv_edge, out, r)`` for the rest where it is not (yet) hidden, else None."""
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
-            return
+            return None
         c = self.curves[segs[0]]
         t_edge, sign = self._walk_out(c, node)
         uv_edge = c.uv_at(t_edge)[0]
@@ -600,7 +719,7 @@ class EndPlacer:
                 self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
-                return                               # the branch leaves the view: no tip seen
+                return None                          # the branch leaves the view: no tip seen
         else:
             back = r
         uv = uv_edge - out * back
@@ -618,7 +737,7 @@ class EndPlacer:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
             if d_end is None:
                 self.hidden.add(int(node))
-                return
+                return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
                 self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r):
@@ -630,14 +749,14 @@ class EndPlacer:
             # else the right run's end is not the cap's (something touches it there): the texture's stands
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
-            return
+            return None
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
         if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
-            return
+            return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
             if d_cap is not None:
@@ -651,16 +770,8 @@ class EndPlacer:
             t_b, _ = self._walk_out(c, node, -0.4 * r)
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
-                return
-        if not round_cap(self.sm.left_mask, uv_edge, out, r):      # an occluder's edge ends it (tips.cap_shape)
-            self.hidden.add(int(node))
-            return
-        half = max(4, int(round(r)))
-        probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
-        if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
-                           np.array([half]), self.sm.d_range_px[1]) and \
-                occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
-            self.hidden.add(int(node))
+                return None
+        return uv_edge, out, r
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left

@@ -45,6 +45,30 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
         Disparity of the patch centre ``round(u)`` (NaN where the patch leaves the image)
         and its normalised correlation (-1..1).
     """
+    return surface_disparity_many([(left, right, uv_px, half_h_px, d_range_px, half_w_px)])[0]
+
+
+def surface_disparity_many(jobs: list) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`surface_disparity` of several searches ``(left, right, uv_px, half_h_px, d_range_px,
+    half_w_px)`` (e.g. one per flat piece, each with its own images or boxes and range): the
+    vectorised searches of all of them with the same patch size and number of positions run as one
+    batch (each patch's scores are its own: the same values as searching it alone)."""
+    out, batches = [], {}
+    for job in jobs:
+        d_out, score, batch = _search(*job)
+        out.append((d_out, score))
+        if batch is not None:
+            batches.setdefault(batch[0], []).append(batch[1:])
+    for (hh, hw, n_pos), entries in batches.items():
+        _batch_ncc_many(entries, hh, hw, n_pos)
+    return out
+
+
+def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: np.ndarray,
+            d_range_px: tuple[float, float], half_w_px: int = 7):
+    """:func:`surface_disparity` of one search, but for its vectorised part: ``(d, score, batch)``,
+    ``batch`` None or ``((hh, hw, n_pos), lbox, rbox, uv, lo, hi, origin, idx, d, score)`` for
+    :func:`_batch_ncc_many` to fill in."""
     h, w = left.shape
     lo, hi = int(np.floor(d_range_px[0])), int(np.ceil(d_range_px[1]))
     d_out = np.full(len(uv_px), np.nan)
@@ -52,27 +76,28 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
     uv = np.rint(np.asarray(uv_px, float).reshape(-1, 2)).astype(int)
     hhs = np.asarray(half_h_px, int)
     if len(uv) == 0:
-        return d_out, score
+        return d_out, score, None
     hw = half_w_px
     # read each image once, over the box its patches (left) or strips (right) need (lazy images rectify it then)
     by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
     lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
     rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
     if by1 <= by0 or lx1 <= lx0 or rx1 <= rx0:
-        return d_out, score
+        return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)
     # a short search (<= 33 positions), patches of one height whose strips are whole: all at once (the
     # same scores as matchTemplate's TM_CCOEFF_NORMED, in float64); the rest one by one
     whole = inside & (uv[:, 0] - hi - hw >= 0) & (uv[:, 0] - lo + hw + 1 <= w)
+    batch = None
     if whole.sum() >= 2 and hi - lo <= 32:
         hh0 = int(np.bincount(hhs[whole]).argmax())
-        batch = np.flatnonzero(whole & (hhs == hh0))
-        if len(batch) >= 2:
-            _batch_ncc(lbox, rbox, uv[batch], hh0, hw, lo, hi, (by0, lx0, rx0), batch, d_out, score)
+        idx = np.flatnonzero(whole & (hhs == hh0))
+        if len(idx) >= 2:
+            batch = ((hh0, hw, hi - lo + 1), lbox, rbox, uv[idx], lo, hi, (by0, lx0, rx0), idx, d_out, score)
             inside = inside.copy()
-            inside[batch] = False
+            inside[idx] = False
     for i in np.flatnonzero(inside).tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]
@@ -90,24 +115,50 @@ def surface_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, ha
             off = 0.5 * (c[k - 1] - c[k + 1]) / denom if denom < 0 else 0.0
         d_out[i] = uv[i, 0] - (xs + k + off + hw)      # numpy/Python scalar types as before (float32 or 64)
         score[i] = c[k]
-    return d_out, score
+    return d_out, score, batch
 
 
-def _batch_ncc(lbox: np.ndarray, rbox: np.ndarray, uv: np.ndarray, hh: int, hw: int, lo: int, hi: int,
-               origin: tuple[int, int, int], idx: np.ndarray, d_out: np.ndarray, score: np.ndarray) -> None:
-    """:func:`surface_disparity`'s search for patches (N, 2) int of one half height ``hh`` whose
-    strips lie whole inside the image, vectorised; writes ``d_out[idx]`` and ``score[idx]``.
-    ``origin``: the boxes' first row and the left and right boxes' first columns."""
-    by0, lx0, rx0 = origin
-    n_h, n_w, n_pos = 2 * hh + 1, 2 * hw + 1, hi - lo + 1
+def _batch_ncc_many(entries: list, hh: int, hw: int, n_pos: int) -> None:
+    """:func:`_batch_ncc` of several searches' patches of one size and number of positions at once:
+    ``entries`` of ``(lbox, rbox, uv, lo, hi, origin, idx, d_out, score)``; the patches and strips are
+    gathered from each entry's boxes, then searched together, and each entry's ``d_out[idx]``,
+    ``score[idx]`` written."""
+    n_h, n_w = 2 * hh + 1, 2 * hw + 1
+    tm, sp, his = [], [], []
+    for lbox, rbox, uv, lo, hi, (by0, lx0, rx0), _, _, _ in entries:
+        y0 = uv[:, 1] - hh - by0
+        tm.append(_windows(lbox, (n_h, n_w))[y0, uv[:, 0] - hw - lx0])
+        sp.append(_windows(rbox, (n_h, n_pos + n_w - 1))[y0, uv[:, 0] - hi - hw - rx0])
+    if len(entries) == 1:
+        tmpl, strip = tm[0].astype(np.float64), sp[0].astype(np.float64)
+        hi_all = entries[0][4]
+    else:
+        tmpl, strip = np.concatenate(tm).astype(np.float64), np.concatenate(sp).astype(np.float64)
+        hi_all = np.repeat(np.array([e[4] for e in entries]), [len(e[2]) for e in entries])
+    uv = entries[0][2] if len(entries) == 1 else np.concatenate([e[2] for e in entries])
+    d, c_k, flat = _ncc_core(tmpl, strip, uv, hh, hw, n_pos, hi_all)
+    i0 = 0
+    for _, _, uv_e, _, _, _, idx, d_out, score in entries:
+        sl = slice(i0, i0 + len(uv_e))
+        keep = ~flat[sl]
+        d_out[idx[keep]] = d[sl][keep]
+        score[idx[keep]] = c_k[sl][keep]
+        i0 += len(uv_e)
 
-    def windows(box, size):         # every (rows, cols) window of a box, a read-only view (no copy)
-        return np.lib.stride_tricks.as_strided(box, (box.shape[0] - size[0] + 1, box.shape[1] - size[1] + 1, *size),
-                                               box.strides * 2, writeable=False)
-    # each patch's and strip's block copied by its top-left corner (the same pixels as by index arrays)
-    y0 = uv[:, 1] - hh - by0
-    tmpl = windows(lbox, (n_h, n_w))[y0, uv[:, 0] - hw - lx0].astype(np.float64)
-    strip = windows(rbox, (n_h, n_pos + n_w - 1))[y0, uv[:, 0] - hi - hw - rx0].astype(np.float64)
+
+def _windows(box: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Every (rows, cols) window of a box, a read-only view (no copy)."""
+    return np.lib.stride_tricks.as_strided(box, (box.shape[0] - size[0] + 1, box.shape[1] - size[1] + 1, *size),
+                                           box.strides * 2, writeable=False)
+
+
+def _ncc_core(tmpl: np.ndarray, strip: np.ndarray, uv: np.ndarray, hh: int, hw: int, n_pos: int, hi) \
+        -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vectorised search of patches ``tmpl`` (N, 2 hh + 1, 2 hw + 1) float64 along their strips
+    ``strip`` (N, 2 hh + 1, n_pos + 2 hw) float64 (the same scores as matchTemplate's
+    TM_CCOEFF_NORMED): each patch's disparity (its centre ``uv`` (N, 2) int; ``hi``, int or (N,), the
+    largest disparity searched: its strip's first position), best score, and whether it is flat."""
+    n_h, n_w = 2 * hh + 1, 2 * hw + 1
     tz = tmpl - tmpl.mean(axis=(1, 2), keepdims=True)
     t_norm = np.sqrt(np.einsum("nhw,nhw->n", tz, tz))
     flat = t_norm / np.sqrt(n_h * n_w) < 1.0                 # _flat(tmpl, 1.0): no texture
@@ -133,9 +184,7 @@ def _batch_ncc(lbox: np.ndarray, rbox: np.ndarray, uv: np.ndarray, hh: int, hw: 
     interior = (k > 0) & (k < n_pos - 1) & (denom < 0)
     off = np.where(interior, 0.5 * (c[rows, km] - c[rows, kp]) / np.where(interior, denom, -1.0), 0.0)
     d = uv[:, 0] - ((uv[:, 0] - hi - hw) + k + off + hw)
-    keep = ~flat
-    d_out[idx[keep]] = d[keep]
-    score[idx[keep]] = c[rows, k][keep]
+    return d, c[rows, k], flat
 
 
 def surface_to_axis(d_px: np.ndarray, radius_px: float, f_px: float, offset_px: float = 0.0) -> np.ndarray:

@@ -242,14 +242,19 @@ def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: fl
     return f_px * (ext_l - ext_r - (x_l - x_r))
 
 
-def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray) -> np.ndarray:
+def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray,
+             n_s: np.ndarray | None = None) -> np.ndarray:
     """Where each line ``starts[k] + s directions[k]`` (s ascending, evenly spaced) last has the
     soft ``mask`` at or above one half, interpolated between samples (K,); NaN where a line
-    starts off the mask or never leaves it. One bilinear read of all lines."""
+    starts off the mask or never leaves it. One bilinear read of all lines. ``n_s`` (K,): each
+    line's own number of samples (its first ``n_s[k]`` of ``s``; all by default): the samples past
+    them read as on the mask, so each line's result is that of reading it alone."""
     s32 = s.astype(np.float32)
     mx = starts[:, :1].astype(np.float32) + directions[:, :1].astype(np.float32) * s32      # (K, S)
     my = starts[:, 1:].astype(np.float32) + directions[:, 1:].astype(np.float32) * s32
     v = cv2.remap(mask, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    if n_s is not None:
+        v[np.arange(len(s))[None, :] >= np.asarray(n_s)[:, None]] = 255
     on = v >= 128
     k = on.argmin(axis=1)                                # the first sample off (0 if all on)
     rows = np.arange(len(starts))
@@ -281,25 +286,47 @@ def cap_shape(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) 
         beyond the middle's end at least); None where the outline cannot be read (the width; a
         reading's centre-line end).
     """
-    n = np.array([-out[1], out[0]])
-    p = uv_edge - 1.5 * r * out
-    wa, wb = _last_on(mask, np.stack([p, p]), np.stack([n, -n]), np.arange(0.0, 3.0 * r + 4.0, 0.5))
-    if not (np.isfinite(wa) and np.isfinite(wb)):
-        return None
-    variants = ((0.5 * (wa + wb), p + 0.5 * (wa - wb) * n),   # the middle across, 1.5 r behind the end
-                (min(wa, wb), p))                             # merged on one side: the other's reach
-    starts = np.stack([q for rho, mid in variants for q in (mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n)])
-    s2 = np.arange(0.0, 1.5 * r + 2.0 * variants[0][0] + 4.0, 0.5)     # (a side running on further: touched)
-    e = _last_on(mask, starts, np.broadcast_to(out, starts.shape), s2).reshape(2, 3)
-    shapes = []
-    for (rho, _), ev in zip(variants, e):
-        if not np.isfinite(ev[0]):
-            shapes.append(None)
+    return cap_shapes(mask, [(uv_edge, out, r)])[0]
+
+
+def cap_shapes(mask: np.ndarray, ends: list) -> list:
+    """:func:`cap_shape` of several ends ``(uv_edge, out, r)`` at once: each end's own lines and
+    samples (the same values as reading it alone), read by one bilinear read per stage."""
+    if not ends:
+        return []
+    ns = [np.array([-out[1], out[0]]) for _, out, _ in ends]
+    ps = [uv_edge - 1.5 * r * out for uv_edge, out, r in ends]
+    s1 = [np.arange(0.0, 3.0 * r + 4.0, 0.5) for _, _, r in ends]
+    n1 = np.repeat([len(s) for s in s1], 2)
+    w = _last_on(mask, np.stack([q for p in ps for q in (p, p)]), np.stack([m for n in ns for m in (n, -n)]),
+                 max(s1, key=len), n1).reshape(-1, 2)
+    out_shapes, readable = [None] * len(ends), []
+    starts, dirs, s2, variants_all = [], [], [], []
+    for i, ((_, out, r), n, p, (wa, wb)) in enumerate(zip(ends, ns, ps, w)):
+        if not (np.isfinite(wa) and np.isfinite(wb)):
             continue
-        ev = np.where(np.isfinite(ev), ev, np.inf)          # a side that never leaves the mask runs on
-        expect = (1.0 - np.sqrt(0.51)) * rho
-        shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
-    return shapes
+        variants = ((0.5 * (wa + wb), p + 0.5 * (wa - wb) * n),   # the middle across, 1.5 r behind the end
+                    (min(wa, wb), p))                             # merged on one side: the other's reach
+        starts.append(np.stack([q for rho, mid in variants for q in (mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n)]))
+        dirs.append(np.broadcast_to(out, (6, 2)))
+        s2.append(np.arange(0.0, 1.5 * r + 2.0 * variants[0][0] + 4.0, 0.5))    # (a side running on further: touched)
+        variants_all.append(variants)
+        readable.append(i)
+    if not readable:
+        return out_shapes
+    e = _last_on(mask, np.concatenate(starts), np.concatenate(dirs), max(s2, key=len),
+                 np.repeat([len(s) for s in s2], 6)).reshape(-1, 2, 3)
+    for i, variants, ei in zip(readable, variants_all, e):
+        shapes = []
+        for (rho, _), ev in zip(variants, ei):
+            if not np.isfinite(ev[0]):
+                shapes.append(None)
+                continue
+            ev = np.where(np.isfinite(ev), ev, np.inf)          # a side that never leaves the mask runs on
+            expect = (1.0 - np.sqrt(0.51)) * rho
+            shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
+        out_shapes[i] = shapes
+    return out_shapes
 
 
 def round_cap(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) -> bool:
@@ -308,7 +335,16 @@ def round_cap(mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray, r: float) 
     other running on far past the end (:data:`TOUCH_BACK`: something touches the cap there, as a
     twig or a leaf's stalk; an occluder's oblique edge moves the two sides about alike, one back
     and one on); an end that cannot be read counts as round (no evidence against it)."""
-    shapes = cap_shape(mask, uv_edge, out, r)
+    return _is_round(cap_shape(mask, uv_edge, out, r))
+
+
+def round_caps(mask: np.ndarray, ends: list) -> list[bool]:
+    """:func:`round_cap` of several ends ``(uv_edge, out, r)`` at once (:func:`cap_shapes`)."""
+    return [_is_round(shapes) for shapes in cap_shapes(mask, ends)]
+
+
+def _is_round(shapes: list | None) -> bool:
+    """:func:`round_cap`'s rule on :func:`cap_shape`'s readings."""
     if shapes is None or shapes[0] is None:
         return True
     for shape in shapes:

@@ -368,3 +368,51 @@ def test_cap_row_scale_takes_a_cap_rows_circle_back_to_the_caps_centre():
         d_c = f * b / c[2]
         assert np.abs(d_foot - d_c).max() > 0.02 or abs(c[1]) < 50       # the effect is there off the middle
         assert np.abs(d_foot * cap_row_scale(rows, row_c, cy, f) - d_c).max() < 1e-9
+
+
+def test_forks_made_when_read_and_walks_made_at_once_give_the_same_result(monkeypatch):
+    # the provisional forks of junctions with a flat piece are made only when read, and the tips'
+    # walks out all at once: the results must be those of making every fork first and walking
+    # each end alone (fixture scenes 01 and 03, colour and exact masks)
+    from pathlib import Path
+
+    from appliance.calibrate.model import load_calibration
+    from appliance.localize import dense, ends
+    from appliance.synth.truth import load_truth
+
+    scenes = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+    loc = Localizer(load_calibration(scenes.parent / "rig.yaml"), CFG)
+    placers = []
+
+    class Lazy(ends.EndPlacer):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            placers.append(self)
+
+    class Eager(Lazy):
+        def defer_forks(self, nodes):
+            for node in nodes:
+                self.fork(node)
+
+        def prewalk(self, nodes):
+            pass
+
+    n_pending = 0
+    for nn in ("01", "03"):
+        left, right = cv2.imread(str(scenes / f"left_{nn}.png")), cv2.imread(str(scenes / f"right_{nn}.png"))
+        truth = load_truth(scenes / f"truth_{nn}.json")
+        for masks in ({}, {"mask_left": truth.mask_left.astype(np.uint8) * 255,
+                           "mask_right": truth.mask_right.astype(np.uint8) * 255}):
+            results = []
+            placers.clear()
+            for placer in (Lazy, Eager):
+                monkeypatch.setattr(dense, "EndPlacer", placer)
+                res = loc.localize(left, right, **masks).to_dict()
+                res.pop("timings_ms")
+                results.append(res)
+            assert results[0] == results[1]
+            a, b = placers
+            assert a.hidden == b.hidden and a.radius == b.radius and a.uvd.keys() == b.uvd.keys()
+            assert all(np.array_equal(a.uvd[n], b.uvd[n]) for n in a.uvd)
+            n_pending += len(a._pending)
+    assert n_pending >= 1                       # some provisional forks were never made

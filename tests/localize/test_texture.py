@@ -9,6 +9,7 @@ from appliance.localize.texture import (
     _flat,
     nearer_in_front,
     surface_disparity,
+    surface_disparity_many,
     surface_to_axis,
 )
 
@@ -96,3 +97,21 @@ def test_patches_searched_together_score_as_one_by_one():
         if not np.isnan(d1[0]):
             assert abs(d[i] - d1[0]) < 1e-3 and abs(s[i] - s1[0]) < 1e-4
     assert np.isnan(d[0]) and np.nanmax(np.abs(d - 41)) < 0.05
+
+
+def test_searches_run_together_give_each_search_its_own_results():
+    # several searches (their own images, patch heights and ranges) run as one batch where they
+    # share a patch size and number of positions: each search's values as when run alone
+    jobs = []
+    for seed, d_true, hh, rng_d in ((3, 41, 6, (35, 47)), (4, 52.5, 6, (46.5, 58.5)), (5, 30, 4, (24, 36)),
+                                    (6, 44, 6, (38.2, 50.2))):
+        left = textured(160, 500, seed=seed)
+        right = shifted(left, d_true)
+        rng = np.random.default_rng(seed)
+        uv = np.column_stack([rng.integers(60, 480, 9), rng.integers(20, 140, 9)]).astype(float)
+        jobs.append((left, right, uv, np.full(len(uv), hh), rng_d, 12))
+    together = surface_disparity_many(jobs)
+    for job, (d, s) in zip(jobs, together):
+        d1, s1 = surface_disparity(*job)
+        assert np.array_equal(d, d1, equal_nan=True) and np.array_equal(s, s1)
+    assert np.nanmax(np.abs(together[1][0] - 52.5)) < 0.15

@@ -12,7 +12,7 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import ridge_radius_map
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.tips import (
-    cap_shape, flat_cap_curves, front_disparity, occluder_confirmed, round_cap, round_end, silhouette_offset_px,
+    cap_shape, cap_shapes, flat_cap_curves, front_disparity, occluder_confirmed, round_cap, round_end, silhouette_offset_px,
 )
 
 H, W, R = 200, 480, 6.0
@@ -150,3 +150,16 @@ def test_round_caps_and_occluders_edges():
     assert not round_cap(_rod(square=True), np.array([300.0, 60.5]), up, R)
     assert not round_cap(_rod(oblique=0.5), np.array([300.0, 62.5]), up, R)
     assert round_cap(_rod(touch=True), np.array([300.0, 60.5 - R]), up, R)      # touched on one side
+
+
+def test_cap_shapes_read_together_are_each_ends_own():
+    # several ends read at once (each its own lines and samples, of other lengths): the values of
+    # reading each alone, unreadable ends included
+    m = np.maximum(_rod(), np.roll(_rod(oblique=0.5), 150, axis=1))
+    up = np.array([0.0, -1.0])
+    ends = [(np.array([300.0, 60.5 - R]), up, R), (np.array([450.0, 62.5]), up, R),
+            (np.array([300.0, 60.5 - R]), up, 0.6 * R), (np.array([20.0, 20.0]), up, R),
+            (np.array([300.0, 120.0]), np.array([1.0, 0.0]), 2.0 * R)]
+    together = cap_shapes(m, ends)
+    assert together == [cap_shape(m, *end) for end in ends]
+    assert together[0] is not None and together[3] is None

@@ -491,16 +491,6 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
         distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
         deg = np.where(deg > 0, np.minimum(deg, distinct - 1), deg)
     deg = np.maximum(np.minimum(deg, n - 1), 0)
-    t0, ts = _scaling(t, starts, n)
-    x = (t - t0.take(g)) / ts.take(g)
-    dm = int(deg.max()) if n_groups else 0
-    p = _powers(x, y, dm)
-    return GroupPolys(_solve_sums(np.add.reduceat(p, starts, axis=1).T, n, deg, dm), t0, ts, deg)
-
-
-def _scaling(t: np.ndarray, starts: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each group's parameter scaling ``t0`` (mean) and ``ts`` (largest distance from it, >= 1),
-    (G,) each (``starts`` from :func:`_starts`, ``n`` (G,) samples per group)."""
     pad = starts                                              # a padding sample after the samples: empty groups read it
     t_pad = np.empty(len(t) + 1)
     t_pad[:-1] = t
@@ -510,13 +500,9 @@ def _scaling(t: np.ndarray, starts: np.ndarray, n: np.ndarray) -> tuple[np.ndarr
     t_hi = np.maximum.reduceat(t_pad, pad)
     t_pad[-1] = np.inf
     ts = np.maximum(np.maximum(t_hi - t0, t0 - np.minimum.reduceat(t_pad, pad)), 1.0)
-    return t0, ts
-
-
-def _powers(x: np.ndarray, y: np.ndarray, dm: int) -> np.ndarray:
-    """Rows x^0 .. x^2dm, y x^0 .. y x^dm of the samples, (3 dm + 2, N + 1), contiguous; the last
-    column a zero padding sample (an empty group's sums read it)."""
-    p = np.empty((3 * dm + 2, len(x) + 1))
+    x = (t - t0.take(g)) / ts.take(g)
+    dm = int(deg.max()) if n_groups else 0
+    p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
     p[:, -1] = 0.0
     p[0, :-1] = 1.0
     if dm:
@@ -524,13 +510,7 @@ def _powers(x: np.ndarray, y: np.ndarray, dm: int) -> np.ndarray:
     for k in range(2, 2 * dm + 1):
         np.multiply(p[k - 1, :-1], x, out=p[k, :-1])
     np.multiply(p[:dm + 1, :-1], y, out=p[2 * dm + 1:, :-1])
-    return p
-
-
-def _solve_sums(sums: np.ndarray, n: np.ndarray, deg: np.ndarray, dm: int) -> np.ndarray:
-    """Coefficients (G, 4), highest power first, zero padded, from the groups' power sums ``sums``
-    (G, 3 dm + 2: :func:`_powers`' rows summed), sample counts ``n`` and degrees ``deg`` (<= dm)."""
-    n_groups = len(n)
+    sums = np.add.reduceat(p, pad, axis=1).T
     s = np.zeros((n_groups, 11))                             # sums of x^0..x^6, then of y x^0..y x^3
     s[:, :2 * dm + 1], s[:, 7:8 + dm] = sums[:, :2 * dm + 1], sums[:, 2 * dm + 1:]
     coef = np.zeros((n_groups, 4))
@@ -549,7 +529,7 @@ def _solve_sums(sums: np.ndarray, n: np.ndarray, deg: np.ndarray, dm: int) -> np
             sd = s[deg == d]
             a, b = sd[:, _NORMAL_IDX[d][0]], sd[:, _NORMAL_IDX[d][1]]
             coef[deg == d, 3 - d:] = _solve(a, b[:, :, None])[:, :, 0]
-    return coef
+    return GroupPolys(coef, t0, ts, deg)
 
 
 def _increasing(t: np.ndarray, g: np.ndarray) -> bool:
@@ -562,11 +542,6 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
     ``rounds`` one for all or (G,) per group: each group's values are those of fitting it alone).
 
-    With ``t`` strictly increasing within each group, the refits keep the first fit's parameter
-    scaling (``t0``, ``ts`` of all the group's samples): the power sums of the kept samples come
-    from one table of powers, not a new scaling per round (the same least squares, rounding
-    aside; the coefficients are in that scaling).
-
     Returns
     -------
     (GroupPolys, inliers bool (N,))
@@ -576,12 +551,6 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     keep = np.ones(len(t), bool)
     increasing = _increasing(t, g)          # (so is every subset: the refits need not test it again)
     fit = fit_groups(t, y, g, n_groups, degree, increasing)
-    if increasing:                          # refits in the first fit's scaling: its power table summed over the kept
-        starts = _starts(g, n_groups)
-        x = (t - fit.t0.take(g)) / fit.ts.take(g)
-        dm = int(fit.degree.max()) if n_groups else 0
-        powers = _powers(x, y, dm)
-        kept = np.zeros(len(t) + 1)
     active = np.bincount(g, minlength=n_groups) > 0
     per_group = np.ndim(rounds) > 0
     for r in range(int(np.max(rounds)) if per_group else rounds):
@@ -610,14 +579,7 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
         act = active.take(g)
         keep = np.where(act, new, keep)
         sel = keep & act                     # (the groups still refitted: their values as with all)
-        if increasing:
-            kept[:-1] = sel
-            n = np.bincount(g[sel], minlength=n_groups)
-            deg = np.maximum(np.minimum(degree, n - 1), 0)
-            coef = _solve_sums(np.add.reduceat(powers * kept, starts, axis=1).T, n, deg, dm)
-            refit = GroupPolys(coef, fit.t0, fit.ts, deg)
-        else:
-            refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree, None)
+        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree, increasing or None)
         fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
                            for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
                                            (refit.coef, refit.t0, refit.ts, refit.degree))))

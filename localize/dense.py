@@ -418,9 +418,7 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     """:func:`_flat_curve` of several pieces: {piece: curve} of those that get one. The pieces'
     fine texture searches run together (:func:`texture.surface_disparity_many`: each patch's
     result is its own); each piece's curve is as if found alone."""
-    samples = [_flat_samples(b, s, runs_lt) for s in segs]
-    fits = _flat_centre_lines([x for x in samples if x is not None])
-    found = [_flat_search(b, s, *x, *next(fits)) if x is not None else None for s, x in zip(segs, samples)]
+    found = [_flat_search(b, s, runs_lt) for s in segs]
     fine = [f for f in found if f is not None and f[7] is not None]
     for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
         f[6] = res
@@ -432,9 +430,11 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     return out
 
 
-def _flat_samples(b: EndPlacer, s: int, runs_lt: Runs) -> tuple | None:
-    """A flat piece's centre-line samples: ``(t, vc, hgt, degree)``, the columns (float), the
-    left runs' centres and heights there and the centre line's degree; None when too few."""
+def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
+    """:func:`_flat_curve`'s centre line and coarse texture search: None (no curve), or
+    ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine search's
+    job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
+    or None when the coarse search's stand."""
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
@@ -447,31 +447,8 @@ def _flat_samples(b: EndPlacer, s: int, runs_lt: Runs) -> tuple | None:
     if ok.sum() < 4:
         return None
     t, vc, hgt = cols[ok].astype(float), runs_lt.centre_px[it[ok]], runs_lt.span_px[it[ok]]
-    return t, vc, hgt, degree_for(len(t), float(t.max() - t.min()))
-
-
-def _flat_centre_lines(samples: list):
-    """The robust centre lines v(u) of the flat pieces' ``samples`` (:func:`_flat_samples`), all
-    fitted together (:func:`robust_fit_groups`: each piece's own fit, rounding aside): yields
-    ``(v_poly, inliers)`` per piece, in order."""
-    if not samples:
-        return
-    n = [len(x[0]) for x in samples]
-    g = np.repeat(np.arange(len(samples)), n)
-    fit, keep = robust_fit_groups(np.concatenate([x[0] for x in samples]), np.concatenate([x[1] for x in samples]),
-                                  g, len(samples), np.array([x[3] for x in samples]))
-    ends = np.cumsum(n).tolist()
-    for k, (a, b) in enumerate(zip([0, *ends[:-1]], ends)):
-        yield fit.poly(k), keep[a:b]
-
-
-def _flat_search(b: EndPlacer, s: int, t: np.ndarray, vc: np.ndarray, hgt: np.ndarray, degree: int,
-                 v_poly: Poly, inl: np.ndarray) -> list | None:
-    """:func:`_flat_curve`'s coarse texture search, from the piece's samples (:func:`_flat_samples`)
-    and centre line: None (no curve), or ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]``
-    where ``fine`` is the fine search's job for :func:`texture.surface_disparity_many` (its result
-    goes in place of ``(d_surf, score)``), or None when the coarse search's stand."""
-    sm = b.sm
+    degree = degree_for(len(t), float(t.max() - t.min()))
+    v_poly, inl = robust_fit(t, vc, degree)
     slope = v_poly.deriv()(t[inl])
     radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
     lo, hi = float(t[inl].min()), float(t[inl].max())

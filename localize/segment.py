@@ -215,12 +215,13 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     h, w = mask.shape
     hs, ws = h // factor, w // factor
     ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
-    blocks = cv2.findNonZero(block_mean(ring[:hs * factor, :ws * factor], factor)) if hs and ws else None
+    # the blocks holding outline pixels, row-major (y * ws + x)
+    bi = np.flatnonzero(block_mean(ring[:hs * factor, :ws * factor], factor) != 0) if hs and ws else np.zeros(0, np.intp)
     if out is None:
         out = mask.copy()
     elif out is not mask:
         out[...] = mask
-    if blocks is None:
+    if len(bi) == 0:
         return out
     if small is None:
         small = sample_nearest(bgr, factor)
@@ -233,8 +234,6 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     win = (max(1, round(window_px / factor)),) * 2
     n_o = cv2.boxFilter(away, cv2.CV_32F, win, normalize=False)
     s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
-    b = blocks.reshape(-1, 2)
-    bi = b[:, 1] * ws + b[:, 0]                                  # the blocks holding outline pixels
     n = n_o.reshape(-1).take(bi) * (1.0 / 255)
     c_o = s_o.reshape(-1, 3).take(bi, axis=0) / np.maximum(n, 1.0)[:, None]
     c_chi = c_o @ chi
@@ -244,7 +243,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     bi, v = bi[ok], (c_o[ok] - c_chi[ok, None] * chi) / det[ok, None]
     off = (np.arange(factor)[:, None] * w + np.arange(factor)).reshape(-1)
     fi = ((bi // ws) * (factor * w) + (bi % ws) * factor)[:, None] + off
-    on = np.flatnonzero(ring.reshape(-1).take(fi))              # the outline pixels of the blocks, in order
+    on = np.flatnonzero(ring.reshape(-1).take(fi) != 0)         # the outline pixels of the blocks, in order
     fi = fi.reshape(-1).take(on)
     v = v.take(on // (factor * factor), axis=0)                  # (each pixel its block's vector)
     p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)

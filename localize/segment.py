@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
-from appliance.localize.skeleton import binary, block_mean, pixels
+from appliance.localize.skeleton import binary, block_mean
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 _K3 = np.ones((3, 3), np.uint8)
@@ -172,16 +172,16 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
-    yx = pixels(cover)                                        # the few covered small pixels (row, col)
-    lab = labels[yx[:, 0], yx[:, 1]]
-    area = np.bincount(lab, weights=np.rint(cover[yx[:, 0], yx[:, 1]] * (factor * factor / 255.0)), minlength=n)
+    idx = np.flatnonzero(cover != 0)                          # the few covered small pixels, row-major
+    lab = labels.reshape(-1).take(idx)
+    area = np.bincount(lab, weights=np.rint(cover.reshape(-1).take(idx) * (factor * factor / 255.0)), minlength=n)
     small = area < min_area_px
     small[0] = False
     if not small.any():
         return mask
     out = mask.copy()
-    gone = yx[small[lab]]
-    out.reshape(hs, factor, ws, factor)[gone[:, 0], :, gone[:, 1], :] = 0
+    gy, gx = np.divmod(idx[small[lab]], ws)
+    out.reshape(hs, factor, ws, factor)[gy, :, gx, :] = 0
     return out
 
 

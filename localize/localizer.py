@@ -139,7 +139,7 @@ class Localizer:
                     return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         clock.lap("segment")
         r = self.rectifier
-        ml, mr = r.rectify(ml, 0), r.rectify(mr, 1)    # coverage 0-255, sub-pixel boundaries
+        ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries
         return ml, mr, occluded
 
     def _graph(self, mask: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:

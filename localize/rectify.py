@@ -65,6 +65,7 @@ class Rectifier:
         rect = cls(calib, maps, valid, tiles)
         for side in (0, 1):
             rect.source_grid(side, GREY_TILE_PX)         # LazyRectified's source boxes, ready for the first frame
+            rect.float_maps(side)                        # the masks' remap tables
         return rect
 
     def tile_sources(self, side: int, tile_px: tuple[int, int]) -> np.ndarray:
@@ -99,7 +100,15 @@ class Rectifier:
             got = "nothing" if image is None else f"{image.shape[1]}x{image.shape[0]}"
             raise LocalizeError(f"{what}: image is {got}, the calibration is for {w}x{h}")
 
-    def rectify(self, image: np.ndarray, side: int, nearest: bool = False) -> np.ndarray:
+    def float_maps(self, side: int) -> tuple[np.ndarray, np.ndarray]:
+        """One camera's remap tables as two CV_32FC1 maps (the same positions as :attr:`maps`, to
+        1/32 px), computed once."""
+        key = ("float", side)
+        if key not in self._sources:
+            self._sources[key] = cv2.convertMaps(*self.maps[side], cv2.CV_32FC1)
+        return self._sources[key]
+
+    def rectify(self, image: np.ndarray, side: int, nearest: bool = False, fast: bool = False) -> np.ndarray:
         """Rectified copy of one camera's image.
 
         Parameters
@@ -109,8 +118,12 @@ class Rectifier:
             0 left camera, 1 right camera.
         nearest : bool
             Nearest-neighbour interpolation (for masks); linear otherwise.
+        fast : bool
+            Remap through float maps (:meth:`float_maps`): ~1.6x faster; OpenCV blends them in
+            floating point, so a value half way between two levels may round to the even one (a
+            level lower than the fixed-point remap on ~0.5 % of a random image's pixels). For masks.
         """
-        m1, m2 = self.maps[side]
+        m1, m2 = self.float_maps(side) if fast else self.maps[side]
         interp = cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR
         if image.dtype == np.uint8 and image.shape == m1.shape[:2] and self.tiles:
             need = self._needed_tiles(image, side)

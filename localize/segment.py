@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
 from appliance.localize.errors import LocalizeError
-from appliance.localize.skeleton import binary, block_mean, pixels
+from appliance.localize.skeleton import binary, block_mean
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 _K3 = np.ones((3, 3), np.uint8)
@@ -172,16 +172,16 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
-    yx = pixels(cover)                                        # the few covered small pixels (row, col)
-    lab = labels[yx[:, 0], yx[:, 1]]
-    area = np.bincount(lab, weights=np.rint(cover[yx[:, 0], yx[:, 1]] * (factor * factor / 255.0)), minlength=n)
+    idx = np.flatnonzero(cover != 0)                          # the few covered small pixels, row-major
+    lab = labels.reshape(-1).take(idx)
+    area = np.bincount(lab, weights=np.rint(cover.reshape(-1).take(idx) * (factor * factor / 255.0)), minlength=n)
     small = area < min_area_px
     small[0] = False
     if not small.any():
         return mask
     out = mask.copy()
-    gone = yx[small[lab]]
-    out.reshape(hs, factor, ws, factor)[gone[:, 0], :, gone[:, 1], :] = 0
+    gy, gx = np.divmod(idx[small[lab]], ws)
+    out.reshape(hs, factor, ws, factor)[gy, :, gx, :] = 0
     return out
 
 
@@ -215,12 +215,13 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     h, w = mask.shape
     hs, ws = h // factor, w // factor
     ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
-    blocks = cv2.findNonZero(block_mean(ring[:hs * factor, :ws * factor], factor)) if hs and ws else None
+    # the blocks holding outline pixels, row-major (y * ws + x)
+    bi = np.flatnonzero(block_mean(ring[:hs * factor, :ws * factor], factor) != 0) if hs and ws else np.zeros(0, np.intp)
     if out is None:
         out = mask.copy()
     elif out is not mask:
         out[...] = mask
-    if blocks is None:
+    if len(bi) == 0:
         return out
     if small is None:
         small = sample_nearest(bgr, factor)
@@ -233,8 +234,6 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     win = (max(1, round(window_px / factor)),) * 2
     n_o = cv2.boxFilter(away, cv2.CV_32F, win, normalize=False)
     s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
-    b = blocks.reshape(-1, 2)
-    bi = b[:, 1] * ws + b[:, 0]                                  # the blocks holding outline pixels
     n = n_o.reshape(-1).take(bi) * (1.0 / 255)
     c_o = s_o.reshape(-1, 3).take(bi, axis=0) / np.maximum(n, 1.0)[:, None]
     c_chi = c_o @ chi
@@ -244,11 +243,14 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     bi, v = bi[ok], (c_o[ok] - c_chi[ok, None] * chi) / det[ok, None]
     off = (np.arange(factor)[:, None] * w + np.arange(factor)).reshape(-1)
     fi = ((bi // ws) * (factor * w) + (bi % ws) * factor)[:, None] + off
-    on = ring.reshape(-1).take(fi) != 0
-    fi = fi[on]
-    v = np.repeat(v, on.sum(1), axis=0)
+    on = np.flatnonzero(ring.reshape(-1).take(fi) != 0)         # the outline pixels of the blocks, in order
+    fi = fi.reshape(-1).take(on)
+    v = v.take(on // (factor * factor), axis=0)                  # (each pixel its block's vector)
     p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)
-    cover = 1.0 - np.einsum("ij,ij->i", p, v)
+    cover = p[:, 0] * v[:, 0]                # (np.einsum("ij,ij->i", p, v)'s sums, ~4x faster)
+    cover += p[:, 1] * v[:, 1]
+    cover += p[:, 2] * v[:, 2]
+    cover = 1.0 - cover
     out.reshape(-1)[fi] = np.minimum(np.maximum(cover * 255.0 + 0.5, 0), 255).astype(np.uint8)   # (np.clip's values)
     return out
 

@@ -121,22 +121,19 @@ class Localizer:
         """Rectified branch coverage of both images (uint8 0-255), and the left image's
         occluder test for recovery (None for the paper's Hough recovery)."""
         seg = self.cfg.segment
-        occluded = None
         if mask_left is not None or mask_right is not None:
             if mask_left is None or mask_right is None:
                 raise LocalizeError("masks: give both the left and the right mask, or neither")
             ml = as_mask(mask_left, left.shape[:2], "left mask")
             mr = as_mask(mask_right, right.shape[:2], "right mask")
-            if self.cfg.recover.method == "collinear":
-                # the colour image still tells a leaf or an apple in a gap from open sky (only the
-                # few pixels asked about are converted)
-                def occluded(xy_rect: np.ndarray) -> np.ndarray:
-                    return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         else:
             ml, mr = segment_mask(left, seg), segment_mask(right, seg)
-            if self.cfg.recover.method == "collinear":
-                def occluded(xy_rect: np.ndarray) -> np.ndarray:     # (the pixels asked about converted)
-                    return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
+        occluded = None
+        if self.cfg.recover.method == "collinear":
+            # whoever made the masks, the colour image tells a leaf or an apple in a gap from open
+            # sky (only the few pixels asked about are converted)
+            def occluded(xy_rect: np.ndarray) -> np.ndarray:
+                return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries

@@ -137,7 +137,7 @@ def run_chain(mask: np.ndarray, cfg: LocalizeConfig, img: np.ndarray | None = No
     _, graph = prune(skel, cfg.prune.min_length_px, cfg.prune.radius_factor, radius,
                      keep_border=cfg.prune.keep_border_spurs)
     lap()
-    occluded = None if img is None else (lambda xy: occluder_at(img, xy, cfg.segment, bgr=True))
+    occluded = None if img is None else (lambda xy: occluder_at(img, xy, cfg.segment))
     graph = recover(graph, cfg.recover, radius, occluded)
     lap()
     ends = graph.to_full(graph.node_yx[graph.node_kind == ENDPOINT])

@@ -133,7 +133,7 @@ class Localizer:
             # whoever made the masks, the colour image tells a leaf or an apple in a gap from open
             # sky (only the few pixels asked about are converted)
             def occluded(xy_rect: np.ndarray) -> np.ndarray:
-                return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg, bgr=True)
+                return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries

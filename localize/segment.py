@@ -125,18 +125,16 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     return out
 
 
-def occluder_at(img: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig, bgr: bool = False) -> np.ndarray:
-    """Whether the pixels at ``xy_px`` (N, 2) (x, y; rounded) are a leaf or an apple: saturation
-    above ``saturation_max`` and value at least ``value_min``; False outside the image. Tested at
-    the few points recovery asks about rather than over the whole image. ``img``: the HSV image,
-    or with ``bgr`` the BGR image (only those pixels converted)."""
-    h, w = img.shape[:2]
+def occluder_at(bgr: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
+    """Whether the pixels at ``xy_px`` (N, 2) (x, y; rounded) of the BGR image are a leaf or an
+    apple: saturation above ``saturation_max`` and value at least ``value_min``; False outside the
+    image. Only the few pixels recovery asks about are converted to HSV."""
+    h, w = bgr.shape[:2]
     p = np.rint(np.asarray(xy_px, float).reshape(-1, 2)).astype(int)
     ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
-    px = img[p[ok, 1], p[ok, 0]]
-    if bgr:
-        px = cv2.cvtColor(px.reshape(1, -1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3) if len(px) else px
-    px = px.astype(int)
+    px = bgr[p[ok, 1], p[ok, 0]]
+    if len(px):
+        px = cv2.cvtColor(px.reshape(1, -1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3).astype(int)
     out = np.zeros(len(p), bool)
     out[ok] = (px[:, 1] > cfg.saturation_max) & (px[:, 2] >= cfg.value_min)
     return out
@@ -258,7 +256,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
 def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
     """The embedded recogniser: the branch mask, uint8 (H, W) (0/255; with ``edge_window_px`` > 0
     soft coverage 0-255 along the outline, see :func:`unmix_edges`), and the HSV image it was
-    taken from (H, W, 3) (for :func:`occluder_at`)."""
+    taken from (H, W, 3). The reference for :func:`segment_mask`, which gives the same mask faster."""
     hsv, raw = bark_hsv(bgr, cfg)
     mask = clean_mask(raw, cfg)
     if cfg.edge_window_px > 0:
@@ -270,7 +268,7 @@ def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.n
 def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     """:func:`segment_color`'s mask without the HSV image, the bark test run only near bark
     (:func:`bark_mask`): what the localizer uses (its occluder test converts the few pixels it
-    asks about, :func:`occluder_at` with ``bgr``)."""
+    asks about, :func:`occluder_at`)."""
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
     raw = bark_mask(bgr, cfg, small=small)
     mask = clean_mask(raw, cfg)

@@ -294,7 +294,8 @@ class EndPlacer:
         """The disparity (px) an agreed fork at ``xy`` (placed at disparity ``d``) takes from the pieces
         whose fits reach it (a piece fitted on a few rows and carried far past them is barely known
         there), where the others move it by more than half a pixel (within that, both sides' means
-        average out the crotch's bias on each); None to keep ``d``. ``at(s)``: piece s's disparity at
+        average out the crotch's bias on each), or, when none reaches it, from the one carried
+        clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
         the fork."""
         reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
         near_p = [s for s in parents if reach[s] <= 0]
@@ -303,6 +304,12 @@ class EndPlacer:
             return d_near if abs(d_near - d) > 0.5 else None
         if not near_p and child_ok and reach[child] <= 0:
             return float(at(child))
+        if not near_p:
+            # none reaches it: the one carried clearly least far (12 px less than any other)
+            cand = sorted((reach[s], s) for s in (*parents, *([child] if child_ok else [])))
+            if len(cand) >= 2 and cand[0][0] < cand[1][0] - 12.0:
+                d_best = float(at(cand[0][1]))
+                return d_best if abs(d_best - d) > 0.5 else None
         return None
 
     def _reach(self, s: int, xy: np.ndarray) -> float:

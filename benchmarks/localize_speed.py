@@ -33,8 +33,10 @@ REPO = Path(__file__).resolve().parents[1]
 # (module, attribute path) of the match stage's parts timed by --parts: its steps, then the primitives
 # they share (timed in a second pass); callers look these up at call time (module globals, class
 # attributes), so patching them times every call
-STEPS = [("dense", "fit_steep_many"), ("dense", "_flat_curve"), ("dense", "find_runs"),
-         ("ends", "EndPlacer.fork"), ("ends", "EndPlacer.tip"), ("ends", "EndPlacer.hidden_fork"),
+STEPS = [("dense", "fit_steep_many"), ("dense", "_resolve_shared"), ("dense", "_flat_curves"), ("dense", "find_runs"),
+         ("dense", "refine_runs"), ("dense", "cap_curves"), ("dense", "flat_cap_curves"), ("dense", "edge_consensus"),
+         ("dense", "_piece_uvd"), ("ends", "EndPlacer.fork"), ("ends", "EndPlacer.prewalk"),
+         ("ends", "EndPlacer.tips"), ("ends", "EndPlacer.tip"), ("ends", "EndPlacer.hidden_fork"),
          ("ends", "EndPlacer.joint"), ("ends", "EndPlacer.bridge_holds")]
 PRIMITIVES = [("dense", "robust_fit"), ("dense", "robust_fit_groups"), ("dense", "_consensus_lines"),
               ("ends", "robust_fit"), ("dense", "surface_disparity"), ("ends", "nearer_in_front"),

@@ -81,6 +81,14 @@ WALK_EDGE_BIAS = 0.375
 # the walks read sub-pixel (:func:`walk_edges`) rather than the nearest whole pixel; off until its
 # colour-mask figures are resolved (docs/localize-softmask.md)
 SUBPIXEL_WALK = False
+# END_SHIFT_STEEP_PX with sub-pixel walks: a round cap ends on the same rectified row in both views;
+# the whole-pixel walks' +-0.5 px in each view (up to 1 px between them) is gone
+END_SHIFT_STEEP_SUBPIXEL_PX = 1.5
+
+
+def _end_shift_steep_px() -> float:
+    """How far (px) a steep piece's right-view end may lie from its left-view end (see above)."""
+    return END_SHIFT_STEEP_SUBPIXEL_PX if SUBPIXEL_WALK else END_SHIFT_STEEP_PX
 
 
 def walk_edges(mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -821,7 +829,7 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
+        if not cap_behind and abs(t_right - t_edge) * speed > (_end_shift_steep_px() if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
             return None

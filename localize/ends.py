@@ -80,7 +80,7 @@ def _agree(d1: float, d2: float) -> bool:
 WALK_EDGE_BIAS = 0.375
 # the walks read sub-pixel (:func:`walk_edges`) rather than the nearest whole pixel; off until its
 # colour-mask figures are resolved (docs/localize-softmask.md)
-SUBPIXEL_WALK = False
+SUBPIXEL_WALK = True
 # END_SHIFT_STEEP_PX with sub-pixel walks: a round cap ends on the same rectified row in both views;
 # the whole-pixel walks' +-0.5 px in each view (up to 1 px between them) is gone
 END_SHIFT_STEEP_SUBPIXEL_PX = 1.5
@@ -583,7 +583,9 @@ class EndPlacer:
         if not segs:
             return False
         c = self.curves[segs[0]]
-        t_edge, sign = self._walk_out(c, node)
+        # (from the whole-pixel walk's end: its 1 px steps and checks were set with it; the sub-pixel
+        # one only moves their grid, and flips borderline crossings, docs/localize-softmask.md)
+        t_edge, sign = self._walk_out(c, node, whole=True)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
         lo_u, lo_v = (uv.min(0) - 2).tolist()
@@ -711,10 +713,12 @@ class EndPlacer:
         on &= inside
         return on
 
-    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False) -> tuple[float, float]:
+    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False,
+                  whole: bool = False) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
-        the piece's disparity); and the direction (+-1) of t."""
+        the piece's disparity); and the direction (+-1) of t. ``whole``: read at the nearest
+        whole pixels whatever ``SUBPIXEL_WALK`` says (:meth:`hidden_fork`'s start)."""
         key = (node, id(c))
         hit = self._walk_cache.get(key)
         if hit is None or hit[0] is not c:
@@ -725,7 +729,8 @@ class EndPlacer:
             t = start + sign * np.arange(0, reach, 0.25)
             hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None, {}]
         _, t, sign, uv, normal, done = hit
-        res = done.get((offset_px, right))          # (the plain walk: both tip and hidden_fork ask)
+        whole = whole and SUBPIXEL_WALK
+        res = done.get((offset_px, right, True) if whole else (offset_px, right))   # (the plain walk: tips ask twice)
         if res is not None:
             return res
         if offset_px:
@@ -738,9 +743,10 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        walk = walk_edges if SUBPIXEL_WALK else self._walk_whole
+        walk = walk_edges if SUBPIXEL_WALK and not whole else self._walk_whole
         idx, crosses = walk(self.sm.right_mask if right else self.sm.left_mask, uv, np.array([0, len(t)]))
-        res = done[offset_px, right] = (self._walk_t(t, sign, idx[0], crosses[0]), sign)
+        res = (self._walk_t(t, sign, idx[0], crosses[0]), sign)
+        done[(offset_px, right, True) if whole else (offset_px, right)] = res
         return res
 
     def tip(self, node: int) -> None:

@@ -25,6 +25,8 @@ from appliance.localize.radius import radius_at
 MAX_FIT_ERROR = 0.15
 # another fit elsewhere along the rows within this share of the best: ambiguous
 MIN_FIT_MARGIN = 0.15
+# the far fits (by squared difference) whose differing area is compared with the best's
+FAR_CANDIDATES = 4
 
 
 def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray,
@@ -56,9 +58,15 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
     err = cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=half)[0] / n
     k = int(np.argmin(err))
-    best = float(err[k])
     far = np.abs(np.arange(len(err)) - k) > half_px
-    if best > MAX_FIT_ERROR or (far.any() and float(err[far].min()) < best + min_margin):
+    # the tests read the share of the half's area that differs: sum |a - b| (the squared differences'
+    # sum for a binary mask; a soft one's are smaller at its outline, its partial pixels' differences
+    # squared), at the best fit and at the few best fits far from it
+    cand = np.flatnonzero(far)
+    cand = cand[np.argsort(err[cand], kind="stable")[:FAR_CANDIDATES]] if len(cand) else cand
+    area = _area_err(strip, patch, half, np.r_[k, cand])
+    best = float(area[0])
+    if best > MAX_FIT_ERROR or (len(cand) and float(area[1:].min()) < best + min_margin):
         return None
     off = 0.0
     if 0 < k < len(err) - 1:
@@ -66,6 +74,15 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
         den = a - 2 * b + c
         off = 0.5 * (a - c) / den if den > 0 else 0.0
     return float(x0 - (s0 + k + off))
+
+
+def _area_err(strip: np.ndarray, patch: np.ndarray, half: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Share (K,) of the masked patch's area (coverage 0-255, weights ``half``) that differs from
+    the strip's window at each column offset in ``offsets`` (K,): sum |a - b| half / (sum half 255)."""
+    cols = offsets[:, None] + np.arange(patch.shape[1])[None, :]          # (K, w)
+    win = strip[:, cols]                                                  # (h, K, w)
+    diff = np.abs(win - patch[:, None, :]) * half[:, None, :]
+    return diff.sum(axis=(0, 2)) / (float(half.sum()) * 255.0)
 
 
 def _rows_agree(runs_l: Runs, runs_r: Runs, rows: np.ndarray, u_poly: Poly, d: float, max_width_px: float) -> bool:

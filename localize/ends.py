@@ -74,6 +74,56 @@ def _agree(d1: float, d2: float) -> bool:
     return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
 
 
+# where a walk along the centre line leaves the mask: the last sample at or above half coverage
+# (bilinear, the crossing interpolated), plus this (t units) so that binary masks, whose 128 crossing is
+# the pixel's boundary, give the place the whole-pixel walk (nearest pixel, + 0.5) gave on average
+WALK_EDGE_BIAS = 0.375
+# the walks read sub-pixel (:func:`walk_edges`) rather than the nearest whole pixel; off until its
+# colour-mask figures are resolved (docs/localize-softmask.md)
+SUBPIXEL_WALK = True
+# END_SHIFT_STEEP_PX with sub-pixel walks: a round cap ends on the same rectified row in both views;
+# the whole-pixel walks' +-0.5 px in each view (up to 1 px between them) is gone
+END_SHIFT_STEEP_SUBPIXEL_PX = 1.5
+
+
+def _end_shift_steep_px() -> float:
+    """How far (px) a steep piece's right-view end may lie from its left-view end (see above)."""
+    return END_SHIFT_STEEP_SUBPIXEL_PX if SUBPIXEL_WALK else END_SHIFT_STEEP_PX
+
+
+def walk_edges(mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each walk leaves ``mask`` (uint8 coverage 0-255), read bilinear (off the image: 0).
+
+    ``uv`` (N, 2): all walks' points, walk i being ``uv[bounds[i]:bounds[i + 1]]`` (``bounds`` (W+1,)).
+    Returns, per walk, the fractional sample index (W,) of the half-coverage crossing after its last
+    sample at or above 128, interpolated between that sample and the next, and whether it has one (W,)
+    (False: the walk never leaves the mask, or starts off it; the index is then the last on-sample's, or 0).
+    """
+    n = len(uv)
+    width = min(n, 1024)                               # (remap's maps: under 32767 a side)
+    xy = np.full((-(-n // width) * width, 2), -9.0, np.float32)
+    xy[:n] = uv
+    v = cv2.remap(mask, xy.reshape(-1, width, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                  borderValue=0)
+    v = v.reshape(-1)[:n].astype(np.float32)
+    on = v >= 127.5
+    starts, ends = bounds[:-1], bounds[1:]
+    off = np.flatnonzero(~on)
+    if len(off):
+        j = np.searchsorted(off, starts)
+        first_off = np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends)
+        first_off = np.minimum(first_off, ends)
+    else:
+        first_off = ends.copy()
+    crosses = (first_off < ends) & (first_off > starts)
+    k = np.maximum(first_off, starts + 1)
+    a = v[np.minimum(k - 1, len(v) - 1)]
+    b = v[np.minimum(k, len(v) - 1)]
+    frac = np.clip((a - 127.5) / np.maximum(a - b, 1e-6), 0.0, 1.0)
+    idx = np.where(crosses, (k - 1 - starts) + frac, np.maximum(first_off - 1 - starts, 0))
+    return idx, crosses
+
+
 class EndPlacer:
     """Places forks, tips and joints of one graph on its fitted curves.
 
@@ -533,7 +583,9 @@ class EndPlacer:
         if not segs:
             return False
         c = self.curves[segs[0]]
-        t_edge, sign = self._walk_out(c, node)
+        # (from the whole-pixel walk's end: its 1 px steps and checks were set with it; the sub-pixel
+        # one only moves their grid, and flips borderline crossings, docs/localize-softmask.md)
+        t_edge, sign = self._walk_out(c, node, whole=True)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
         lo_u, lo_v = (uv.min(0) - 2).tolist()
@@ -614,16 +666,36 @@ class EndPlacer:
         uv_all = np.empty((len(t_all), 2))
         uv_all[:, 0] = np.where(by_row, s_all, t_all)
         uv_all[:, 1] = np.where(by_row, t_all, s_all)
-        on = self._on_mask(uv_all, self.sm.left_mask)
-        off = np.flatnonzero(~on)
-        first_off = off[np.minimum(np.searchsorted(off, ends - n), max(len(off) - 1, 0))] if len(off) else None
+        if SUBPIXEL_WALK:
+            idx, crosses = walk_edges(self.sm.left_mask, uv_all, np.r_[0, ends])
+        else:
+            idx, crosses = self._walk_whole(self.sm.left_mask, uv_all, np.r_[0, ends])
         for i, (node, c, sign) in enumerate(ks):
             a, b = ends[i] - n[i], ends[i]
             t = t_all[a:b]
-            k = int(first_off[i]) - a if first_off is not None and a <= first_off[i] < b else 0
-            last = k - 1 if not on[a + k] else len(t) - 1
-            res = (float(t[max(last, 0)] + sign * 0.5), sign)
+            res = (self._walk_t(t, sign, idx[i], crosses[i]), sign)
             self._walk_cache[node, id(c)] = [c, t, sign, uv_all[a:b], None, {(0.0, False): res}]
+
+    @classmethod
+    def _walk_whole(cls, mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`walk_edges`' results read at the nearest whole pixels: each walk's last sample on
+        the mask (index), never a crossing (the walk's edge is then that sample + 0.5)."""
+        on = cls._on_mask(uv, mask)
+        starts, ends = bounds[:-1], bounds[1:]
+        off = np.flatnonzero(~on)
+        if len(off):
+            j = np.searchsorted(off, starts)
+            first_off = np.minimum(np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends), ends)
+        else:
+            first_off = ends.copy()
+        return np.maximum(first_off - 1 - starts, 0), np.zeros(len(starts), bool)
+
+    @staticmethod
+    def _walk_t(t: np.ndarray, sign: float, idx: float, crosses: bool) -> float:
+        """A walk's edge parameter from :func:`walk_edges`' fractional index into its samples ``t``."""
+        if crosses:
+            return float(t[0] + sign * 0.25 * idx + sign * WALK_EDGE_BIAS)
+        return float(t[int(idx)] + sign * 0.5)
 
     @staticmethod
     def _on_mask(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -641,10 +713,12 @@ class EndPlacer:
         on &= inside
         return on
 
-    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False) -> tuple[float, float]:
+    def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False,
+                  whole: bool = False) -> tuple[float, float]:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
-        the piece's disparity); and the direction (+-1) of t."""
+        the piece's disparity); and the direction (+-1) of t. ``whole``: read at the nearest
+        whole pixels whatever ``SUBPIXEL_WALK`` says (:meth:`hidden_fork`'s start)."""
         key = (node, id(c))
         hit = self._walk_cache.get(key)
         if hit is None or hit[0] is not c:
@@ -655,7 +729,8 @@ class EndPlacer:
             t = start + sign * np.arange(0, reach, 0.25)
             hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None, {}]
         _, t, sign, uv, normal, done = hit
-        res = done.get((offset_px, right))          # (the plain walk: both tip and hidden_fork ask)
+        whole = whole and SUBPIXEL_WALK
+        res = done.get((offset_px, right, True) if whole else (offset_px, right))   # (the plain walk: tips ask twice)
         if res is not None:
             return res
         if offset_px:
@@ -668,10 +743,10 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        on = self._on_mask(uv, self.sm.right_mask if right else self.sm.left_mask)
-        k = int(on.argmin())                        # the first point off the mask (if any is)
-        last = k - 1 if not on[k] else len(t) - 1
-        res = done[offset_px, right] = (float(t[max(last, 0)] + sign * 0.5), sign)
+        walk = walk_edges if SUBPIXEL_WALK and not whole else self._walk_whole
+        idx, crosses = walk(self.sm.right_mask if right else self.sm.left_mask, uv, np.array([0, len(t)]))
+        res = (self._walk_t(t, sign, idx[0], crosses[0]), sign)
+        done[(offset_px, right, True) if whole else (offset_px, right)] = res
         return res
 
     def tip(self, node: int) -> None:
@@ -760,7 +835,7 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
+        if not cap_behind and abs(t_right - t_edge) * speed > (_end_shift_steep_px() if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
             return None

@@ -59,9 +59,7 @@ def run(loc, left, right, masks, placers):
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--extra", type=int, default=24)
-    ap.add_argument("--subpixel", action="store_true", help="the walks read sub-pixel (ends.SUBPIXEL_WALK)")
     a = ap.parse_args()
-    ends_mod.SUBPIXEL_WALK = a.subpixel
     placers: list = []
     orig = ends_mod.EndPlacer.__init__
 

@@ -26,8 +26,10 @@ from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import occluder_confirmed, round_caps, silhouette_offset_px
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
-# steep pieces (disparity from the outline), flat pieces (from the texture: looser)
-END_SHIFT_STEEP_PX = 2.0
+# steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
+# and the sub-pixel walks leave no rounding between them: 2 px with whole-pixel walks), flat pieces
+# (from the texture: looser)
+END_SHIFT_STEEP_PX = 1.5
 END_SHIFT_FLAT_PX = 6.0
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -78,17 +80,6 @@ def _agree(d1: float, d2: float) -> bool:
 # (bilinear, the crossing interpolated), plus this (t units) so that binary masks, whose 128 crossing is
 # the pixel's boundary, give the place the whole-pixel walk (nearest pixel, + 0.5) gave on average
 WALK_EDGE_BIAS = 0.375
-# the walks read sub-pixel (:func:`walk_edges`) rather than the nearest whole pixel; off until its
-# colour-mask figures are resolved (docs/localize-softmask.md)
-SUBPIXEL_WALK = True
-# END_SHIFT_STEEP_PX with sub-pixel walks: a round cap ends on the same rectified row in both views;
-# the whole-pixel walks' +-0.5 px in each view (up to 1 px between them) is gone
-END_SHIFT_STEEP_SUBPIXEL_PX = 1.5
-
-
-def _end_shift_steep_px() -> float:
-    """How far (px) a steep piece's right-view end may lie from its left-view end (see above)."""
-    return END_SHIFT_STEEP_SUBPIXEL_PX if SUBPIXEL_WALK else END_SHIFT_STEEP_PX
 
 
 def walk_edges(mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -666,10 +657,7 @@ class EndPlacer:
         uv_all = np.empty((len(t_all), 2))
         uv_all[:, 0] = np.where(by_row, s_all, t_all)
         uv_all[:, 1] = np.where(by_row, t_all, s_all)
-        if SUBPIXEL_WALK:
-            idx, crosses = walk_edges(self.sm.left_mask, uv_all, np.r_[0, ends])
-        else:
-            idx, crosses = self._walk_whole(self.sm.left_mask, uv_all, np.r_[0, ends])
+        idx, crosses = walk_edges(self.sm.left_mask, uv_all, np.r_[0, ends])
         for i, (node, c, sign) in enumerate(ks):
             a, b = ends[i] - n[i], ends[i]
             t = t_all[a:b]
@@ -718,7 +706,7 @@ class EndPlacer:
         """Parameter where the fitted centre line (or a parallel ``offset_px`` to its side),
         followed outwards, leaves the mask (``right``: the right view's, the line moved by
         the piece's disparity); and the direction (+-1) of t. ``whole``: read at the nearest
-        whole pixels whatever ``SUBPIXEL_WALK`` says (:meth:`hidden_fork`'s start)."""
+        whole pixels, not sub-pixel (:meth:`hidden_fork`'s start)."""
         key = (node, id(c))
         hit = self._walk_cache.get(key)
         if hit is None or hit[0] is not c:
@@ -729,7 +717,6 @@ class EndPlacer:
             t = start + sign * np.arange(0, reach, 0.25)
             hit = self._walk_cache[key] = [c, t, sign, c.uv_at(t), None, {}]
         _, t, sign, uv, normal, done = hit
-        whole = whole and SUBPIXEL_WALK
         res = done.get((offset_px, right, True) if whole else (offset_px, right))   # (the plain walk: tips ask twice)
         if res is not None:
             return res
@@ -743,7 +730,7 @@ class EndPlacer:
         if right:
             uv = uv.copy()
             uv[:, 0] -= c.d_at(t)
-        walk = walk_edges if SUBPIXEL_WALK and not whole else self._walk_whole
+        walk = self._walk_whole if whole else walk_edges
         idx, crosses = walk(self.sm.right_mask if right else self.sm.left_mask, uv, np.array([0, len(t)]))
         res = (self._walk_t(t, sign, idx[0], crosses[0]), sign)
         done[(offset_px, right, True) if whole else (offset_px, right)] = res
@@ -835,7 +822,7 @@ class EndPlacer:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if not cap_behind and abs(t_right - t_edge) * speed > (_end_shift_steep_px() if c.by_row else END_SHIFT_FLAT_PX) and not (
+        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
             self.hidden.add(int(node))
             return None

@@ -76,7 +76,7 @@ def main() -> None:
         left, right, truth = cv2.imread(str(lp)), cv2.imread(str(rp)), load_truth(tp)
         b = run(loc, left, right, truth.exact_masks(soft=False), placers)
         s = run(loc, left, right, truth.exact_masks(soft=True), placers)
-        kb, ks = np.array(list(b) or [(-99, -99)]), np.array(list(s) or [(-99, -99)])
+        ks = np.array(list(s) or [(-99, -99)])
         pairs, seen = [], set()
         for key in b:                      # the skeletons may differ a little: nearest end within 8 px
             dist = np.abs(ks - np.array(key)).max(1)

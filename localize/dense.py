@@ -28,7 +28,6 @@ from appliance.localize.curves import (
     Poly,
     angle_deg_groups,
     degree_for,
-    end_slopes,
     end_slopes_groups,
     fit_groups,
     linspace,

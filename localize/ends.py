@@ -434,12 +434,6 @@ class EndPlacer:
             return None
         return float(xy[0] - xy_r[0])
 
-    def _child_crossing(self, base, e, s_c: float, r_child: float, sin_t: float, mask: np.ndarray) -> float | None:
-        """Middle (parameter s along the line ``base + s e``) of the ``mask`` interval at or
-        nearest to ``s_c``, if it is as wide as a piece of radius ``r_child`` crossed at sine
-        ``sin_t``: :meth:`_child_crossings` of one line."""
-        return EndPlacer._child_crossings([(base, s_c)], e, r_child, sin_t, mask)[0]
-
     @staticmethod
     def _child_crossings(lines: list, e, r_child: float, sin_t: float, mask: np.ndarray) -> list:
         """Middles (parameter s along each line ``base + s e``, for each ``(base, s_c)`` of ``lines``)

@@ -15,9 +15,7 @@ import numpy as np
 from appliance.localize.skeleton import (
     Skeleton,
     SparseImage,
-    binary,
     neighbour_tables,
-    pixels,
 )
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
@@ -127,9 +125,8 @@ def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
     """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
-    s = binary(skel.image)
-    h, w = s.shape
-    img = SparseImage(cv2.copyMakeBorder(s, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1), (h, w))
+    img = SparseImage.from_image(skel.image)
+    h, w = img.shape
     idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
     yx = np.empty((len(idx), 2), np.int64)
     yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
@@ -139,7 +136,7 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
     pidx = idx[n == 2]
 
-    n_j, jlab = _labels(s.shape, jyx)
+    n_j, jlab = _labels(img.shape, jyx)
     node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
     n_nodes = len(node_pixels)
     node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
@@ -151,7 +148,7 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
             node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
     node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
 
-    n_s, slab = _labels(s.shape, pyx)
+    n_s, slab = _labels(img.shape, pyx)
     seg_yx = _group(slab, pyx, n_s)
 
     # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
@@ -187,5 +184,5 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
     seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
     length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
-    return SkeletonGraph(s.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
+    return SkeletonGraph(img.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
                          seg_yx, length)

@@ -100,10 +100,9 @@ class SparseImage:
 
     @classmethod
     def from_image(cls, img: np.ndarray) -> SparseImage:
-        h, w = img.shape
-        pad = np.zeros((h + 2, w + 2), np.uint8)
-        pad[1:-1, 1:-1] = img > 0
-        return cls(pad.ravel(), (h, w))
+        """The image (H, W), non-zero = set, with its border of zeros."""
+        pad = cv2.copyMakeBorder(binary(img), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+        return cls(pad.reshape(-1), img.shape)
 
     def index(self, ys: np.ndarray, xs: np.ndarray) -> np.ndarray:
         """Flat indices of pixels (row, col), shape (N,) int64."""
@@ -177,9 +176,8 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.
     """
     _, _, corner = neighbour_tables()
-    s = binary(skel01)
-    h, w = s.shape
-    img = SparseImage(cv2.copyMakeBorder(s, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1), (h, w))
+    img = SparseImage.from_image(skel01)
+    h, w = img.shape
     idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
     parity = (idx // (w + 2) + idx % (w + 2)) & 1         # (of the padded position: the same parity)
     for p in (0, 1):            # each pass decided on the image as the previous pass left it

@@ -124,7 +124,7 @@ def _batch_ncc_many(entries: list, hh: int, hw: int, n_pos: int) -> None:
     gathered from each entry's boxes, then searched together, and each entry's ``d_out[idx]``,
     ``score[idx]`` written."""
     n_h, n_w = 2 * hh + 1, 2 * hw + 1
-    tm, sp, his = [], [], []
+    tm, sp = [], []
     for lbox, rbox, uv, lo, hi, (by0, lx0, rx0), _, _, _ in entries:
         y0 = uv[:, 1] - hh - by0
         tm.append(_windows(lbox, (n_h, n_w))[y0, uv[:, 0] - hw - lx0])

@@ -159,9 +159,9 @@ def test_a_child_crossing_up_to_0_8_radius_wider_than_the_child_still_places_the
     mask[8:13, 100:157] = 255                          # 57 px: 2 r + 0.85 r
     mask[38:43, 100:160] = 255                         # 60 px: 2 r + r
     along = np.array([1.0, 0.0])
-    mid = EndPlacer._child_crossing(None, np.array([0.0, 10.0]), along, 128.0, r, 1.0, mask)
+    mid = EndPlacer._child_crossings([(np.array([0.0, 10.0]), 128.0)], along, r, 1.0, mask)[0]
     assert mid is not None and abs(mid - 128.0) <= 0.5
-    assert EndPlacer._child_crossing(None, np.array([0.0, 40.0]), along, 128.0, r, 1.0, mask) is None
+    assert EndPlacer._child_crossings([(np.array([0.0, 40.0]), 128.0)], along, r, 1.0, mask)[0] is None
 
 
 def test_a_child_crossing_middle_is_sub_pixel_from_the_mask_coverage():
@@ -172,7 +172,7 @@ def test_a_child_crossing_middle_is_sub_pixel_from_the_mask_coverage():
     x = np.arange(300.0)
     cover = np.clip(np.minimum(x + 0.5, 156.2) - np.maximum(x - 0.5, 100.2), 0.0, 1.0)
     mask = np.tile(np.rint(255 * cover).astype(np.uint8), (20, 1))
-    mid = EndPlacer._child_crossing(None, np.array([0.0, 10.0]), np.array([1.0, 0.0]), 128.0, 28.0, 1.0, mask)
+    mid = EndPlacer._child_crossings([(np.array([0.0, 10.0]), 128.0)], np.array([1.0, 0.0]), 28.0, 1.0, mask)[0]
     assert mid is not None and abs(mid - 128.2) <= 0.15
 
 

@@ -23,7 +23,8 @@ from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import occluder_confirmed, round_caps, silhouette_offset_px
+from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, occluder_confirmed, round_caps, silhouette_offset_px,
+                                     split_row_disparity)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
@@ -872,47 +873,63 @@ class EndPlacer:
     def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.
 
-        Each rectified row cuts the cap (a sphere) in a circle; the middles of the left and
-        right crossings of that row both project that circle's centre, a point within the
-        cap, whose depth :func:`cap_row_scale` takes back to the cap's centre. Median over the
-        cap's rows (one radius back from the end) of the middle disparities near ``d_prior``
-        (2 px); None with fewer than 3 rows. A row whose left
-        crossing reaches clearly further (1.5 px) on one side of the fitted centre line than on
-        the other is merged there with something touching the branch: it gives the disparity
-        of its other edge instead (near ``d_prior``: 2.5 px).
+        Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
+        the end along the centre line) in a circle; the middles of the left and right crossings
+        of that row both project that circle's centre, a point within the cap, whose depth
+        :func:`cap_row_scale` takes back to the cap's centre. Only the cap's own outline counts:
+        a crossing's edge is the cap's where it lies on the outward side of ``P`` (across the
+        centre line through ``P``); behind it the outline is the piece's body, whose depth is
+        another (on an oblique piece one edge of a row is the cap's and the other the body's).
+        A row with both edges on the cap gives its middle, a row with one its edge's disparity
+        less the outline's silhouette offset (:func:`tips.silhouette_offset_px`, for the row's
+        circle), and a row whose edges disagree (:func:`tips.split_row_disparity`: one cut or
+        merged in one view only) the nearest of the two and the middle to the agreeing rows. A
+        run ending at the view's edge gives no edge there. Median over the rows, within 2.5 px
+        of ``d_prior``; None with fewer than 3 rows.
         """
         sm = self.sm
-        a, b = sorted((int(np.rint(t_edge - sign * r)), int(np.rint(t_edge))))
-        a, b = max(a, 0), min(b, sm.left_mask.shape[0] - 1)
-        if b - a < 2:
-            return None
+        h, w = sm.left_mask.shape
+        uv_edge = c.uv_at(t_edge)[0]
+        step = c.uv_at(t_edge + sign)[0] - uv_edge
+        out = step / max(float(np.hypot(*step)), 1e-9)
+        p = uv_edge - out * r                                # the cap's centre (the tip)
+        a = max(int(np.ceil(min(p[1] - r, t_edge))), 0)
+        b = min(int(np.floor(max(p[1] + r, t_edge))), h - 1)
         rows = np.arange(a, b + 1)
-        runs_l, runs_r = self.runs_l, self.runs_r
-        s_rows = c.s_at(rows)
-        il = runs_l.find(rows, s_rows)
-        ok = il >= 0
-        if ok.sum() < 3:
+        rows = rows[(np.abs(rows - p[1]) <= r) & (sign * (t_edge - rows) >= -0.5)]
+        if len(rows) < 3:
             return None
-        rows, s_rows, il = rows[ok], s_rows[ok], il[ok]
+        runs_l, runs_r = self.runs_l, self.runs_r
+        il = runs_l.find(rows, c.s_at(rows))
+        rows, il = rows[il >= 0], il[il >= 0]
+        if len(rows) < 3 or not len(runs_r.row):
+            return None
         lo_l, hi_l = runs_l.left_px[il], runs_l.right_px[il]
-        w_lo, w_hi = s_rows - lo_l, hi_l - s_rows           # each side's reach from the centre line
-        sym = np.abs(w_lo - w_hi) <= 1.5
-        scale = cap_row_scale(rows, t_edge - sign * r, 0.5 * (sm.left_mask.shape[0] - 1), sm.f_px)
-        c_l = runs_l.centre_px[il[sym]]
-        q, rr = runs_r.between(rows[sym], c_l - d_prior - 2.0, c_l - d_prior + 2.0)
-        d = [(c_l[q] - runs_r.centre_px[rr]) * scale[sym][q]]
-        # a row merged on one side with something touching the branch: the other edge's disparity
-        for side, lo_side in ((~sym & (w_lo < w_hi), True), (~sym & (w_lo >= w_hi), False)):
-            if side.any() and len(runs_r.row):
-                e_l = lo_l[side] if lo_side else hi_l[side]
-                ir = runs_r.find(rows[side], e_l - d_prior + (1.5 if lo_side else -1.5))
-                e_r = np.where(ir >= 0, runs_r.left_px[ir] if lo_side else runs_r.right_px[ir], np.nan)
-                # (an edge's disparity is its silhouette's: taken back to the middle's)
-                half = w_lo[side] if lo_side else w_hi[side]
-                de = (e_l - e_r - silhouette_offset_px(s_rows[side], e_l - e_r, half, -1.0 if lo_side else 1.0,
-                                                       sm.f_px, 0.5 * (sm.left_mask.shape[1] - 1))) * scale[side]
-                d.append(de[np.abs(de - d_prior) <= 2.5])
-        d = np.concatenate(d)
+        c_l = runs_l.centre_px[il]
+        q, rr = runs_r.between(rows, c_l - d_prior - 2.0, c_l - d_prior + 2.0)
+        if len(q) < 3:
+            return None
+        rows, lo_l, hi_l = rows[q], lo_l[q], hi_l[q]
+        lo_r, hi_r = runs_r.left_px[rr], runs_r.right_px[rr]
+        # which edges are the cap's: on the outward side of its centre, not at the view's edge
+        dv = rows - p[1]
+        cap_lo = ((lo_l - p[0]) * out[0] + dv * out[1] >= -CAP_EDGE_BACK * r) & ~at_view_edge(rows, lo_l, -1.0, sm.valid_left) \
+            & ~at_view_edge(rows, lo_r, -1.0, None, w)
+        cap_hi = ((hi_l - p[0]) * out[0] + dv * out[1] >= -CAP_EDGE_BACK * r) & ~at_view_edge(rows, hi_l, 1.0, sm.valid_left) \
+            & ~at_view_edge(rows, hi_r, 1.0, None, w)
+        d_lo, d_hi = lo_l - lo_r, hi_l - hi_r
+        # an edge's disparity is its silhouette's (the row's circle): taken back to the middle's
+        half = np.sqrt(np.maximum(r * r - dv * dv, 0.0))
+        cx = 0.5 * (w - 1)
+        e_lo = np.where(cap_lo, d_lo - silhouette_offset_px(np.full(len(rows), p[0]), d_lo, half, -1.0, sm.f_px, cx),
+                        np.inf)
+        e_hi = np.where(cap_hi, d_hi - silhouette_offset_px(np.full(len(rows), p[0]), d_hi, half, 1.0, sm.f_px, cx),
+                        np.inf)
+        both = cap_lo & cap_hi
+        d = np.where(cap_lo, e_lo, e_hi)
+        d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)
+        d = d * cap_row_scale(rows, p[1], 0.5 * (h - 1), sm.f_px)
+        d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
         if len(d) < 3:
             return None
         return float(median(d))

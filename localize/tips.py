@@ -44,6 +44,12 @@ CONFIRM_PX = 3.0
 MIN_CAP_BACK = 0.2
 MAX_CAP_BACK = 3.0
 TOUCH_BACK = -5.0
+# a cap row whose two edges' disparities (each taken back to the middle's) differ by more than this
+# (px) has one edge cut or merged in one view only (or, on an oblique cap, the piece's body)
+SPLIT_ROW_PX = 1.0
+# a steep cap's outline counts as the cap's up to this share of the radius behind its centre (where
+# the body's outline, tangent to the cap there, still has the centre's depth)
+CAP_EDGE_BACK = 0.2
 
 
 def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
@@ -354,3 +360,39 @@ def _is_round(shapes: list | None) -> bool:
         if MIN_CAP_BACK <= hi <= MAX_CAP_BACK and (lo >= MIN_CAP_BACK or lo <= TOUCH_BACK):
             return True
     return False
+
+def at_view_edge(rows: np.ndarray, x_px: np.ndarray, side: float, valid: np.ndarray | None,
+                 width_px: int | None = None) -> np.ndarray:
+    """Whether each run boundary ``x_px`` (N,) of ``rows`` (N,) lies at the view's edge: the pixel
+    just beyond it (``side`` -1 left, +1 right) is outside the image or, with ``valid`` (H, W)
+    bool (where the rectified view sees the scene), outside that. Such an end is the view's, not
+    the branch's outline. ``width_px`` is the image width when ``valid`` is None."""
+    w = valid.shape[1] if valid is not None else int(width_px)
+    xb = np.floor(np.asarray(x_px, float) + (0.5 if side > 0 else -0.5)).astype(int)
+    out = (xb < 0) | (xb >= w)
+    if valid is not None:
+        inside = ~out
+        out[inside] = ~valid[np.asarray(rows, int)[inside], xb[inside]]
+    return out
+
+
+def split_row_disparity(mid: np.ndarray, e_lo: np.ndarray, e_hi: np.ndarray, d_prior: float,
+                        split_px: float = SPLIT_ROW_PX) -> np.ndarray:
+    """Disparity (N,) of a cap's rows from their middles ``mid`` and their two edges' own
+    disparities ``e_lo``, ``e_hi`` (N,) px, silhouette-corrected; ``inf`` where an edge is unusable).
+
+    A row whose edges agree (within ``split_px``) keeps its middle (the two edges' errors
+    partly cancel there). A row whose edges disagree has one of them cut or merged in one view
+    only (a leaf, a branch touching the cap in one view), or on an oblique cap the piece's body:
+    it takes whichever of its middle and its two edges lies nearest the agreeing rows' median
+    (``d_prior`` with fewer than 3 of them).
+    """
+    mid = np.asarray(mid, float)
+    split = ~(np.abs(e_lo - e_hi) <= split_px)
+    if not split.any():
+        return mid
+    good = ~split & (np.abs(mid - d_prior) <= 2.0)
+    d_ref = float(median(mid[good])) if good.sum() >= 3 else float(d_prior)
+    cand = np.stack([mid, e_lo, e_hi])
+    pick = np.abs(cand - d_ref).argmin(axis=0)
+    return np.where(split, cand[pick, np.arange(len(mid))], mid)

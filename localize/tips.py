@@ -368,7 +368,8 @@ def at_view_edge(rows: np.ndarray, x_px: np.ndarray, side: float, valid: np.ndar
     bool (where the rectified view sees the scene), outside that. Such an end is the view's, not
     the branch's outline. ``width_px`` is the image width when ``valid`` is None."""
     w = valid.shape[1] if valid is not None else int(width_px)
-    xb = np.floor(np.asarray(x_px, float) + (0.5 if side > 0 else -0.5)).astype(int)
+    # (a boundary refined to the grey image may lie up to ~0.6 px inside its run's end pixel)
+    xb = np.rint(np.asarray(x_px, float) + 0.9 * side).astype(int)
     out = (xb < 0) | (xb >= w)
     if valid is not None:
         inside = ~out

@@ -1,0 +1,104 @@
+"""A tip's disparity from its cap's own outline (appliance.localize.ends._cap_disparity and the
+helpers in appliance.localize.tips), on constructed cases."""
+
+import cv2
+import numpy as np
+import pytest
+from appliance.config import load_config
+from appliance.localize import Localizer
+from appliance.localize.tips import at_view_edge, split_row_disparity
+
+from .shapes import ideal_rig
+
+CFG = load_config().localize
+
+
+def test_a_split_row_takes_the_value_nearest_the_agreeing_rows():
+    mid = np.array([100.0, 100.1, 99.9, 100.6, 99.4])
+    e_lo = np.array([100.0, 100.2, 99.8, 100.1, 98.0])
+    e_hi = np.array([100.0, 100.0, 100.0, 101.2, 100.8])
+    d = split_row_disparity(mid, e_lo, e_hi, d_prior=100.3)
+    # the first three agree (their middles stand); the fourth's edges are 1.1 px apart: its low
+    # edge is nearest the agreeing rows' median (100.0); the fifth's middle is
+    assert np.allclose(d, [100.0, 100.1, 99.9, 100.1, 99.4])
+    # with fewer than 3 agreeing rows the prior is the reference
+    d = split_row_disparity(mid[3:], e_lo[3:], e_hi[3:], d_prior=101.0)
+    assert np.allclose(d, [101.2, 100.8])
+
+
+def test_a_run_ending_at_the_view_edge_is_cut_there():
+    rows = np.array([5, 5, 6, 6])
+    x = np.array([-0.4, 639.4, 300.5, 20.5])      # (a refined boundary may lie inside its end pixel)
+    assert at_view_edge(rows, x[:2], -1.0, None, 640).tolist() == [True, False]
+    assert at_view_edge(rows[:2], x[:2], 1.0, None, 640).tolist() == [False, True]
+    valid = np.ones((10, 640), bool)
+    valid[6, :21] = False                          # the rectified view's black corner
+    assert at_view_edge(rows[2:], x[2:], -1.0, valid).tolist() == [False, True]
+    assert at_view_edge(rows[2:], x[2:], 1.0, valid).tolist() == [False, False]
+
+
+def _capsule_cover(shape, a, b, r, ss=6):
+    """Share (H, W) of each pixel within ``r`` of the segment ``a``-``b`` (px; pixel centres at
+    integers), from ``ss`` x ``ss`` samples per pixel near it."""
+    h, w = shape
+    cover = np.zeros((h, w))
+    x0, x1 = max(int(min(a[0], b[0]) - r - 2), 0), min(int(max(a[0], b[0]) + r + 3), w)
+    y0, y1 = max(int(min(a[1], b[1]) - r - 2), 0), min(int(max(a[1], b[1]) + r + 3), h)
+    off = (np.arange(ss) + 0.5) / ss - 0.5
+    ys = (np.arange(y0, y1)[:, None] + off[None, :]).ravel()
+    xs = (np.arange(x0, x1)[:, None] + off[None, :]).ravel()
+    px, py = np.meshgrid(xs, ys)
+    ab = np.subtract(b, a)
+    t = np.clip(((px - a[0]) * ab[0] + (py - a[1]) * ab[1]) / (ab @ ab), 0.0, 1.0)
+    inside = np.hypot(px - a[0] - t * ab[0], py - a[1] - t * ab[1]) <= r
+    cover[y0:y1, x0:x1] = inside.reshape(y1 - y0, ss, x1 - x0, ss).mean(axis=(1, 3))
+    return cover
+
+
+def _inclined_pair(calib, tip, base, d_tip, d_base, r):
+    """A branch from ``tip`` to ``base`` (left px, radius ``r``, a round cap) whose disparity
+    changes linearly from ``d_tip`` to ``d_base`` along it, drawn anti-aliased in both views:
+    left image, left mask, right image, right mask."""
+    w, h = calib.image_size
+    views = []
+    for dt, db in ((0.0, 0.0), (d_tip, d_base)):
+        cover = _capsule_cover((h, w), (tip[0] - dt, tip[1]), (base[0] - db, base[1]), r)
+        g = np.rint(40 + 160 * cover).astype(np.uint8)
+        views += [cv2.cvtColor(g, cv2.COLOR_GRAY2BGR), (cover >= 0.5).astype(np.uint8) * 255]
+    return views
+
+
+# the drawn right view is the left one moved along the rows, without the perspective of a real
+# round outline (tips.silhouette_offset_px): a long focal length and a short baseline make that
+# offset negligible (~0.02 px) for these tests
+RIG = dict(f_px=3000.0, baseline_mm=20.0)
+
+
+@pytest.mark.parametrize("base_x", [300.0, 470.0])
+def test_an_inclined_branchs_tip_takes_its_caps_disparity(base_x):
+    # a branch coming nearer towards its base (disparity +35 px over ~370 px), upright or at
+    # ~25 deg: on the oblique one each row across the cap has one edge on the cap and the other
+    # on the body; the tip is the cap's centre and has its disparity
+    calib = ideal_rig(**RIG)
+    d_tip = calib.f_px * calib.baseline_mm / 900.0
+    tip, base, r = (300.0, 90.0), (base_x, 440.0), 8.0
+    left, ml, right, mr = _inclined_pair(calib, tip, base, d_tip, d_tip + 35.0, r)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, tip)) <= 1.0
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d_tip) <= 0.1
+
+
+def test_a_cap_running_out_of_the_view_on_one_side_takes_its_other_edges():
+    # the cap's right side reaches the view's last column on the rows around its centre: those
+    # rows' right ends are the view's, not the branch's (their middles were 0.13 px off)
+    calib = ideal_rig(**RIG)
+    d_tip = calib.f_px * calib.baseline_mm / 900.0
+    tip, r = (632.0, 90.0), 8.0
+    left, ml, right, mr = _inclined_pair(calib, tip, (572.0, 440.0), d_tip, d_tip + 10.0, r)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, tip)) <= 1.0
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d_tip) <= 0.08

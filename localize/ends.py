@@ -37,6 +37,9 @@ END_SHIFT_FLAT_PX = 6.0
 HIDDEN_FORK_MIN_DEG = 20.0
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
+# in that view) still gives the end's disparity within this of the prior (px) if the ends agree
+END_RUN_CUT_PX = 2.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -971,11 +974,20 @@ class EndPlacer:
         e_r = runs_r.right_px[j] if right_end else runs_r.left_px[j]
         d = e_l - e_r
         ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1])
-        ok &= np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3
-        if not ok.any():
-            return None
-        d = d[ok]
-        d = float(d[np.argmin(np.abs(d - d_prior))])
+        similar = ok & (np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3)
+        if similar.any():
+            d = d[similar]
+            d = float(d[np.argmin(np.abs(d - d_prior))])
+        else:
+            # the right run is cut (or merged) elsewhere along the piece, an occluder or a crossing
+            # branch in that view only: its end is still the cap's if the end's outline agrees row
+            # by row (the nearest such within 2 px of the prior)
+            d = d[ok & (np.abs(d - d_prior) <= END_RUN_CUT_PX)]
+            if r <= 0 or not len(d):
+                return None
+            d = float(d[np.argmin(np.abs(d - d_prior))])
+            if not self._end_outline_agrees(uv_edge, out, d, r):
+                return None
         k = int(0.5 * r)
         # the run ends' disparity is their silhouette's, not the cap centre's (tips.silhouette_offset_px)
         cx = 0.5 * (sm.left_mask.shape[1] - 1)

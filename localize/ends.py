@@ -909,7 +909,11 @@ class EndPlacer:
             return None
         lo_l, hi_l = runs_l.left_px[il], runs_l.right_px[il]
         c_l = runs_l.centre_px[il]
-        q, rr = runs_r.between(rows, c_l - d_prior - 2.0, c_l - d_prior + 2.0)
+        # the right run at the left middle moved by the prior: its middle may be off it, merged
+        # on one side with something the left view shows apart (then its other edge counts)
+        rr = runs_r.find(rows, c_l - d_prior)
+        q = np.nonzero(rr >= 0)[0]
+        rr = rr[q]
         if len(q) < 3:
             return None
         rows, lo_l, hi_l = rows[q], lo_l[q], hi_l[q]

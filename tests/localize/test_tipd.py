@@ -102,3 +102,22 @@ def test_a_cap_running_out_of_the_view_on_one_side_takes_its_other_edges():
     assert len(tips) == 1
     assert np.hypot(*np.subtract(tips[0].left_px, tip)) <= 1.0
     assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d_tip) <= 0.08
+
+
+def test_a_cap_merged_with_something_in_the_right_view_only_takes_its_free_edges():
+    # a bar at another depth touches the cap's right side in the right view only: the right runs
+    # across the cap run on into it (their middles ~10 px off); their left edges are the cap's
+    calib = ideal_rig(**RIG)
+    d_tip = calib.f_px * calib.baseline_mm / 900.0
+    tip, r = (300.0, 90.0), 8.0
+    left, ml, right, mr = _inclined_pair(calib, tip, (330.0, 440.0), d_tip, d_tip + 10.0, r)
+    bar = np.zeros(mr.shape, bool)
+    x0 = int(round(tip[0] - d_tip + r - 1.0))
+    bar[78:104, x0:x0 + 20] = True
+    mr = np.where(bar, 255, mr).astype(np.uint8)
+    right = np.where(bar[..., None], 200, right).astype(np.uint8)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, tip)) <= 1.0
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d_tip) <= 0.1

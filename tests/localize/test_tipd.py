@@ -121,3 +121,33 @@ def test_a_cap_merged_with_something_in_the_right_view_only_takes_its_free_edges
     assert len(tips) == 1
     assert np.hypot(*np.subtract(tips[0].left_px, tip)) <= 1.0
     assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d_tip) <= 0.1
+
+
+def test_a_flat_end_whose_right_run_is_cut_elsewhere_keeps_its_run_end_disparity():
+    # a flat branch ending in a round cap; in the right view an occluder cuts the piece 60 px
+    # behind the end, so the right run there is much shorter than the left: its end is still the
+    # cap's (the ends agree row by row); with something slanting across the cap in the right view
+    # they do not, and the end gives no disparity
+    from types import SimpleNamespace
+
+    from appliance.localize.edges import find_runs
+    from appliance.localize.ends import EndPlacer
+
+    d, r = 150.0, 8.0
+    left = np.zeros((200, 600), np.uint8)
+    cv2.line(left, (200, 100), (392, 100), 255, int(2 * r))
+    cv2.circle(left, (392, 100), int(r), 255, -1)
+    right = np.roll(left, -int(d), axis=1)
+    right[:, 170:180] = 0                                # the occluder's gap, 60 px behind the end
+    touched = right.copy()
+    cv2.line(touched, (214, 60), (294, 140), 255, 8)     # slanting across the cap's end
+    uv_edge, out = np.array([400.0, 100.0]), np.array([1.0, 0.0])
+    sm = SimpleNamespace(left_mask=left, f_px=3000.0, d_range_px=(50.0, 300.0))
+    for mask_r, expect in ((right, d), (touched, None)):
+        placer = SimpleNamespace(sm=sm, runs_l=find_runs(left), runs_r=find_runs(mask_r))
+        placer._end_outline_agrees = lambda *a, p=placer: EndPlacer._end_outline_agrees(p, *a)
+        got = EndPlacer._end_disparity(placer, uv_edge, out, d + 1.0, r)
+        if expect is None:
+            assert got is None
+        else:
+            assert got is not None and abs(got - expect) <= 0.1

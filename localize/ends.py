@@ -919,19 +919,20 @@ class EndPlacer:
         rows, lo_l, hi_l = rows[q], lo_l[q], hi_l[q]
         lo_r, hi_r = runs_r.left_px[rr], runs_r.right_px[rr]
         # which edges are the cap's: on the outward side of its centre, not at the view's edge
+        n = len(rows)
         dv = rows - p[1]
-        cap_lo = ((lo_l - p[0]) * out[0] + dv * out[1] >= -CAP_EDGE_BACK * r) & ~at_view_edge(rows, lo_l, -1.0, sm.valid_left) \
-            & ~at_view_edge(rows, lo_r, -1.0, None, w)
-        cap_hi = ((hi_l - p[0]) * out[0] + dv * out[1] >= -CAP_EDGE_BACK * r) & ~at_view_edge(rows, hi_l, 1.0, sm.valid_left) \
-            & ~at_view_edge(rows, hi_r, 1.0, None, w)
-        d_lo, d_hi = lo_l - lo_r, hi_l - hi_r
+        rows2, side2 = np.concatenate([rows, rows]), np.repeat([-1.0, 1.0], n)
+        e_left, e_right = np.concatenate([lo_l, hi_l]), np.concatenate([lo_r, hi_r])
+        cap = ((e_left - p[0]) * out[0] + np.concatenate([dv, dv]) * out[1] >= -CAP_EDGE_BACK * r) \
+            & ~at_view_edge(rows2, e_left, side2, sm.valid_left) & ~at_view_edge(rows2, e_right, side2, None, w)
+        cap_lo, cap_hi = cap[:n], cap[n:]
         # an edge's disparity is its silhouette's (the row's circle): taken back to the middle's
         half = np.sqrt(np.maximum(r * r - dv * dv, 0.0))
-        cx = 0.5 * (w - 1)
-        e_lo = np.where(cap_lo, d_lo - silhouette_offset_px(np.full(len(rows), p[0]), d_lo, half, -1.0, sm.f_px, cx),
-                        np.inf)
-        e_hi = np.where(cap_hi, d_hi - silhouette_offset_px(np.full(len(rows), p[0]), d_hi, half, 1.0, sm.f_px, cx),
-                        np.inf)
+        de = e_left - e_right
+        de = np.where(cap, de - silhouette_offset_px(np.full(2 * n, p[0]), de, np.concatenate([half, half]), side2,
+                                                     sm.f_px, 0.5 * (w - 1)), np.inf)
+        d_lo, d_hi = lo_l - lo_r, hi_l - hi_r
+        e_lo, e_hi = de[:n], de[n:]
         both = cap_lo & cap_hi
         d = np.where(cap_lo, e_lo, e_hi)
         d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)

@@ -364,12 +364,12 @@ def _is_round(shapes: list | None) -> bool:
 def at_view_edge(rows: np.ndarray, x_px: np.ndarray, side: float, valid: np.ndarray | None,
                  width_px: int | None = None) -> np.ndarray:
     """Whether each run boundary ``x_px`` (N,) of ``rows`` (N,) lies at the view's edge: the pixel
-    just beyond it (``side`` -1 left, +1 right) is outside the image or, with ``valid`` (H, W)
+    just beyond it (``side`` -1 left, +1 right; scalar or (N,)) is outside the image or, with ``valid`` (H, W)
     bool (where the rectified view sees the scene), outside that. Such an end is the view's, not
     the branch's outline. ``width_px`` is the image width when ``valid`` is None."""
     w = valid.shape[1] if valid is not None else int(width_px)
     # (a boundary refined to the grey image may lie up to ~0.6 px inside its run's end pixel)
-    xb = np.rint(np.asarray(x_px, float) + 0.9 * side).astype(int)
+    xb = np.rint(np.asarray(x_px, float) + 0.9 * np.asarray(side, float)).astype(int)
     out = (xb < 0) | (xb >= w)
     if valid is not None:
         inside = ~out

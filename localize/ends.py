@@ -1000,7 +1000,9 @@ class EndPlacer:
             return d - silhouette_offset_px(uv_edge[0], d, r, 1.0 if right_end else -1.0, sm.f_px, cx)
         # the rows within half a radius of the axis end alike in both views too (the cap's sphere):
         # the median of their run ends' disparities near the axis row's (1 px)
-        rows = row + np.arange(-k, k + 1)
+        # (centred on the cap's centre's row, where a sphere's outline is furthest along the rows: on
+        # a piece inclined to the rows the centre line's end lies a little off it)
+        rows = int(np.rint(uv_edge[1] - out[1] * r)) + np.arange(-k, k + 1)
         rows = rows[(rows >= 0) & (rows < sm.left_mask.shape[0])]
         sgn = 1.0 if right_end else -1.0
         il = runs_l.find(rows, np.full(len(rows), e_l - sgn * (1.0 + r)))

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from appliance.localize.curves import median, robust_fit
+from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
 
@@ -59,52 +59,91 @@ def side_disparity_near(c, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px
     end, sg = (lo, 1.0) if t_fork < lo else (hi, -1.0)
     n_gap = int(abs(t_fork - end))
     # the rows from the fork's to span_rows into the span (the first 20 of those also give the width)
-    rows = end + sg * np.arange(-n_gap, span_rows + 1, dtype=float)
-    rows = rows[rows >= 0]
-    if len(rows) < min_rows:
+    rows = np.arange(-n_gap, span_rows + 1, dtype=float)
+    rows *= sg
+    rows += end
+    if rows.min() < 0 or len(rows) < min_rows:
         return None
-    u = c.s_at(rows)
-    d = c.d_at(rows)
+    u, d = _carried(c, rows, n_gap, end)
     il = runs_l.find(rows, u)
     i0 = np.maximum(il, 0)
-    w_l = runs_l.span_px[i0]
-    c_l = runs_l.centre_px[i0]
-    inside = sg * (rows - end) >= 0
-    ref = (il >= 0) & inside & (sg * (rows - end) < 20)
+    w_l = runs_l.span_px.take(i0)
+    c_l = runs_l.centre_px.take(i0)
+    found = il >= 0
+    ref = found[n_gap:n_gap + 20]
     if not ref.any():
         return None
-    w_end = float(median(w_l[ref]))
-    ok = (il >= 0) & (np.abs(w_l - w_end) <= 0.1 * w_end + 1.5) & (np.abs(c_l - u) <= 0.15 * w_end + 1.5)
-    q_idx = np.flatnonzero(ok)
-    if len(q_idx) < min_rows:
+    w_end = float(median(w_l[n_gap:n_gap + 20][ref]))
+    ok = found & (np.abs(w_l - w_end) <= 0.1 * w_end + 1.5)
+    ok &= np.abs(c_l - u) <= 0.15 * w_end + 1.5
+    k = np.flatnonzero(ok)
+    if len(k) < min_rows:
         return None
-    q, rr = runs_r.between(rows[q_idx].astype(np.int64), c_l[q_idx] - d[q_idx] - tol_d_px,
-                           c_l[q_idx] - d[q_idx] + tol_d_px)
-    if not len(q):
+    # the right crossing holding the middle carried from the left one at the fit's disparity, as
+    # wide (a row whose one edge is ragged or cut in one view moves its middle)
+    c_l, d, w_l = c_l.take(k), d.take(k), w_l.take(k)
+    ir = runs_r.find(rows.take(k), c_l - d)
+    j0 = np.maximum(ir, 0)
+    cd = c_l - runs_r.centre_px.take(j0)
+    ok = (ir >= 0) & (np.abs(cd - d) <= tol_d_px)
+    ok &= np.abs(runs_r.span_px.take(j0) - w_l) <= width_tol_px
+    k2 = np.flatnonzero(ok)
+    if len(k2) < min_rows:
         return None
-    cd = c_l[q_idx[q]] - runs_r.centre_px[rr]
-    # (as wide in both views: a row whose one edge is ragged or cut in one view moves its middle)
-    good = np.abs(runs_r.span_px[rr] - w_l[q_idx[q]]) <= width_tol_px
-    q, cd = q[good], cd[good]
-    if not len(q):
+    k, cd = k.take(k2), cd.take(k2)
+    x, y = rows.take(k) - t_fork, cd
+    fit = _robust_line(x, y, min_rows)
+    if fit is None:
         return None
-    # per row the right crossing nearest the carried disparity
-    res = np.abs(cd - d[q_idx[q]])
-    order = np.lexsort((res, q))
-    first = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
-    rows_k = rows[q_idx[q[first]]]
-    d_k = cd[first]
-    if len(rows_k) < min_rows:
-        return None
-    poly, keep = robust_fit(rows_k - t_fork, d_k, 1)
-    if keep.sum() < min_rows:
-        return None
-    gap_k = keep & ~inside[q_idx[q[first]]]
-    res = d_k[keep] - poly(rows_k[keep] - t_fork)
-    return SideNear(float(poly.at(0.0)), int(keep.sum()), int(gap_k.sum()), n_gap,
-                    float(np.abs(rows_k[keep] - t_fork).min()),
-                    1.4826 * float(median(np.abs(res - median(res)))),
-                    float(poly.deriv().at(0.0)), float(c.d_at(np.array([t_fork]))[0]))
+    a, b, keep, mad = fit
+    return SideNear(b, int(keep.sum()), int((keep & (k < n_gap)).sum()), n_gap, float(np.abs(x[keep]).min()), mad, a)
+
+
+def _carried(c, rows: np.ndarray, n_gap: int, end: float) -> tuple[np.ndarray, np.ndarray]:
+    """The curve's centre column and disparity (N,) at ``rows``: its first ``n_gap`` beyond the span's
+    ``end`` (carried along the end slopes, as :meth:`BranchCurve.s_at` / ``d_at``), the rest inside
+    (its polynomials; the general evaluation when they run past the span's other end)."""
+    lo, hi = c.t_range
+    inner = rows[n_gap:]
+    if len(inner) and not (lo <= inner.min() and inner.max() <= hi):
+        return c.s_at(rows), c.d_at(rows)
+    u, d = np.empty(len(rows)), np.empty(len(rows))
+    u[n_gap:] = c.s_poly(inner)
+    d[n_gap:] = c.d_poly(inner)
+    dt = rows[:n_gap] - end
+    k = 0 if end == lo else 1
+    u[:n_gap] = c.s_poly.at(end) + c.s_poly.deriv().at(end) * dt
+    slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[k]
+    d[:n_gap] = c.d_poly.at(end) + slope_d * dt
+    return u, d
+
+
+def _robust_line(x: np.ndarray, y: np.ndarray, min_n: int, rounds: int = 3, k_mad: float = 3.5):
+    """Least-squares line ``y = a x + b`` with rejection of residuals beyond ``k_mad`` MADs (+ 0.05),
+    as :func:`curves.robust_fit` of degree 1, in closed form. Returns (a, b, inliers (N,), MAD) or
+    None when fewer than ``min_n`` stay."""
+    keep = np.ones(len(x), bool)
+    xs, ys = x, y
+    for r in range(rounds + 1):
+        n = len(xs)
+        sx, sy = float(xs.sum()), float(ys.sum())
+        sxx, sxy = float(xs @ xs), float(xs @ ys)
+        det = n * sxx - sx * sx
+        if det <= 0:
+            return None
+        a = (n * sxy - sx * sy) / det
+        b = (sy - a * sx) / n
+        res = y - (a * x + b)
+        rk = res[keep]
+        mad = 1.4826 * float(median(np.abs(rk - median(rk))))
+        if r == rounds:
+            break
+        new = np.abs(res) <= k_mad * (mad + 1e-3) + 0.05
+        if new.sum() < min_n or (new == keep).all():
+            break
+        keep = new
+        xs, ys = x[keep], y[keep]
+    return a, b, keep, mad
 
 
 @dataclass(frozen=True)
@@ -125,8 +164,6 @@ class SideNear:
         Scaled MAD of the kept rows about the line.
     slope : float
         The line's slope (px of disparity per row).
-    d_curve_px : float
-        The side's fitted curve carried to the fork, for comparison.
     """
 
     d_px: float
@@ -136,4 +173,3 @@ class SideNear:
     nearest_px: float
     mad_px: float
     slope: float
-    d_curve_px: float

@@ -20,7 +20,7 @@ from appliance.localize.edges import Runs
 
 # a parent side's fit carried at least this far (px of its parameter) to the fork is read again from its
 # own crossings nearest the fork; rows of the span next to its end taken with them
-SIDE_GAP_MIN_PX = 12.0
+SIDE_GAP_MIN_PX = 6.0
 SIDE_SPAN_ROWS = 40
 
 

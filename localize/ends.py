@@ -264,9 +264,10 @@ class EndPlacer:
         parents = [s for s in parents if passes(s)]
         child_ok = child in self.curves and passes(child)
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
-        # (its crossings far from the junction's blob are the parent's alone: forkdisp.py)
+        # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
+        # without the child's outline is withheld whatever its disparity (below): not read
         side_near = {}
-        for s in parents if final else ():
+        for s in parents if final and outline is not None else ():
             v = side_disparity_near(self.curves[s], self.runs_l, self.runs_r, float(self.curves[s].t_of(xy)[0]))
             if v is not None:
                 side_near[s] = v

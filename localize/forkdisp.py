@@ -64,7 +64,7 @@ def side_disparity_near(c, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px
     rows += end
     if rows.min() < 0 or len(rows) < min_rows:
         return None
-    u, d = _carried(c, rows, n_gap, end)
+    u, d = _carried(c, rows, end)
     il = runs_l.find(rows, u)
     i0 = np.maximum(il, 0)
     w_l = runs_l.span_px.take(i0)
@@ -99,51 +99,45 @@ def side_disparity_near(c, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px
     return SideNear(b, int(keep.sum()), int((keep & (k < n_gap)).sum()), n_gap, float(np.abs(x[keep]).min()), mad, a)
 
 
-def _carried(c, rows: np.ndarray, n_gap: int, end: float) -> tuple[np.ndarray, np.ndarray]:
-    """The curve's centre column and disparity (N,) at ``rows``: its first ``n_gap`` beyond the span's
-    ``end`` (carried along the end slopes, as :meth:`BranchCurve.s_at` / ``d_at``), the rest inside
-    (its polynomials; the general evaluation when they run past the span's other end)."""
-    lo, hi = c.t_range
-    inner = rows[n_gap:]
-    if len(inner) and not (lo <= inner.min() and inner.max() <= hi):
-        return c.s_at(rows), c.d_at(rows)
-    u, d = np.empty(len(rows)), np.empty(len(rows))
-    u[n_gap:] = c.s_poly(inner)
-    d[n_gap:] = c.d_poly(inner)
-    dt = rows[:n_gap] - end
-    k = 0 if end == lo else 1
-    u[:n_gap] = c.s_poly.at(end) + c.s_poly.deriv().at(end) * dt
-    slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[k]
-    d[:n_gap] = c.d_poly.at(end) + slope_d * dt
-    return u, d
+def _carried(c, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:
+    """The curve's centre column and disparity (N,) at ``rows`` along its tangent at the span's ``end``
+    (beyond the span: as :meth:`BranchCurve.s_at` / ``d_at`` carry it; on the span's rows next to its
+    end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px)."""
+    lo, _ = c.t_range
+    slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[0 if end == lo else 1]
+    dt = rows - end
+    return c.s_poly.at(end) + c.s_poly.deriv().at(end) * dt, c.d_poly.at(end) + slope_d * dt
 
 
-def _robust_line(x: np.ndarray, y: np.ndarray, min_n: int, rounds: int = 3, k_mad: float = 3.5):
-    """Least-squares line ``y = a x + b`` with rejection of residuals beyond ``k_mad`` MADs (+ 0.05),
-    as :func:`curves.robust_fit` of degree 1, in closed form. Returns (a, b, inliers (N,), MAD) or
-    None when fewer than ``min_n`` stay."""
-    keep = np.ones(len(x), bool)
-    xs, ys = x, y
-    for r in range(rounds + 1):
-        n = len(xs)
-        sx, sy = float(xs.sum()), float(ys.sum())
-        sxx, sxy = float(xs @ xs), float(xs @ ys)
-        det = n * sxx - sx * sx
-        if det <= 0:
+def _line_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
+    """Least-squares line ``y = a x + b`` (closed form); None when ``x`` has no spread."""
+    n = len(x)
+    sx, sy = float(x.sum()), float(y.sum())
+    det = n * float(x @ x) - sx * sx
+    if det <= 0:
+        return None
+    a = (n * float(x @ y) - sx * sy) / det
+    return a, (sy - a * sx) / n
+
+
+def _robust_line(x: np.ndarray, y: np.ndarray, min_n: int, k_mad: float = 3.5):
+    """A line ``y = a x + b`` refitted once without the residuals beyond ``k_mad`` MADs (+ 0.05) of the
+    least-squares one (:func:`curves.robust_fit`'s test, one round). Returns (a, b, inliers (N,), MAD)
+    or None when fewer than ``min_n`` stay."""
+    ab = _line_fit(x, y)
+    if ab is None:
+        return None
+    res = y - (ab[0] * x + ab[1])
+    mad = 1.4826 * float(median(np.abs(res - median(res))))
+    keep = np.abs(res) <= k_mad * (mad + 1e-3) + 0.05
+    n_keep = int(np.count_nonzero(keep))
+    if n_keep < min_n:
+        return None
+    if n_keep < len(x):
+        ab = _line_fit(x[keep], y[keep])
+        if ab is None:
             return None
-        a = (n * sxy - sx * sy) / det
-        b = (sy - a * sx) / n
-        res = y - (a * x + b)
-        rk = res[keep]
-        mad = 1.4826 * float(median(np.abs(rk - median(rk))))
-        if r == rounds:
-            break
-        new = np.abs(res) <= k_mad * (mad + 1e-3) + 0.05
-        if new.sum() < min_n or (new == keep).all():
-            break
-        keep = new
-        xs, ys = x[keep], y[keep]
-    return a, b, keep, mad
+    return ab[0], ab[1], keep, mad
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from appliance.localize.curves import median
+from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 
 
@@ -24,7 +24,7 @@ SIDE_GAP_MIN_PX = 6.0
 SIDE_SPAN_ROWS = 40
 
 
-def side_disparity_near(c, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
+def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
                         span_rows: int = SIDE_SPAN_ROWS, tol_d_px: float = 2.5, width_tol_px: float = 1.2,
                         min_rows: int = 12) -> SideNear | None:
     """A steep parent side's disparity at a fork from its own crossings nearest the fork.
@@ -96,10 +96,11 @@ def side_disparity_near(c, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px
     if fit is None:
         return None
     a, b, keep, mad = fit
-    return SideNear(b, int(keep.sum()), int((keep & (k < n_gap)).sum()), n_gap, float(np.abs(x[keep]).min()), mad, a)
+    return SideNear(b, int(np.count_nonzero(keep)), int(np.count_nonzero(keep & (k < n_gap))), n_gap,
+                    float(np.abs(x[keep]).min()), mad, a)
 
 
-def _carried(c, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:
+def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:
     """The curve's centre column and disparity (N,) at ``rows`` along its tangent at the span's ``end``
     (beyond the span: as :meth:`BranchCurve.s_at` / ``d_at`` carry it; on the span's rows next to its
     end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px)."""

@@ -70,3 +70,29 @@ def test_a_parent_hidden_in_the_right_view_near_the_fork_gives_nothing_from_ther
     near = side_disparity_near(curve(0.01), runs_l, runs_r, FORK_ROW)
     assert near is not None and near.n_gap_rows == 0
     assert abs(near.d_px - d_axis(FORK_ROW)) <= 0.1
+
+
+def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
+    # a drawn Y at 30 deg: the child's blob keeps the upper side's fit ~50 rows short of the fork;
+    # that side is read from its own rows there, and the fork keeps the parent's disparity
+    import appliance.localize.ends as ends
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+
+    from .shapes import ideal_rig, y_pair
+
+    read = []
+
+    def spy(*args, **kwargs):
+        out = side_disparity_near(*args, **kwargs)
+        read.append(out)
+        return out
+
+    monkeypatch.setattr(ends, "side_disparity_near", spy)
+    calib = ideal_rig()
+    left, right, ml, mr, fork, d = y_pair(calib, 1000.0, 30.0)
+    res = Localizer(calib, load_config().localize).localize(left, right, mask_left=ml, mask_right=mr)
+    sides = [r for r in read if r is not None]
+    assert sides and all(s.gap_px >= 6 and abs(s.d_px - d) <= 0.1 for s in sides)
+    forks = [f for f in res.features if f.kind == "bifurcation"]
+    assert len(forks) == 1 and abs((forks[0].left_px[0] - forks[0].right_px[0]) - d) <= 0.1

@@ -96,7 +96,11 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if fit is None:
         return None
     a, b, keep, mad = fit
-    return SideNear(b, int(np.count_nonzero(keep)), int(np.count_nonzero(keep & (k < n_gap))), n_gap,
+    n_gap_k = int(np.count_nonzero(keep & (k < n_gap)))
+    if n_gap_k == 0 and hi - lo < 2 * span_rows:
+        # (no row past the span: a short span's fit is already a line through these rows)
+        return None
+    return SideNear(b, int(np.count_nonzero(keep)), n_gap_k, n_gap,
                     float(np.abs(x[keep]).min()), mad, a)
 
 

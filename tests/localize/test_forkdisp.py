@@ -70,6 +70,10 @@ def test_a_parent_hidden_in_the_right_view_near_the_fork_gives_nothing_from_ther
     near = side_disparity_near(curve(0.01), runs_l, runs_r, FORK_ROW)
     assert near is not None and near.n_gap_rows == 0
     assert abs(near.d_px - d_axis(FORK_ROW)) <= 0.1
+    # a short span (50 rows) is already fitted by a line through those rows: its fit stays
+    c = curve(0.01)
+    short = BranchCurve(0, True, (200.0, 250.0), c.s_poly, c.d_poly, 10.0, 51)
+    assert side_disparity_near(short, runs_l, runs_r, FORK_ROW) is None
 
 
 def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):

@@ -10,6 +10,7 @@ span's rows next to its end, read at the fork's row, is that side's disparity at
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +27,7 @@ SIDE_SPAN_ROWS = 40
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
                         span_rows: int = SIDE_SPAN_ROWS, tol_d_px: float = 2.5, width_tol_px: float = 1.2,
-                        min_rows: int = 12) -> SideNear | None:
+                        min_rows: int = 12, max_gap_px: int = 300) -> SideNear | None:
     """A steep parent side's disparity at a fork from its own crossings nearest the fork.
 
     A piece's fit leaves out the rows near its junction (the crotch's blob) and is carried to the
@@ -48,16 +49,18 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     Returns
     -------
     SideNear or None
-        None when the fork lies within ``gap_min_px`` of the span (the fit is read there) or fewer
-        than ``min_rows`` rows are found.
+        None when the fork lies within ``gap_min_px`` of the span (the fit is read there) or further
+        than ``max_gap_px`` from it, or fewer than ``min_rows`` rows are found.
     """
-    if not c.by_row:
+    if not c.by_row or not math.isfinite(t_fork):
         return None
     lo, hi = c.t_range
     if lo - gap_min_px < t_fork < hi + gap_min_px:
         return None
     end, sg = (lo, 1.0) if t_fork < lo else (hi, -1.0)
     n_gap = int(abs(t_fork - end))
+    if n_gap > max_gap_px:
+        return None
     # the rows from the fork's to span_rows into the span (the first 20 of those also give the width)
     rows = np.arange(-n_gap, span_rows + 1, dtype=float)
     rows *= sg

@@ -19,6 +19,7 @@ from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
+from appliance.localize.forkdisp import side_disparity_near
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at
@@ -266,6 +267,17 @@ class EndPlacer:
             return np.hypot(*(c.uv_at(c.t_of(xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
         parents = [s for s in parents if passes(s)]
         child_ok = child in self.curves and passes(child)
+        # a side whose fit stops short of the fork is read again from its own crossings nearest it
+        # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
+        # without the child's outline is withheld whatever its disparity (below): not read
+        side_near = {}
+        for s in parents if final and outline is not None else ():
+            v = side_disparity_near(self.curves[s], self.runs_l, self.runs_r, float(self.curves[s].t_of(xy)[0]))
+            if v is not None:
+                side_near[s] = v
+        if side_near:
+            at_curve = at
+            at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -298,7 +310,7 @@ class EndPlacer:
         # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
         # provisional place (no outline) is hidden whatever agrees: its checks run only when that
         # disparity would differ (the same results, the work skipped otherwise)
-        d_known = self._known_disparity(parents, child, child_ok, xy, d, at) \
+        d_known = self._known_disparity(parents, child, child_ok, xy, d, at, side_near) \
             if parents and not from_outline else None
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
@@ -335,14 +347,17 @@ class EndPlacer:
             self.curves = now
 
     def _known_disparity(self, parents: list, child: int, child_ok: bool, xy: np.ndarray, d: float,
-                         at) -> float | None:
+                         at, near=None) -> float | None:
         """The disparity (px) an agreed fork at ``xy`` (placed at disparity ``d``) takes from the pieces
         whose fits reach it (a piece fitted on a few rows and carried far past them is barely known
         there), where the others move it by more than half a pixel (within that, both sides' means
         average out the crotch's bias on each), or, when none reaches it, from the one carried
         clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
-        the fork."""
+        the fork; ``near``: {piece: :class:`forkdisp.SideNear`} of the sides read from their own crossings
+        nearest the fork (known there if one lies within 12 px)."""
         reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
+            reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):
             d_near = float(np.mean([at(s) for s in near_p]))

@@ -1,0 +1,102 @@
+"""A parent side's disparity at a fork from its own crossings nearest it (appliance.localize.forkdisp)."""
+
+import numpy as np
+from appliance.localize.curves import BranchCurve, Poly
+from appliance.localize.edges import find_runs
+from appliance.localize.forkdisp import side_disparity_near
+
+H, W = 400, 320
+FORK_ROW = 150.0
+
+
+def u_axis(v):
+    return 150.0 + 0.1 * v
+
+
+def d_axis(v):                        # the parent leans in depth: 0.01 px of disparity per row
+    return 40.0 + 0.01 * v
+
+
+def band(shift_px, child_px: float = 0.0) -> np.ndarray:
+    """A steep parent (half width 10 px) as coverage 0-255, moved left by ``shift_px(v)``; rows within
+    15 of the fork's widened by ``child_px`` on the left (a child leaving there)."""
+    v = np.arange(H, dtype=float)[:, None]
+    u = np.arange(W, dtype=float)[None, :]
+    c = u_axis(v) - shift_px(v)
+    lo = c - 10.0 - np.where(np.abs(v - FORK_ROW) <= 15, child_px, 0.0)
+    cov = np.clip(np.minimum(u - lo, c + 10.0 - u) + 0.5, 0.0, 1.0)
+    return np.rint(255 * cov).astype(np.uint8)
+
+
+def curve(d_slope_err: float) -> BranchCurve:
+    """The parent's piece fitted on rows 200-300 only (its rows near the junction left out), its
+    disparity's slope off by ``d_slope_err`` px per row (0 at row 250)."""
+    t = np.arange(200.0, 301.0)
+    return BranchCurve(0, True, (200.0, 300.0), Poly.fit(t, u_axis(t), 1),
+                       Poly.fit(t, d_axis(t) + d_slope_err * (t - 250.0), 1), 10.0, len(t))
+
+
+def test_a_side_carried_to_the_fork_is_read_from_its_own_rows_there():
+    left = band(lambda v: 0.0 * v, child_px=8.0)
+    right = band(d_axis, child_px=8.0)
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    c = curve(0.01)
+    carried = float(c.d_at(np.array([FORK_ROW]))[0])
+    assert abs(carried - d_axis(FORK_ROW)) >= 0.9            # the fit carried 50 rows: 1 px off
+    near = side_disparity_near(c, runs_l, runs_r, FORK_ROW)
+    assert near is not None
+    assert abs(near.d_px - d_axis(FORK_ROW)) <= 0.05
+    # the rows the child widens are not the parent's alone: left out, so the line stops short of them
+    assert near.nearest_px >= 15.0
+    assert near.gap_px == 50 and 20 <= near.n_gap_rows <= 35
+
+
+def test_a_fork_within_the_span_or_a_flat_side_keeps_the_fit():
+    left, right = band(lambda v: 0.0 * v), band(d_axis)
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    c = curve(0.01)
+    assert side_disparity_near(c, runs_l, runs_r, 195.0) is None       # 5 rows past the span: read there
+    flat = BranchCurve(0, False, c.t_range, c.s_poly, c.d_poly, 10.0, 101)
+    assert side_disparity_near(flat, runs_l, runs_r, FORK_ROW) is None
+
+
+def test_a_parent_hidden_in_the_right_view_near_the_fork_gives_nothing_from_there():
+    # the right view shows the parent only on the fitted rows: the carried fit is all there is
+    # beyond them, and the line through the span's rows next to its end is read (no gap rows)
+    left = band(lambda v: 0.0 * v)
+    right = band(d_axis)
+    right[:200] = 0
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    near = side_disparity_near(curve(0.01), runs_l, runs_r, FORK_ROW)
+    assert near is not None and near.n_gap_rows == 0
+    assert abs(near.d_px - d_axis(FORK_ROW)) <= 0.1
+    # a short span (50 rows) is already fitted by a line through those rows: its fit stays
+    c = curve(0.01)
+    short = BranchCurve(0, True, (200.0, 250.0), c.s_poly, c.d_poly, 10.0, 51)
+    assert side_disparity_near(short, runs_l, runs_r, FORK_ROW) is None
+
+
+def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
+    # a drawn Y at 30 deg: the child's blob keeps the upper side's fit ~50 rows short of the fork;
+    # that side is read from its own rows there, and the fork keeps the parent's disparity
+    import appliance.localize.ends as ends
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+
+    from .shapes import ideal_rig, y_pair
+
+    read = []
+
+    def spy(*args, **kwargs):
+        out = side_disparity_near(*args, **kwargs)
+        read.append(out)
+        return out
+
+    monkeypatch.setattr(ends, "side_disparity_near", spy)
+    calib = ideal_rig()
+    left, right, ml, mr, fork, d = y_pair(calib, 1000.0, 30.0)
+    res = Localizer(calib, load_config().localize).localize(left, right, mask_left=ml, mask_right=mr)
+    sides = [r for r in read if r is not None]
+    assert sides and all(s.gap_px >= 6 and abs(s.d_px - d) <= 0.1 for s in sides)
+    forks = [f for f in res.features if f.kind == "bifurcation"]
+    assert len(forks) == 1 and abs((forks[0].left_px[0] - forks[0].right_px[0]) - d) <= 0.1

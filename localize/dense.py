@@ -38,7 +38,6 @@ from appliance.localize.curves import (
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize import merged_tips as merged
-from appliance.localize.merged_tips import merged_tips
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -595,7 +594,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     # no tip gained on the rendered scenes): a graph end takes its place; a piece's other end (a
     # junction, a joint) gains a tip of its own
     extra = {}
-    for (s, node), uvd in (merged_tips(b, steep) if merged.LEFT_MERGED else {}).items():
+    for (s, node), uvd in (merged.merged_tips(b, steep) if merged.LEFT_MERGED else {}).items():
         if kinds[node] == ENDPOINT:
             b.uvd[node] = uvd
             b.hidden.discard(node)

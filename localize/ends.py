@@ -22,6 +22,7 @@ from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkdisp import side_disparity_near
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
+from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, occluder_confirmed, round_caps, silhouette_offset_px,
@@ -837,7 +838,13 @@ class EndPlacer:
         t_right, _ = self._walk_out(c, node, right=True)
         if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
                 c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
-            self.hidden.add(int(node))
+            # the left cap cut by a thing in front of it, whole in the right view: placed from there
+            # (merged_tips.py; its own checks of the right view's cap stand for those below)
+            uvd = right_cap_tip(self, c, t_edge, t_right, sign) if c.by_row else None
+            if uvd is None:
+                self.hidden.add(int(node))
+            else:
+                self.uvd[node] = uvd
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)

@@ -1,0 +1,119 @@
+"""Tips whose cap is whole in one view only (appliance.localize.merged_tips), on drawn stereo pairs."""
+
+import cv2
+import numpy as np
+from appliance.config import load_config
+from appliance.localize import Localizer
+from appliance.localize import merged_tips
+from appliance.localize.merged_tips import strict_round
+from appliance.localize.tips import cap_shape
+
+from .shapes import ideal_rig
+
+CFG = load_config().localize
+TOP, BOTTOM, R = (300.0, 60.0), (260.0, 420.0), 6.0
+
+
+def _rod_pair(calib, depth_mm: float, cut_left_y: float | None, cut_right_y: float | None = None,
+              bar_left: bool = False, right_top_y: float | None = None):
+    """A steep rod (radius ``R``, round cap centred on ``TOP``) at one depth in both views; its cap
+    cut in a view above row ``cut_*_y`` by a grey thing in front (not branch: outside the mask);
+    ``bar_left``: a crossing bar overlapping the cap in the left view only (not drawn in the right);
+    ``right_top_y``: the rod ends in a round cap further down in the right view."""
+    d = calib.f_px * calib.baseline_mm / depth_mm
+    w, h = calib.image_size
+    ss = 4
+    views = []
+    for shift, cut in ((0.0, cut_left_y), (d, cut_right_y)):
+        big = np.full((h * ss, w * ss), 40, np.uint8)
+
+        def px(p):
+            return round((p[0] - shift + 0.5) * ss - 0.5), round((p[1] + 0.5) * ss - 0.5)
+        top = TOP
+        if right_top_y is not None and shift:
+            top = (TOP[0] + (BOTTOM[0] - TOP[0]) * (right_top_y - TOP[1]) / (BOTTOM[1] - TOP[1]), right_top_y)
+        cv2.line(big, px(top), px(BOTTOM), 200, int(round(2 * R * ss)))
+        if cut is not None:            # a leaf's edge, slightly oblique, in front of the cap
+            poly = np.array([px((TOP[0] - 30, cut - 2)), px((TOP[0] + 30, cut + 2)), px((TOP[0] + 30, 0)),
+                             px((TOP[0] - 30, 0))], np.int32)
+            cv2.fillPoly(big, [poly], 90)
+        if bar_left and shift == 0.0:
+            cv2.rectangle(big, px((TOP[0] - 60, TOP[1] - 4)), px((TOP[0] + 60, TOP[1] - 20)), 200, -1)
+        g = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA)
+        views += [cv2.cvtColor(g, cv2.COLOR_GRAY2BGR), ((g.astype(int) - 40) > 80).astype(np.uint8) * 255]
+    left, ml, right, mr = views
+    return left, right, ml, mr, d
+
+
+def _tips(res):
+    return [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+
+
+def test_a_tip_cut_in_the_left_view_only_is_placed_from_the_right_views_cap():
+    calib = ideal_rig()
+    left, right, ml, mr, d = _rod_pair(calib, 900.0, cut_left_y=57.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = _tips(res)
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, TOP)) <= 1.5
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
+
+
+def test_a_tip_cut_in_both_views_is_no_tip():
+    # the same thing in front cuts the cap in both views (the right view's edge a little further
+    # out): neither end is round, no tip
+    calib = ideal_rig()
+    left, right, ml, mr, _ = _rod_pair(calib, 900.0, cut_left_y=59.0, cut_right_y=56.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not _tips(res)
+
+
+def test_a_cut_beyond_the_tips_centre_is_not_placed_from_the_right_view():
+    # the left view's outline ends before the tip's centre: the left view does not see the tip
+    calib = ideal_rig()
+    left, right, ml, mr, _ = _rod_pair(calib, 900.0, cut_left_y=70.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not _tips(res)
+
+
+def test_strict_round_wants_both_sides_of_a_whole_cap():
+    calib = ideal_rig()
+    _, _, ml, mr, d = _rod_pair(calib, 900.0, cut_left_y=57.0)
+    out = np.array([TOP[0] - BOTTOM[0], TOP[1] - BOTTOM[1]])
+    out /= np.hypot(*out)
+    edge = np.array(TOP) + R * out
+    assert strict_round(cap_shape(mr, edge - (d, 0.0), out, R))
+    assert not strict_round(cap_shape(ml, edge, out, R))
+    assert not strict_round(None)
+
+
+def test_a_tip_merged_with_a_crossing_bar_in_the_left_view_only_is_placed_from_the_right_views_cap(monkeypatch):
+    # the rod's cap overlaps a bar in the left view (the skeleton runs on into the bar); the right
+    # view's bar lies out of the way (not drawn) and the cap stands free
+    calib = ideal_rig()
+    left, right, ml, mr, d = _rod_pair(calib, 900.0, None, bar_left=True)
+    assert not _tips(Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr))   # (switch off)
+    monkeypatch.setattr(merged_tips, "LEFT_MERGED", True)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = _tips(res)
+    assert len(tips) == 1
+    assert np.hypot(*np.subtract(tips[0].left_px, TOP)) <= 1.5
+    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
+    # the rod's branch runs to the tip
+    ends = [b for b in res.branches if tips[0].id in b.feature_ids]
+    assert len(ends) == 1 and min(abs(ends[0].polyline_mm[:, 2] - tips[0].xyz_mm[2])) < 1.0
+
+
+def test_a_rod_running_on_in_the_left_view_is_no_merged_tip(monkeypatch):
+    # the rod cut in the right view only by a straight edge (not round) and running on in the left:
+    # no tip from the right view
+    monkeypatch.setattr(merged_tips, "LEFT_MERGED", True)
+    calib = ideal_rig()
+    left, right, ml, mr, _ = _rod_pair(calib, 900.0, None, cut_right_y=75.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not [t for t in _tips(res) if t.left_px[1] > 62]
+    # a round end in the right view, but the left view's outline past it is the rod running on
+    # (as wide, on its centre line), not another branch: no tip there either
+    left, right, ml, mr, _ = _rod_pair(calib, 900.0, None, right_top_y=80.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not [t for t in _tips(res) if t.left_px[1] > 62]

@@ -37,7 +37,6 @@ from appliance.localize.curves import (
 )
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
-from appliance.localize import merged_tips as merged
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -590,21 +589,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     ends = np.flatnonzero(kinds == ENDPOINT).tolist()
     b.prewalk(ends)                     # (the tips' walks out, all at once)
     b.tips(ends)
-    # tips merged with another branch in the left view, free in the right one (merged_tips.py, off:
-    # no tip gained on the rendered scenes): a graph end takes its place; a piece's other end (a
-    # junction, a joint) gains a tip of its own
-    extra = {}
-    for (s, node), uvd in (merged.merged_tips(b, steep) if merged.LEFT_MERGED else {}).items():
-        if kinds[node] == ENDPOINT:
-            b.uvd[node] = uvd
-            b.hidden.discard(node)
-        else:
-            extra[s, node] = len(kinds) + len(extra)
-            b.uvd[extra[s, node]] = uvd
-            b.radius[extra[s, node]] = b.curves[s].radius_px
     for node in np.flatnonzero(kinds == JOINT):
         b.joint(node)
-    kinds = np.concatenate([kinds, np.full(len(extra), ENDPOINT, kinds.dtype)])
+    kinds = kinds.copy()
     for node in np.flatnonzero(kinds == ENDPOINT):
         if b.hidden_fork(node):
             kinds[node] = JUNCTION
@@ -646,8 +633,8 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         features.append(ft)
     pieces = []
     for s, c in sorted(curves.items()):
-        a, z = (extra.get((s, n), n) for n in graph.seg_nodes[s])
-        xy = [b.uvd[n][:2] if n >= len(graph.node_kind) else b.node_xy[n] if n >= 0 else None for n in (a, z)]
+        a, z = graph.seg_nodes[s]
+        xy = [b.node_xy[n] if n >= 0 else None for n in (a, z)]
         pieces.append(PieceUVD(s, _piece_uvd(c, [b.uvd.get(n) for n in (a, z)], xy), c.radius_px, False,
                                (int(a), int(z))))
     for s in bridges:

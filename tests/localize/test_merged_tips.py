@@ -4,7 +4,6 @@ import cv2
 import numpy as np
 from appliance.config import load_config
 from appliance.localize import Localizer
-from appliance.localize import merged_tips
 from appliance.localize.merged_tips import strict_round
 from appliance.localize.tips import cap_shape
 
@@ -85,35 +84,3 @@ def test_strict_round_wants_both_sides_of_a_whole_cap():
     assert strict_round(cap_shape(mr, edge - (d, 0.0), out, R))
     assert not strict_round(cap_shape(ml, edge, out, R))
     assert not strict_round(None)
-
-
-def test_a_tip_merged_with_a_crossing_bar_in_the_left_view_only_is_placed_from_the_right_views_cap(monkeypatch):
-    # the rod's cap overlaps a bar in the left view (the skeleton runs on into the bar); the right
-    # view's bar lies out of the way (not drawn) and the cap stands free
-    calib = ideal_rig()
-    left, right, ml, mr, d = _rod_pair(calib, 900.0, None, bar_left=True)
-    assert not _tips(Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr))   # (switch off)
-    monkeypatch.setattr(merged_tips, "LEFT_MERGED", True)
-    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
-    tips = _tips(res)
-    assert len(tips) == 1
-    assert np.hypot(*np.subtract(tips[0].left_px, TOP)) <= 1.5
-    assert abs((tips[0].left_px[0] - tips[0].right_px[0]) - d) <= 0.5
-    # the rod's branch runs to the tip
-    ends = [b for b in res.branches if tips[0].id in b.feature_ids]
-    assert len(ends) == 1 and min(abs(ends[0].polyline_mm[:, 2] - tips[0].xyz_mm[2])) < 1.0
-
-
-def test_a_rod_running_on_in_the_left_view_is_no_merged_tip(monkeypatch):
-    # the rod cut in the right view only by a straight edge (not round) and running on in the left:
-    # no tip from the right view
-    monkeypatch.setattr(merged_tips, "LEFT_MERGED", True)
-    calib = ideal_rig()
-    left, right, ml, mr, _ = _rod_pair(calib, 900.0, None, cut_right_y=75.0)
-    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
-    assert not [t for t in _tips(res) if t.left_px[1] > 62]
-    # a round end in the right view, but the left view's outline past it is the rod running on
-    # (as wide, on its centre line), not another branch: no tip there either
-    left, right, ml, mr, _ = _rod_pair(calib, 900.0, None, right_top_y=80.0)
-    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
-    assert not [t for t in _tips(res) if t.left_px[1] > 62]

@@ -1,0 +1,231 @@
+"""Compiled loops (numba) for the match stage's per-piece fits and run look-ups.
+
+Each kernel replaces a stretch of small numpy calls (10-40 per piece, ~1-3 us each) by one
+compiled loop over the pieces or queries: the same rules and, where the arithmetic allows, the
+same values. Sums are numpy's pairwise sums (:func:`_pairwise`), so the power sums of the fits are
+those of ``np.add.reduceat`` bit for bit; the small normal-equation systems are solved by
+Gaussian elimination with partial pivoting instead of LAPACK's ``dgesv`` (equal up to rounding).
+
+Compiled on first use and cached on disk (``cache=True``: beside this file in ``__pycache__``,
+or under ``NUMBA_CACHE_DIR``; where neither is writable numba compiles in memory each process).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+_JIT = dict(cache=True, nogil=True)
+
+
+@numba.njit(**_JIT)
+def _pairwise(a, lo, n):
+    """numpy's pairwise sum of ``a[lo:lo + n]`` (float64 reduce inner loop: blocks of 8 accumulators,
+    halves above 128), the same value bit for bit."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        m = n - n % 8
+        i = 8
+        while i < m:
+            r0 += a[lo + i]
+            r1 += a[lo + i + 1]
+            r2 += a[lo + i + 2]
+            r3 += a[lo + i + 3]
+            r4 += a[lo + i + 4]
+            r5 += a[lo + i + 5]
+            r6 += a[lo + i + 6]
+            r7 += a[lo + i + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[lo + i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise(a, lo, n2) + _pairwise(a, lo + n2, n - n2)
+
+
+@numba.njit(**_JIT)
+def _segment_sum(a, lo, n):
+    """``np.add.reduceat``'s sum of a segment ``a[lo:lo + n]`` (n >= 1): its first value plus the
+    pairwise sum of the rest."""
+    return a[lo] + _pairwise(a, lo + 1, n - 1)
+
+
+@numba.njit(**_JIT)
+def _median(a):
+    """``np.median`` of a 1-D float array (the same value: the middle order statistic(s))."""
+    n = len(a)
+    if n == 0:
+        return np.nan
+    p = np.sort(a)
+    k = n // 2
+    if n % 2:
+        return p[k]
+    return (p[k - 1] + p[k]) / 2
+
+
+@numba.njit(**_JIT)
+def _fit_one(t, y, degree, coef):
+    """``curves.fit_groups`` of one group's samples ``t``, ``y`` (n,) into ``coef`` (4,) (highest power
+    first, zero-padded); returns (t0, ts, degree used). The power sums are ``fit_groups``' bit for bit;
+    degrees 2 and 3 solved by Gaussian elimination with partial pivoting (LAPACK's up to rounding)."""
+    n = len(t)
+    coef[:] = 0.0
+    if n == 0:                          # (meaningless, as fit_groups' empty groups)
+        return 0.0, 1.0, 0
+    deg = degree
+    if deg > 0:
+        increasing = True
+        for i in range(1, n):
+            if not t[i] > t[i - 1]:
+                increasing = False
+                break
+        if not increasing:              # distinct values limit the degree
+            st = np.sort(t)
+            distinct = 1
+            for i in range(1, n):
+                if st[i] != st[i - 1]:
+                    distinct += 1
+            deg = min(deg, distinct - 1)
+    deg = max(min(deg, n - 1), 0)
+    t0 = _segment_sum(t, 0, n) / n
+    t_lo, t_hi = t[0], t[0]
+    for i in range(1, n):
+        t_lo = min(t_lo, t[i])
+        t_hi = max(t_hi, t[i])
+    ts = max(max(t_hi - t0, t0 - t_lo), 1.0)
+    if deg == 0:
+        coef[3] = _segment_sum(y, 0, n) / n
+        return t0, ts, deg
+    p = np.empty((3 * deg + 2, n))      # rows x^0 .. x^2deg, y x^0 .. y x^deg (as fit_groups)
+    for i in range(n):
+        x = (t[i] - t0) / ts
+        p[0, i] = 1.0
+        p[1, i] = x
+        for k in range(2, 2 * deg + 1):
+            p[k, i] = p[k - 1, i] * x
+        for k in range(deg + 1):
+            p[2 * deg + 1 + k, i] = p[k, i] * y[i]
+    s = np.empty(3 * deg + 2)
+    for k in range(3 * deg + 2):
+        s[k] = _segment_sum(p[k], 0, n)
+    sy0 = 2 * deg + 1
+    if deg == 1:
+        nn, sx, sy, sxx, sxy = float(n), s[1], s[sy0], s[2], s[sy0 + 1]
+        det = nn * sxx - sx * sx
+        coef[2] = (nn * sxy - sx * sy) / det
+        coef[3] = (sxx * sy - sx * sxy) / det
+        return t0, ts, deg
+    m = deg + 1                         # normal equations a c = b (c highest power first)
+    a = np.empty((m, m))
+    b = np.empty(m)
+    for i in range(m):
+        for j in range(m):
+            a[i, j] = s[2 * deg - i - j]
+        b[i] = s[sy0 + deg - i]
+    for j in range(m):                  # elimination with partial pivoting
+        piv = j
+        for i in range(j + 1, m):
+            if abs(a[i, j]) > abs(a[piv, j]):
+                piv = i
+        if piv != j:
+            for c in range(m):
+                a[j, c], a[piv, c] = a[piv, c], a[j, c]
+            b[j], b[piv] = b[piv], b[j]
+        for i in range(j + 1, m):
+            f = a[i, j] / a[j, j]
+            for c in range(j + 1, m):
+                a[i, c] -= f * a[j, c]
+            b[i] -= f * b[j]
+    for i in range(m - 1, -1, -1):
+        v = b[i]
+        for c in range(i + 1, m):
+            v -= a[i, c] * b[c]
+        b[i] = v / a[i, i]
+    for i in range(m):
+        coef[4 - m + i] = b[i]
+    return t0, ts, deg
+
+
+@numba.njit(**_JIT)
+def fit_groups(t, y, starts, degree):
+    """``curves.fit_groups`` of every group (group k: samples ``starts[k]:starts[k + 1]``).
+
+    Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64."""
+    ng = len(starts) - 1
+    coef = np.zeros((ng, 4))
+    t0 = np.zeros(ng)
+    ts = np.ones(ng)
+    deg = np.zeros(ng, np.int64)
+    for k in range(ng):
+        a, b = starts[k], starts[k + 1]
+        t0[k], ts[k], deg[k] = _fit_one(t[a:b], y[a:b], degree[k], coef[k])
+    return coef, t0, ts, deg
+
+
+@numba.njit(**_JIT)
+def robust_fit_groups(t, y, starts, degree, rounds, k_mad):
+    """``curves.robust_fit_groups``: per group (samples ``starts[k]:starts[k + 1]``, ``rounds[k]``
+    rounds) a least-squares polynomial refitted without residuals beyond ``k_mad`` MADs.
+
+    Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64, inliers bool (N,)."""
+    ng = len(starts) - 1
+    coef = np.zeros((ng, 4))
+    t0 = np.zeros(ng)
+    ts = np.ones(ng)
+    deg = np.zeros(ng, np.int64)
+    keep = np.ones(len(t), np.bool_)
+    trial = np.zeros(4)
+    for k in range(ng):
+        a, b = starts[k], starts[k + 1]
+        n = b - a
+        tk, yk, kk = t[a:b], y[a:b], keep[a:b]
+        t0[k], ts[k], deg[k] = _fit_one(tk, yk, degree[k], coef[k])
+        if n == 0:
+            continue
+        res = np.empty(n)
+        new = np.empty(n, np.bool_)
+        for _ in range(rounds[k]):
+            c0, c1, c2, c3 = coef[k, 0], coef[k, 1], coef[k, 2], coef[k, 3]
+            nk = 0
+            for i in range(n):          # residuals (GroupPolys' Horner over the padded coefficients)
+                x = (tk[i] - t0[k]) / ts[k]
+                res[i] = yk[i] - (((x * c0 + c1) * x + c2) * x + c3)
+                if kk[i]:
+                    nk += 1
+            r = np.empty(nk)
+            j = 0
+            for i in range(n):
+                if kk[i]:
+                    r[j] = res[i]
+                    j += 1
+            med = _median(r)
+            for i in range(nk):
+                r[i] = abs(r[i] - med)
+            thr = k_mad * (1.4826 * _median(r) + 1e-3) + 0.05
+            count = 0
+            changed = False
+            for i in range(n):
+                new[i] = abs(res[i]) <= thr
+                count += new[i]
+                changed |= new[i] != kk[i]
+            if not (count > degree[k] + 1 and changed):
+                break
+            kk[:] = new
+            ts_, ys_ = np.empty(count), np.empty(count)
+            j = 0
+            for i in range(n):
+                if new[i]:
+                    ts_[j], ys_[j] = tk[i], yk[i]
+                    j += 1
+            t0[k], ts[k], deg[k] = _fit_one(ts_, ys_, degree[k], trial)
+            coef[k] = trial
+    return coef, t0, ts, deg, keep

@@ -1,0 +1,37 @@
+"""The compiled kernels (numba) against the numpy steps they replace."""
+
+import numpy as np
+
+from appliance.localize import kernels
+from appliance.localize.curves import fit_groups
+
+
+def test_segment_sums_are_numpys_reduceat_bit_for_bit():
+    """The power sums of the fits: numpy's pairwise summation, all block sizes (< 8, <= 128, halved)."""
+    rng = np.random.default_rng(1)
+    for n in list(range(1, 40)) + [127, 128, 129, 130, 255, 256, 257, 600, 1031]:
+        a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 5, n)
+        want = np.add.reduceat(np.concatenate([a, [0.0]]), [0, n])[0]
+        assert kernels._segment_sum(a, 0, n) == want
+        assert kernels._median(a) == np.median(a)
+
+
+def test_fit_groups_is_least_squares_per_group():
+    """Each group's polynomial is the least-squares one (np.polyfit in the scaled parameter), its
+    degree lowered to what its distinct parameters support; an empty group gets a constant 0."""
+    rng = np.random.default_rng(2)
+    ts = [np.sort(rng.choice(np.arange(500.0), 60, replace=False)), np.zeros(0), np.repeat([3.0, 9.0], 5),
+          np.sort(rng.uniform(0, 80, 30))]
+    degrees = np.array([3, 2, 3, 2])
+    ys = [0.002 * t ** 2 - 0.3 * t + rng.normal(0, 0.5, len(t)) for t in ts]
+    g = np.repeat(np.arange(len(ts)), [len(t) for t in ts])
+    fit = fit_groups(np.concatenate(ts), np.concatenate(ys), g, len(ts), degrees)
+    np.testing.assert_array_equal(fit.degree, [3, 0, 1, 2])
+    assert not fit.coef[1].any()
+    for k in (0, 2, 3):
+        t, y, d = ts[k], ys[k], int(fit.degree[k])
+        assert fit.t0[k] == np.add.reduceat(t, [0])[0] / len(t)
+        want = np.polyfit((t - fit.t0[k]) / fit.ts[k], y, d)
+        np.testing.assert_allclose(fit.coef[k, 3 - d:], want, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(fit(np.full(len(t), k), t), np.polyval(want, (t - fit.t0[k]) / fit.ts[k]),
+                                   rtol=1e-12, atol=1e-9)

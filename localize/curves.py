@@ -242,25 +242,18 @@ def percentile(a: np.ndarray, q: float) -> float:
 
 
 def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Poly, np.ndarray]:
-    """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs.
+    """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs
+    (:func:`robust_fit_groups` of one group: :meth:`Poly.fit`'s fits up to rounding).
 
     Returns
     -------
     (Poly, inliers bool (N,))
     """
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    keep = np.ones(len(t), bool)
-    poly = Poly.fit(t, y, degree)
-    for _ in range(rounds):
-        res = y - poly(t)
-        r = res[keep]
-        mad = 1.4826 * median(np.abs(r - median(r))) + 1e-3
-        new = np.abs(res) <= k_mad * mad + 0.05
-        if new.sum() <= degree + 1 or (new == keep).all():
-            break
-        keep = new
-        poly = Poly.fit(t[keep], y[keep], degree)
-    return poly, keep
+    t = np.ascontiguousarray(t, float)
+    coef, t0, ts, deg, keep = kernels.robust_fit_groups(
+        t, np.ascontiguousarray(y, float), np.array([0, len(t)]), np.array([degree], np.int64),
+        np.array([rounds], np.int64), float(k_mad))
+    return Poly(coef[0, 3 - int(deg[0]):], float(t0[0]), float(ts[0])), keep
 
 
 def degree_for(n_samples: int, span_px: float) -> int:

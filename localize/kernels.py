@@ -229,3 +229,44 @@ def robust_fit_groups(t, y, starts, degree, rounds, k_mad):
             t0[k], ts[k], deg[k] = _fit_one(ts_, ys_, degree[k], trial)
             coef[k] = trial
     return coef, t0, ts, deg, keep
+
+
+@numba.njit(**_JIT)
+def runs_find(keys, rows, x1, width, row, x):
+    """``edges.Runs.find``: for each query (``row``, ``x``) the run containing pixel (row, rint(x)),
+    -1 if none (or ``x`` not finite). ``keys``, ``rows``, ``x1``: the runs' start keys
+    (``row * width + x0``), rows and last pixels, a sentinel first (``Runs._find_tables``)."""
+    out = np.empty(len(row), np.int64)
+    for k in range(len(row)):
+        out[k] = -1
+        if not np.isfinite(x[k]):
+            continue
+        xi = np.int64(np.rint(x[k]))
+        i = np.searchsorted(keys, row[k] * width + xi, side="right") - 1
+        if rows[i] == row[k] and x1[i] >= xi:
+            out[k] = i - 1
+    return out
+
+
+@numba.njit(**_JIT)
+def runs_between(keys, row, width, lo, hi):
+    """``edges.Runs.between``: all pairs (query, run) with the run's centre key (``keys``, sorted:
+    ``row * width + centre``) in [row * width + lo, row * width + hi] of each query."""
+    n = len(row)
+    a = np.empty(n, np.int64)
+    b = np.empty(n, np.int64)
+    total = 0
+    for k in range(n):
+        base = row[k] * width
+        a[k] = np.searchsorted(keys, base + lo[k], side="left")
+        b[k] = np.searchsorted(keys, base + hi[k], side="right")
+        total += max(b[k] - a[k], 0)
+    query = np.empty(total, np.int64)
+    run = np.empty(total, np.int64)
+    j = 0
+    for k in range(n):
+        for i in range(a[k], b[k]):
+            query[j] = k
+            run[j] = i
+            j += 1
+    return query, run

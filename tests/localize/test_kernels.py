@@ -35,3 +35,31 @@ def test_fit_groups_is_least_squares_per_group():
         np.testing.assert_allclose(fit.coef[k, 3 - d:], want, rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(fit(np.full(len(t), k), t), np.polyval(want, (t - fit.t0[k]) / fit.ts[k]),
                                    rtol=1e-12, atol=1e-9)
+
+
+def test_runs_find_and_between_are_the_numpy_lookups():
+    """Runs.find / Runs.between (compiled) against the numpy formulas they replace, on a soft mask
+    with queries off the image and non-finite columns."""
+    import cv2
+    from appliance.localize.edges import find_runs
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        h, w = 60, int(rng.integers(20, 300))
+        m = (cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), 3) > 0.5).astype(np.uint8) * 255
+        runs = find_runs(cv2.GaussianBlur(m, (3, 3), 0), soft=True)
+        row = rng.integers(-2, h + 2, 300)
+        x = rng.uniform(-3, w + 3, 300)
+        x[::37] = np.nan
+        xi = np.rint(np.nan_to_num(x, nan=-1e9)).astype(int)
+        key, start = row * w + xi, runs.row * w + runs.x0
+        i = np.searchsorted(start, key, side="right") - 1
+        ok = np.isfinite(x) & (i >= 0) & (runs.row[np.maximum(i, 0)] == row) & (runs.x1[np.maximum(i, 0)] >= xi)
+        np.testing.assert_array_equal(runs.find(row, x), np.where(ok, i, -1))
+        lo = rng.uniform(-10, w, 300)
+        hi = lo + rng.uniform(-5, 60, 300)
+        q, r = runs.between(row, lo, hi)
+        centre = runs.row * w + runs.centre_px
+        want = [(k, j) for k in range(len(row)) for j in np.flatnonzero((centre >= row[k] * w + lo[k])
+                                                                         & (centre <= row[k] * w + hi[k]))]
+        assert list(zip(q.tolist(), r.tolist())) == want

@@ -72,8 +72,8 @@ class Runs:
         """Index of the run containing pixel (row, round(x)) for each query, -1 if none
         (compiled: :func:`kernels.runs_find`)."""
         keys, rows, x1 = self._find_tables          # (a sentinel first: the same runs, two steps less)
-        row, x = np.broadcast_arrays(np.asarray(row, np.int64), np.asarray(x, float))
-        return kernels.runs_find(keys, rows, x1, self.width, np.ascontiguousarray(row), np.ascontiguousarray(x))
+        row, x = _queries(row, x)
+        return kernels.runs_find(keys, rows, x1, self.width, row, x[0])
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Runs of ``row`` whose centre lies in [lo_px, hi_px], for each query.
@@ -83,9 +83,18 @@ class Runs:
         query, run : ndarray (K,) int
             Pairs (query index, run index), all candidates of all queries.
         """
-        row, lo, hi = np.broadcast_arrays(np.asarray(row, np.int64), np.asarray(lo_px, float), np.asarray(hi_px, float))
-        return kernels.runs_between(self._centre_keys, np.ascontiguousarray(row), self.width,
-                                    np.ascontiguousarray(lo), np.ascontiguousarray(hi))
+        row, (lo, hi) = _queries(row, lo_px, hi_px)
+        return kernels.runs_between(self._centre_keys, row, self.width, lo, hi)
+
+
+def _queries(row, *cols) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Query rows as contiguous int64 (Q,) and columns as contiguous float64 (Q,) (broadcast where
+    their shapes differ), as the kernels take them."""
+    row = np.ascontiguousarray(row, np.int64)
+    cols = [np.ascontiguousarray(c, float) for c in cols]
+    if any(c.shape != row.shape for c in cols):
+        row, *cols = (np.ascontiguousarray(a) for a in np.broadcast_arrays(row, *cols))
+    return row, cols
 
 
 def _soft_crossing(flat: np.ndarray, row_start: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:

@@ -61,23 +61,21 @@ def _segment_sum(a, lo, n):
 
 @numba.njit(**_JIT)
 def _median(a):
-    """``np.median`` of a 1-D float array (the same value: the middle order statistic(s))."""
-    n = len(a)
-    if n == 0:
+    """``np.median`` of a 1-D float array (numba's selection: the same middle order statistic(s));
+    ``a`` is reordered."""
+    if len(a) == 0:
         return np.nan
-    p = np.sort(a)
-    k = n // 2
-    if n % 2:
-        return p[k]
-    return (p[k - 1] + p[k]) / 2
+    return np.median(a)
 
 
 @numba.njit(**_JIT)
-def _fit_one(t, y, degree, coef):
+def _fit_one(t, y, degree, coef, last):
     """``curves.fit_groups`` of one group's samples ``t``, ``y`` (n,) into ``coef`` (4,) (highest power
-    first, zero-padded); returns (t0, ts, degree used). The power sums are ``fit_groups``' bit for bit;
+    first, zero-padded); returns (t0, ts, degree used). The power sums are numpy's ``fit_groups``' bit
+    for bit (the ``last`` group's sums, as its ``reduceat`` segment, end with a padding zero);
     degrees 2 and 3 solved by Gaussian elimination with partial pivoting (LAPACK's up to rounding)."""
     n = len(t)
+    e = n + 1 if last else n            # summed length (the padding sample: zeros)
     coef[:] = 0.0
     if n == 0:                          # (meaningless, as fit_groups' empty groups)
         return 0.0, 1.0, 0
@@ -96,16 +94,18 @@ def _fit_one(t, y, degree, coef):
                     distinct += 1
             deg = min(deg, distinct - 1)
     deg = max(min(deg, n - 1), 0)
-    t0 = _segment_sum(t, 0, n) / n
+    if last:
+        tp = np.zeros(e)
+        tp[:n] = t
+        t0 = _segment_sum(tp, 0, e) / n
+    else:
+        t0 = _segment_sum(t, 0, n) / n
     t_lo, t_hi = t[0], t[0]
     for i in range(1, n):
         t_lo = min(t_lo, t[i])
         t_hi = max(t_hi, t[i])
     ts = max(max(t_hi - t0, t0 - t_lo), 1.0)
-    if deg == 0:
-        coef[3] = _segment_sum(y, 0, n) / n
-        return t0, ts, deg
-    p = np.empty((3 * deg + 2, n))      # rows x^0 .. x^2deg, y x^0 .. y x^deg (as fit_groups)
+    p = np.zeros((3 * deg + 2, e))      # rows x^0 .. x^2deg, y x^0 .. y x^deg (as fit_groups)
     for i in range(n):
         x = (t[i] - t0) / ts
         p[0, i] = 1.0
@@ -116,8 +116,11 @@ def _fit_one(t, y, degree, coef):
             p[2 * deg + 1 + k, i] = p[k, i] * y[i]
     s = np.empty(3 * deg + 2)
     for k in range(3 * deg + 2):
-        s[k] = _segment_sum(p[k], 0, n)
+        s[k] = _segment_sum(p[k], 0, e)
     sy0 = 2 * deg + 1
+    if deg == 0:
+        coef[3] = s[sy0] / n
+        return t0, ts, deg
     if deg == 1:
         nn, sx, sy, sxx, sxy = float(n), s[1], s[sy0], s[2], s[sy0 + 1]
         det = nn * sxx - sx * sx
@@ -167,7 +170,7 @@ def fit_groups(t, y, starts, degree):
     deg = np.zeros(ng, np.int64)
     for k in range(ng):
         a, b = starts[k], starts[k + 1]
-        t0[k], ts[k], deg[k] = _fit_one(t[a:b], y[a:b], degree[k], coef[k])
+        t0[k], ts[k], deg[k] = _fit_one(t[a:b], y[a:b], degree[k], coef[k], k == ng - 1)
     return coef, t0, ts, deg
 
 
@@ -188,7 +191,7 @@ def robust_fit_groups(t, y, starts, degree, rounds, k_mad):
         a, b = starts[k], starts[k + 1]
         n = b - a
         tk, yk, kk = t[a:b], y[a:b], keep[a:b]
-        t0[k], ts[k], deg[k] = _fit_one(tk, yk, degree[k], coef[k])
+        t0[k], ts[k], deg[k] = _fit_one(tk, yk, degree[k], coef[k], k == ng - 1)
         if n == 0:
             continue
         res = np.empty(n)
@@ -226,7 +229,7 @@ def robust_fit_groups(t, y, starts, degree, rounds, k_mad):
                 if new[i]:
                     ts_[j], ys_[j] = tk[i], yk[i]
                     j += 1
-            t0[k], ts[k], deg[k] = _fit_one(ts_, ys_, degree[k], trial)
+            t0[k], ts[k], deg[k] = _fit_one(ts_, ys_, degree[k], trial, k == ng - 1)
             coef[k] = trial
     return coef, t0, ts, deg, keep
 
@@ -270,3 +273,51 @@ def runs_between(keys, row, width, lo, hi):
             run[j] = i
             j += 1
     return query, run
+
+
+@numba.njit(**_JIT)
+def consensus_lines(t, d, bounds, live, ij, tol_px):
+    """``dense._consensus_lines``: per live piece ``live[m]`` (candidates ``bounds[k]:bounds[k + 1]``)
+    the line d(t) through the most candidates among the hypotheses ``ij[:, m]`` (pairs of candidate
+    indices; pairs less than 3 rows apart do not count), fitted to its inliers (:func:`fit_groups`
+    of degree 1); without a pair 3 rows apart, the candidates' median. Other pieces: a constant 0.
+
+    Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64."""
+    ng = len(bounds) - 1
+    coef = np.zeros((ng, 4))
+    t0 = np.zeros(ng)
+    ts = np.ones(ng)
+    deg = np.zeros(ng, np.int64)
+    n_hyp = ij.shape[2]
+    for m in range(len(live)):
+        k = live[m]
+        lo, hi = bounds[k], bounds[k + 1]
+        best, best_count = -1, -2
+        for h in range(n_hyp):
+            i, j = ij[0, m, h], ij[1, m, h]
+            dt = t[j] - t[i]
+            if not abs(dt) >= 3:
+                if best_count < -1:
+                    best, best_count = h, -1
+                continue
+            slope = (d[j] - d[i]) / dt
+            count = 0
+            for s in range(lo, hi):
+                if abs(d[s] - ((t[s] - t[i]) * slope + d[i])) <= tol_px:
+                    count += 1
+            if count > best_count:
+                best, best_count = h, count
+        if best_count < 0:              # no pair 3 rows apart: the median
+            coef[k, 3] = np.median(d[lo:hi])
+            continue
+        i, j = ij[0, m, best], ij[1, m, best]
+        slope = (d[j] - d[i]) / (t[j] - t[i])
+        tk = np.empty(best_count)
+        dk = np.empty(best_count)
+        c = 0
+        for s in range(lo, hi):
+            if abs(d[s] - ((t[s] - t[i]) * slope + d[i])) <= tol_px:
+                tk[c], dk[c] = t[s], d[s]
+                c += 1
+        t0[k], ts[k], deg[k] = _fit_one(tk, dk, 1, coef[k], m == len(live) - 1)
+    return coef, t0, ts, deg

@@ -321,3 +321,63 @@ def consensus_lines(t, d, bounds, live, ij, tol_px):
                 c += 1
         t0[k], ts[k], deg[k] = _fit_one(tk, dk, 1, coef[k], m == len(live) - 1)
     return coef, t0, ts, deg
+
+
+@numba.njit(**_JIT)
+def _fma32(a, b, c):
+    """``a * b + c`` of float32 values rounded once (as a fused multiply-add; the float32 product is
+    exact in float64)."""
+    return np.float32(np.float64(a) * np.float64(b) + np.float64(c))
+
+
+@numba.njit(**_JIT)
+def bilinear_u8(img, x, y):
+    """``cv2.remap(img, ..., INTER_LINEAR, BORDER_CONSTANT 0)`` of one point of a uint8 image: OpenCV 5's
+    float32 interpolation (along the row, then between the rows, by fused multiply-adds, as its SIMD
+    path on a CPU with FMA), rounded half to even: the same value (checked against cv2.remap on 4e6
+    random points; without the fused rounding 6 of them differed by one level)."""
+    h, w = img.shape
+    if not (np.isfinite(x) and np.isfinite(y)):
+        return np.float32(0.0)
+    fx, fy = np.floor(x), np.floor(y)
+    a, b = np.float32(x - fx), np.float32(y - fy)
+    x0, y0 = int(fx), int(fy)
+    p = np.zeros(4, np.float32)
+    for k in range(4):
+        yy, xx = y0 + k // 2, x0 + k % 2
+        if 0 <= yy < h and 0 <= xx < w:
+            p[k] = np.float32(img[yy, xx])
+    top = _fma32(a, p[1] - p[0], p[0])
+    bottom = _fma32(a, p[3] - p[2], p[2])
+    return min(max(np.rint(_fma32(b, bottom - top, top)), np.float32(0.0)), np.float32(255.0))
+
+
+@numba.njit(**_JIT)
+def walk_edges(mask, uv, bounds):
+    """``ends.walk_edges``: per walk (points ``uv[bounds[i]:bounds[i + 1]]``) the fractional index
+    of the half-coverage crossing after its last point on ``mask`` (bilinear, :func:`bilinear_u8`),
+    and whether it has one."""
+    n = len(uv)
+    v = np.empty(n, np.float32)
+    for i in range(n):
+        v[i] = bilinear_u8(mask, np.float32(uv[i, 0]), np.float32(uv[i, 1]))
+    nw = len(bounds) - 1
+    idx = np.empty(nw)
+    crosses = np.zeros(nw, np.bool_)
+    half, tiny = np.float32(127.5), np.float32(1e-6)
+    for i in range(nw):
+        start, end = bounds[i], bounds[i + 1]
+        first_off = end
+        for j in range(start, end):
+            if not v[j] >= half:
+                first_off = j
+                break
+        crosses[i] = first_off < end and first_off > start
+        if crosses[i]:
+            k = max(first_off, start + 1)
+            a, b = v[min(k - 1, n - 1)], v[min(k, n - 1)]
+            frac = min(max((a - half) / max(a - b, tiny), np.float32(0.0)), np.float32(1.0))
+            idx[i] = (k - 1 - start) + np.float64(frac)
+        else:
+            idx[i] = max(first_off - 1 - start, 0)
+    return idx, crosses

@@ -263,6 +263,9 @@ def degree_for(n_samples: int, span_px: float) -> int:
     return 2 if span_px < 160 else 3
 
 
+_NO_SLOPES = np.zeros(2)
+
+
 def _one(t) -> float | None:
     """``t`` as a Python float when it is one value (a float, or a one-element 1-D array), else None."""
     if isinstance(t, float):
@@ -311,6 +314,10 @@ class BranchCurve:
             return np.array([self._at(poly, float(t[0]), slopes)])
         if not t.size:
             return poly(t)
+        if type(poly) is Poly:              # compiled: the same sums as below
+            return kernels.eval_clamped(poly.coef, poly._deriv.coef, float(poly.t0), float(poly.ts),
+                                        float(lo), float(hi), _NO_SLOPES if slopes is None else np.asarray(slopes, float),
+                                        slopes is None, np.ascontiguousarray(t))
         mn, mx = t.min(), t.max()
         if mn >= lo and mx <= hi:           # no extrapolation (NaN: the general path)
             return poly(t)

@@ -381,3 +381,54 @@ def walk_edges(mask, uv, bounds):
         else:
             idx[i] = max(first_off - 1 - start, 0)
     return idx, crosses
+
+
+@numba.njit(**_JIT)
+def _horner(c, x):
+    """``Poly.at``'s sum of coefficients ``c`` (highest power first) at the scaled parameter ``x``."""
+    if len(c) == 1:
+        return c[0]
+    y = x * c[0] + c[1]
+    for k in range(2, len(c)):
+        y = y * x + c[k]
+    return y
+
+
+@numba.njit(**_JIT)
+def eval_clamped(coef, dcoef, t0, ts, lo, hi, slopes, own_slopes, t):
+    """``curves.BranchCurve._eval`` of a :class:`curves.Poly` (coefficients ``coef``, its derivative's
+    ``dcoef``, scaling ``t0``, ``ts``) at parameters ``t`` (N >= 2,): the polynomial inside the span
+    [lo, hi], beyond it the value at the span's end plus the slope (the derivative's there when
+    ``own_slopes``, else ``slopes`` (2,)) times the distance; the same sums as ``_eval``'s numpy paths."""
+    n = len(t)
+    out = np.empty(n)
+    mn, mx = np.inf, -np.inf
+    nan = False
+    for i in range(n):
+        if np.isnan(t[i]):
+            nan = True
+        mn = min(mn, t[i])
+        mx = max(mx, t[i])
+    if not nan and mn >= lo and mx <= hi:          # inside: the polynomial (Poly.__call__)
+        for i in range(n):
+            out[i] = _horner(coef, (t[i] - t0) / ts)
+        return out
+    s_lo = _horner(dcoef, (lo - t0) / ts) if own_slopes else slopes[0]
+    s_hi = _horner(dcoef, (hi - t0) / ts) if own_slopes else slopes[1]
+    if not nan and mn >= hi:                       # all beyond the high end
+        v = _horner(coef, (hi - t0) / ts)
+        for i in range(n):
+            out[i] = v + s_hi * (t[i] - hi)
+        return out
+    if not nan and mx <= lo:
+        v = _horner(coef, (lo - t0) / ts)
+        for i in range(n):
+            out[i] = v + s_lo * (t[i] - lo)
+        return out
+    for i in range(n):                             # the general path: clamped, carried on beyond
+        if np.isnan(t[i]):
+            out[i] = np.nan
+            continue
+        tc = min(max(t[i], lo), hi)
+        out[i] = _horner(coef, (tc - t0) / ts) + (s_lo if t[i] < lo else s_hi) * (t[i] - tc)
+    return out

@@ -6,16 +6,39 @@ same values. Sums are numpy's pairwise sums (:func:`_pairwise`), so the power su
 those of ``np.add.reduceat`` bit for bit; the small normal-equation systems are solved by
 Gaussian elimination with partial pivoting instead of LAPACK's ``dgesv`` (equal up to rounding).
 
-Compiled on first use and cached on disk (``cache=True``: beside this file in ``__pycache__``,
-or under ``NUMBA_CACHE_DIR``; where neither is writable numba compiles in memory each process).
+Compiled on first use (~10 s for all of them) and cached on disk: under ``NUMBA_CACHE_DIR`` if set,
+else beside this file in ``__pycache__``, else in the user's cache directory (``~/.cache/numba``);
+later processes load the cache (~0.1 s). Where none is writable, in memory in each process
+(:func:`_cacheable`).
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numba
 import numpy as np
 
-_JIT = dict(cache=True, nogil=True)
+def _probe():
+    """(A function of this file for :func:`_cacheable`.)"""
+
+
+def _cacheable() -> bool:
+    """Whether numba has a writable place for this file's compiled code (``NUMBA_CACHE_DIR``, else
+    beside the file, else the user's cache directory). Where it has none (a read-only install, an
+    unwritable home) ``cache=True`` would raise at import: the kernels then compile in memory in each
+    process (~10 s on first use), with a warning."""
+    try:
+        numba.njit(cache=True)(_probe)
+        return True
+    except RuntimeError:
+        warnings.warn(f"numba has no writable cache directory for {__file__} (set NUMBA_CACHE_DIR to one): "
+                      "the localizer's kernels compile in memory in each process (~10 s on first use)",
+                      RuntimeWarning, stacklevel=2)
+        return False
+
+
+_JIT = dict(cache=_cacheable(), nogil=True)
 
 
 @numba.njit(**_JIT)

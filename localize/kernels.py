@@ -131,16 +131,54 @@ def _sorted(a):
 
 
 @numba.njit(**_JIT)
+def _select(p, k):
+    """Reorder ``p`` in place so that ``p[k]`` is its k-th smallest value, none larger before it and
+    none smaller after it (quickselect, Hoare's partition); returns ``p[k]``."""
+    lo, hi = 0, len(p) - 1
+    while hi > lo:
+        mid = (lo + hi) // 2                    # median of three as the pivot
+        if p[mid] < p[lo]:
+            p[mid], p[lo] = p[lo], p[mid]
+        if p[hi] < p[lo]:
+            p[hi], p[lo] = p[lo], p[hi]
+        if p[hi] < p[mid]:
+            p[hi], p[mid] = p[mid], p[hi]
+        pivot = p[mid]
+        i, j = lo, hi
+        while i <= j:
+            while p[i] < pivot:
+                i += 1
+            while pivot < p[j]:
+                j -= 1
+            if i <= j:
+                p[i], p[j] = p[j], p[i]
+                i += 1
+                j -= 1
+        if k <= j:                              # (between j and i: all equal to the pivot)
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return p[k]
+
+
+@numba.njit(**_JIT)
 def _median(a):
-    """``np.median`` of a 1-D float array (the same value: the middle order statistic(s))."""
+    """``np.median`` of a 1-D float array, NaN-free (the same value: the middle order statistic(s),
+    by selection in a copy)."""
     n = len(a)
     if n == 0:
         return np.nan
-    p = _sorted(a)
+    p = a.copy()
     k = n // 2
+    hi = _select(p, k)
     if n % 2:
-        return p[k]
-    return (p[k - 1] + p[k]) / 2
+        return hi
+    lo = p[0]
+    for i in range(1, k):
+        lo = max(lo, p[i])
+    return (lo + hi) / 2
 
 
 @numba.njit(**_JIT)
@@ -180,19 +218,23 @@ def _fit_one(t, y, degree, coef, last):
         t_lo = min(t_lo, t[i])
         t_hi = max(t_hi, t[i])
     ts = max(max(t_hi - t0, t0 - t_lo), 1.0)
-    p = np.zeros((3 * deg + 2, e))      # rows x^0 .. x^2deg, y x^0 .. y x^deg (as fit_groups)
-    for i in range(n):
-        x = (t[i] - t0) / ts
-        p[0, i] = 1.0
-        p[1, i] = x
-        for k in range(2, 2 * deg + 1):
-            p[k, i] = p[k - 1, i] * x
-        for k in range(deg + 1):
-            p[2 * deg + 1 + k, i] = p[k, i] * y[i]
-    s = np.empty(3 * deg + 2)
-    for k in range(3 * deg + 2):
-        s[k] = _segment_sum(p[k], 0, e)
     sy0 = 2 * deg + 1
+    p = np.empty((3 * deg + 2, e))      # rows x^0 .. x^2deg, y x^0 .. y x^deg (as fit_groups)
+    if last:
+        p[:, n] = 0.0
+    for i in range(n):
+        p[1, i] = (t[i] - t0) / ts
+        p[sy0, i] = y[i]                # (y x^0: 1.0 * y)
+    for k in range(2, 2 * deg + 1):
+        for i in range(n):
+            p[k, i] = p[k - 1, i] * p[1, i]
+    for k in range(1, deg + 1):
+        for i in range(n):
+            p[sy0 + k, i] = p[k, i] * y[i]
+    s = np.empty(3 * deg + 2)
+    s[0] = float(n)                     # (a sum of ones: exact)
+    for k in range(1, 3 * deg + 2):
+        s[k] = _segment_sum(p[k], 0, e)
     if deg == 0:
         coef[3] = s[sy0] / n
         return t0, ts, deg

@@ -14,6 +14,8 @@ def test_segment_sums_are_numpys_reduceat_bit_for_bit():
         want = np.add.reduceat(np.concatenate([a, [0.0]]), [0, n])[0]
         assert kernels._segment_sum(a, 0, n) == want
         assert kernels._median(a) == np.median(a)
+        ties = np.round(a[: n // 2 + 1] / 1e3)                     # (repeated values)
+        assert kernels._median(ties) == np.median(ties)
 
 
 def test_fit_groups_is_least_squares_per_group():

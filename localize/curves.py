@@ -490,9 +490,8 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     -------
     (GroupPolys, inliers bool (N,))
     """
-    rounds = np.broadcast_to(np.asarray(rounds, np.int64), (n_groups,))
     coef, t0, ts, deg, keep = kernels.robust_fit_groups(
         np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
-        np.ascontiguousarray(degree, np.int64),
-        np.ascontiguousarray(rounds), float(k_mad))
+        np.ascontiguousarray(degree, np.int64), np.array(np.broadcast_to(np.asarray(rounds, np.int64), (n_groups,))),
+        float(k_mad))
     return GroupPolys(coef, t0, ts, deg), keep

@@ -549,3 +549,24 @@ def eval_clamped(coef, dcoef, t0, ts, lo, hi, slopes, own_slopes, t):
         tc = min(max(t[i], lo), hi)
         out[i] = _horner(coef, (tc - t0) / ts) + (s_lo if t[i] < lo else s_hi) * (t[i] - tc)
     return out
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+def warm_up() -> None:
+    """Compile (or load from the disk cache) every kernel for the argument types the localizer
+    passes, on tiny inputs: ~10 s the first time without a cache, ~0.1 s from the cache, then
+    nothing. :class:`~appliance.localize.Localizer` calls it when built, so that no frame waits
+    for a compile (a live stream, a worker process)."""
+    f, i = np.zeros(4), np.arange(4, dtype=np.int64)
+    bounds = np.array([0, 4], np.int64)
+    fit_groups(np.arange(4.0), f, bounds, np.ones(1, np.int64))
+    robust_fit_groups(np.arange(4.0), f, bounds, np.ones(1, np.int64), np.ones(1, np.int64), 3.5)
+    consensus_lines(np.arange(4.0), f, bounds, np.zeros(1, np.int64), np.zeros((2, 1, 2), np.int64), 1.5)
+    runs_find(_readonly(i.copy()), _readonly(i.copy()), _readonly(i.copy()), 4, i, f)
+    runs_between(_readonly(f.copy()), i, 4, f, f)
+    walk_edges(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
+    eval_clamped(f[:2], f[:1], 0.0, 1.0, 0.0, 1.0, f[:2], True, np.arange(4.0))

@@ -90,3 +90,24 @@ def test_bilinear_reads_are_cv2_remaps():
     a, b = (want.reshape(-1, 1000)[np.arange(len(k)), np.minimum(j, 999)].astype(np.float32) for j in (k - 1, k))
     frac = np.clip((a - 127.5) / np.maximum(a - b, 1e-6), 0.0, 1.0)
     np.testing.assert_array_equal(idx, np.where(crosses, (k - 1) + frac, np.maximum(first_off - 1, 0)))
+
+
+def test_warm_up_compiles_every_signature_the_localizer_uses():
+    """After a Localizer is built (it warms the kernels up), localizing compiles nothing more: no frame
+    waits for numba (a live stream's first result, a worker's first pair)."""
+    from pathlib import Path
+
+    import cv2
+    import numba
+    from appliance.calibrate.model import load_calibration
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
+    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
+    jitted = {n: f for n, f in vars(kernels).items()      # (the ones the localizer calls)
+              if isinstance(f, numba.core.registry.CPUDispatcher) and not n.startswith("_") and n != "bilinear_u8"}
+    before = {n: len(f.signatures) for n, f in jitted.items()}
+    loc.localize(cv2.imread(str(fixtures / "scenes" / "left_00.png")), cv2.imread(str(fixtures / "scenes" / "right_00.png")))
+    assert {n: len(f.signatures) for n, f in jitted.items()} == before
+    assert all(before.values())

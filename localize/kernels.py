@@ -1,10 +1,12 @@
-"""Compiled loops (numba) for the match stage's per-piece fits and run look-ups.
+"""Compiled loops (numba) for the match stage: the per-piece fits, the run look-ups, the ends' walks
+and the curves' evaluation (docs/localize-numba.md).
 
-Each kernel replaces a stretch of small numpy calls (10-40 per piece, ~1-3 us each) by one
-compiled loop over the pieces or queries: the same rules and, where the arithmetic allows, the
-same values. Sums are numpy's pairwise sums (:func:`_pairwise`), so the power sums of the fits are
-those of ``np.add.reduceat`` bit for bit; the small normal-equation systems are solved by
-Gaussian elimination with partial pivoting instead of LAPACK's ``dgesv`` (equal up to rounding).
+Each kernel replaces a stretch of small numpy calls (10-40 per piece or end, ~1-3 us each) by one
+compiled loop over the pieces, queries or points: the same rules and, where the arithmetic allows,
+the same values. Sums are numpy's pairwise sums (:func:`_pairwise`), so the power sums of the fits are
+those of ``np.add.reduceat`` bit for bit; the small normal-equation systems are solved by Gaussian
+elimination with partial pivoting instead of LAPACK's ``dgesv`` (equal up to rounding); the walks'
+mask reads are OpenCV's bilinear values (:func:`bilinear_u8`).
 
 Compiled on first use (~10 s for all of them) and cached on disk: under ``NUMBA_CACHE_DIR`` if set,
 else beside this file in ``__pycache__``, else in the user's cache directory (``~/.cache/numba``);

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.linalg import _umath_linalg
 
+from appliance.localize import kernels
+
 
 class cached:
     """``functools.cached_property`` without its per-class lock (Python 3.11 takes an RLock on every
@@ -240,25 +242,18 @@ def percentile(a: np.ndarray, q: float) -> float:
 
 
 def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad: float = 3.5) -> tuple[Poly, np.ndarray]:
-    """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs.
+    """Least-squares polynomial with iterative rejection of residuals beyond ``k_mad`` MADs
+    (:func:`robust_fit_groups` of one group: :meth:`Poly.fit`'s fits up to rounding).
 
     Returns
     -------
     (Poly, inliers bool (N,))
     """
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    keep = np.ones(len(t), bool)
-    poly = Poly.fit(t, y, degree)
-    for _ in range(rounds):
-        res = y - poly(t)
-        r = res[keep]
-        mad = 1.4826 * median(np.abs(r - median(r))) + 1e-3
-        new = np.abs(res) <= k_mad * mad + 0.05
-        if new.sum() <= degree + 1 or (new == keep).all():
-            break
-        keep = new
-        poly = Poly.fit(t[keep], y[keep], degree)
-    return poly, keep
+    t = np.ascontiguousarray(t, float)
+    coef, t0, ts, deg, keep = kernels.robust_fit_groups(
+        t, np.ascontiguousarray(y, float), np.array([0, len(t)]), np.array([degree], np.int64),
+        np.array([rounds], np.int64), float(k_mad))
+    return Poly(coef[0, 3 - int(deg[0]):], float(t0[0]), float(ts[0])), keep
 
 
 def degree_for(n_samples: int, span_px: float) -> int:
@@ -266,6 +261,9 @@ def degree_for(n_samples: int, span_px: float) -> int:
     if n_samples < 12 or span_px < 40:
         return 1
     return 2 if span_px < 160 else 3
+
+
+_NO_SLOPES = np.zeros(2)
 
 
 def _one(t) -> float | None:
@@ -316,6 +314,10 @@ class BranchCurve:
             return np.array([self._at(poly, float(t[0]), slopes)])
         if not t.size:
             return poly(t)
+        if type(poly) is Poly:              # compiled: the same sums as below
+            return kernels.eval_clamped(poly.coef, poly._deriv.coef, float(poly.t0), float(poly.ts),
+                                        float(lo), float(hi), _NO_SLOPES if slopes is None else np.asarray(slopes, float),
+                                        slopes is None, np.ascontiguousarray(t))
         mn, mx = t.min(), t.max()
         if mn >= lo and mx <= hi:           # no extrapolation (NaN: the general path)
             return poly(t)
@@ -459,128 +461,37 @@ class GroupPolys:
                    np.array([len(p.coef) - 1 for p in polys]))
 
 
-# fit_groups' normal equations of degree d: the columns of the power sums (x^0..x^6, then y x^0..y x^3)
-# forming the matrix (d+1, d+1) and the right-hand side (d+1,)
-_NORMAL_IDX = {d: (2 * d - np.arange(d + 1)[:, None] - np.arange(d + 1)[None, :], 7 + d - np.arange(d + 1))
-               for d in (2, 3)}
-
-
-def _starts(g: np.ndarray, n_groups: int) -> np.ndarray:
-    """First sample of each group (``g`` non-decreasing; an empty group starts where the next does)."""
-    return np.searchsorted(g, np.arange(n_groups))
-
-
 def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
                increasing: bool | None = None) -> GroupPolys:
     """:meth:`Poly.fit` of every group at once (``g`` (N,) non-decreasing group ids; ``degree`` (G,)).
 
-    The normal equations come from per-group power sums (one ``np.add.reduceat``), solved by one
-    batched ``np.linalg.solve`` per degree: the same least squares as :meth:`Poly.fit` up to
-    rounding (~1e-16). Groups without samples get meaningless coefficients. ``increasing``: whether
-    ``t`` is known to be strictly increasing within each group (None: tested here).
+    Compiled (:func:`kernels.fit_groups`): per group the normal equations from its power sums
+    (those of ``np.add.reduceat``, bit for bit), solved by elimination: the same least squares as
+    :meth:`Poly.fit` up to rounding (~1e-16). Groups without samples get a constant 0.
+    ``increasing`` is accepted for the callers' sake (each group is tested as it is fitted).
     """
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    n = np.bincount(g, minlength=n_groups)
-    starts = _starts(g, n_groups)
-    deg = np.asarray(degree, int).copy()
-    if increasing is None:
-        increasing = _increasing(t, g)
-    if not increasing:                                        # not strictly increasing: count distinct values
-        o = np.lexsort((t, g))
-        st, sg = t[o], g[o]
-        distinct = 1 + np.bincount(sg[1:], (st[1:] != st[:-1]) & (sg[1:] == sg[:-1]), minlength=n_groups)
-        deg = np.where(deg > 0, np.minimum(deg, distinct - 1), deg)
-    deg = np.maximum(np.minimum(deg, n - 1), 0)
-    pad = starts                                              # a padding sample after the samples: empty groups read it
-    t_pad = np.empty(len(t) + 1)
-    t_pad[:-1] = t
-    t_pad[-1] = 0.0
-    t0 = np.add.reduceat(t_pad, pad) / np.maximum(n, 1)
-    t_pad[-1] = -np.inf
-    t_hi = np.maximum.reduceat(t_pad, pad)
-    t_pad[-1] = np.inf
-    ts = np.maximum(np.maximum(t_hi - t0, t0 - np.minimum.reduceat(t_pad, pad)), 1.0)
-    x = (t - t0.take(g)) / ts.take(g)
-    dm = int(deg.max()) if n_groups else 0
-    p = np.empty((3 * dm + 2, len(t) + 1))                    # rows x^0 .. x^2dm, y x^0 .. y x^dm: contiguous
-    p[:, -1] = 0.0
-    p[0, :-1] = 1.0
-    if dm:
-        p[1, :-1] = x
-    for k in range(2, 2 * dm + 1):
-        np.multiply(p[k - 1, :-1], x, out=p[k, :-1])
-    np.multiply(p[:dm + 1, :-1], y, out=p[2 * dm + 1:, :-1])
-    sums = np.add.reduceat(p, pad, axis=1).T
-    s = np.zeros((n_groups, 11))                             # sums of x^0..x^6, then of y x^0..y x^3
-    s[:, :2 * dm + 1], s[:, 7:8 + dm] = sums[:, :2 * dm + 1], sums[:, 2 * dm + 1:]
-    coef = np.zeros((n_groups, 4))
-    per_degree = np.bincount(deg.astype(np.intp), minlength=4).tolist()     # (only the degrees present)
-    if per_degree[0]:
-        k0 = deg == 0
-        coef[k0, 3] = s[k0, 7] / np.maximum(n[k0], 1)
-    if per_degree[1]:
-        k1 = deg == 1
-        nn, sx, sy, sxx, sxy = n[k1], s[k1, 1], s[k1, 7], s[k1, 2], s[k1, 8]
-        det = nn * sxx - sx * sx
-        coef[k1, 2] = (nn * sxy - sx * sy) / det
-        coef[k1, 3] = (sxx * sy - sx * sxy) / det
-    for d in (2, 3):
-        if per_degree[d]:
-            sd = s[deg == d]
-            a, b = sd[:, _NORMAL_IDX[d][0]], sd[:, _NORMAL_IDX[d][1]]
-            coef[deg == d, 3 - d:] = _solve(a, b[:, :, None])[:, :, 0]
+    coef, t0, ts, deg = kernels.fit_groups(np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
+                                           np.ascontiguousarray(degree, np.int64))
     return GroupPolys(coef, t0, ts, deg)
 
 
-def _increasing(t: np.ndarray, g: np.ndarray) -> bool:
-    """Whether ``t`` (N,) is strictly increasing within each group of ``g`` (N,) non-decreasing."""
-    return bool(((t[1:] > t[:-1]) | (g[1:] != g[:-1])).all())
+def _bounds(g: np.ndarray, n_groups: int) -> np.ndarray:
+    """Each group's first sample and, last, the number of samples (``g`` non-decreasing): (G + 1,)."""
+    return np.searchsorted(g, np.arange(n_groups + 1))
 
 
 def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degree: np.ndarray,
                       rounds: int | np.ndarray = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
     """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
     ``rounds`` one for all or (G,) per group: each group's values are those of fitting it alone).
+    Compiled (:func:`kernels.robust_fit_groups`).
 
     Returns
     -------
     (GroupPolys, inliers bool (N,))
     """
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    degree = np.asarray(degree, int)
-    keep = np.ones(len(t), bool)
-    increasing = _increasing(t, g)          # (so is every subset: the refits need not test it again)
-    fit = fit_groups(t, y, g, n_groups, degree, increasing)
-    active = np.bincount(g, minlength=n_groups) > 0
-    per_group = np.ndim(rounds) > 0
-    for r in range(int(np.max(rounds)) if per_group else rounds):
-        if per_group:
-            active &= rounds > r
-            if not active.any():
-                break
-        res = y - fit(g, t)
-        kr, kg = res[keep], g[keep]
-        bounds = np.searchsorted(kg, np.arange(n_groups + 1)).tolist()
-        live = np.flatnonzero(active).tolist()
-        med = np.zeros(n_groups)
-        for k in live:
-            med[k] = median(kr[bounds[k]:bounds[k + 1]])
-        dev = np.abs(kr - med.take(kg))                       # (each group's deviations: the same values)
-        mad = np.zeros(n_groups)
-        for k in live:
-            mad[k] = median(dev[bounds[k]:bounds[k + 1]])
-        thr = np.where(active, k_mad * (1.4826 * mad + 1e-3) + 0.05, np.inf)
-        new = np.abs(res) <= thr.take(g)
-        count = np.bincount(g[new], minlength=n_groups)
-        changed = np.bincount(g[new != keep], minlength=n_groups) > 0
-        active &= (count > degree + 1) & changed
-        if not active.any():
-            break
-        act = active.take(g)
-        keep = np.where(act, new, keep)
-        sel = keep & act                     # (the groups still refitted: their values as with all)
-        refit = fit_groups(t[sel], y[sel], g[sel], n_groups, degree, increasing or None)
-        fit = GroupPolys(*(np.where(active[:, None] if a.ndim == 2 else active, b, a)
-                           for a, b in zip((fit.coef, fit.t0, fit.ts, fit.degree),
-                                           (refit.coef, refit.t0, refit.ts, refit.degree))))
-    return fit, keep
+    coef, t0, ts, deg, keep = kernels.robust_fit_groups(
+        np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
+        np.ascontiguousarray(degree, np.int64), np.array(np.broadcast_to(np.asarray(rounds, np.int64), (n_groups,))),
+        float(k_mad))
+    return GroupPolys(coef, t0, ts, deg), keep

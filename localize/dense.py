@@ -35,6 +35,7 @@ from appliance.localize.curves import (
     robust_fit,
     robust_fit_groups,
 )
+from appliance.localize import kernels
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.edges import Runs, find_runs
@@ -341,42 +342,13 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     Candidates of one row belong to different branches crossing it; the piece's own
     disparities are the largest set on one line.
     """
-    polys = [Poly.constant(0.0)] * len(alive)
     live = np.flatnonzero(alive)
-    if len(live) == 0:
-        return GroupPolys.of(polys)
-    ij = np.stack([_pairs(int(bounds[k + 1] - bounds[k]), n_hyp) + bounds[k] for k in live], axis=1)   # (2, G, H)
-    i, j = ij
-    dt = t[j] - t[i]
-    ok = np.abs(dt) >= 3
-    slope = (d[j] - d[i]) / np.where(ok, dt, 1.0)
-    lo, hi = bounds[live], bounds[live + 1]
-    g = np.repeat(np.arange(len(live)), hi - lo)
-    sel = np.concatenate([np.arange(a, b) for a, b in zip(lo.tolist(), hi.tolist())])
-    ts, ds = t[sel], d[sel]
-    # (N, H): each sample against its piece's hypotheses, |ds - (d_i + slope (ts - t_i))| in place
-    res = ts[:, None] - t[i][g]
-    res *= slope[g]
-    res += d[i][g]
-    np.subtract(ds[:, None], res, out=res)
-    inl = np.abs(res, out=res) <= tol_px
-    starts = np.concatenate([[0], np.cumsum(hi - lo)[:-1]])
-    count = np.add.reduceat(inl, starts, axis=0, dtype=np.int64)      # (G, H)
-    count[~ok] = -1
-    best = count.argmax(1)
-    # each piece's line fitted to its best hypothesis' inliers, all pieces at once (fit_groups: Poly.fit's
-    # least squares up to rounding); a piece without a pair 3 rows apart: the median of its candidates
-    on = inl[np.arange(len(g)), best[g]]
-    has = ok.any(1)
-    on &= has[g]
-    fit = fit_groups(ts[on], ds[on], g[on], len(live), np.ones(len(live), int))
-    coef, t0, ts_, deg = np.zeros((len(alive), 4)), np.zeros(len(alive)), np.ones(len(alive)), np.zeros(len(alive), int)
-    coef[live], t0[live], ts_[live], deg[live] = fit.coef, fit.t0, fit.ts, fit.degree
-    for m in np.flatnonzero(~has).tolist():
-        k = int(live[m])
-        coef[k], t0[k], ts_[k], deg[k] = 0.0, 0.0, 1.0, 0
-        coef[k, 3] = float(median(d[lo[m]:hi[m]]))
-    return GroupPolys(coef, t0, ts_, deg)
+    ij = np.zeros((2, 0, n_hyp), np.int64) if len(live) == 0 else \
+        np.stack([_pairs(int(bounds[k + 1] - bounds[k]), n_hyp) + bounds[k] for k in live], axis=1)   # (2, G, H)
+    coef, t0, ts, deg = kernels.consensus_lines(np.ascontiguousarray(t, float), np.ascontiguousarray(d, float),
+                                                np.ascontiguousarray(bounds, np.int64), live,
+                                                np.ascontiguousarray(ij, np.int64), float(tol_px))
+    return GroupPolys(coef, t0, ts, deg)
 
 
 @functools.lru_cache(maxsize=64)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 from appliance.localize.curves import cached
 
 
@@ -68,16 +69,11 @@ class Runs:
         return _frozen(self.row * self.width + self.centre_px)
 
     def find(self, row: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """Index of the run containing pixel (row, round(x)) for each query, -1 if none."""
-        row = np.asarray(row, int)
-        xi = np.rint(x).astype(int)
-        key = row * self.width + xi
+        """Index of the run containing pixel (row, round(x)) for each query, -1 if none
+        (compiled: :func:`kernels.runs_find`)."""
         keys, rows, x1 = self._find_tables          # (a sentinel first: the same runs, two steps less)
-        i = keys.searchsorted(key, side="right") - 1
-        # (the last run starting at or before the key: on the query's row it starts at or before xi)
-        ok = rows.take(i) == row
-        ok &= x1.take(i) >= xi
-        return np.where(ok, i - 1, -1)
+        row, x = _queries(row, x)
+        return kernels.runs_find(keys, rows, x1, self.width, row, x[0])
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Runs of ``row`` whose centre lies in [lo_px, hi_px], for each query.
@@ -87,14 +83,18 @@ class Runs:
         query, run : ndarray (K,) int
             Pairs (query index, run index), all candidates of all queries.
         """
-        row = np.asarray(row, int)
-        keys = self._centre_keys
-        a = np.searchsorted(keys, row * self.width + np.asarray(lo_px), side="left")
-        b = np.searchsorted(keys, row * self.width + np.asarray(hi_px), side="right")
-        n = np.maximum(b - a, 0)
-        query = np.repeat(np.arange(len(row)), n)
-        run = np.repeat(a, n) + (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n))
-        return query, run
+        row, (lo, hi) = _queries(row, lo_px, hi_px)
+        return kernels.runs_between(self._centre_keys, row, self.width, lo, hi)
+
+
+def _queries(row, *cols) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Query rows as contiguous int64 (Q,) and columns as contiguous float64 (Q,) (broadcast where
+    their shapes differ), as the kernels take them."""
+    row = np.ascontiguousarray(row, np.int64)
+    cols = [np.ascontiguousarray(c, float) for c in cols]
+    if any(c.shape != row.shape for c in cols):
+        row, *cols = (np.ascontiguousarray(a) for a in np.broadcast_arrays(row, *cols))
+    return row, cols
 
 
 def _soft_crossing(flat: np.ndarray, row_start: np.ndarray, outside: np.ndarray, inside: np.ndarray) -> np.ndarray:

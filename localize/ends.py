@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
+from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkdisp import side_disparity_near
@@ -96,29 +97,8 @@ def walk_edges(mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np
     sample at or above 128, interpolated between that sample and the next, and whether it has one (W,)
     (False: the walk never leaves the mask, or starts off it; the index is then the last on-sample's, or 0).
     """
-    n = len(uv)
-    width = min(n, 1024)                               # (remap's maps: under 32767 a side)
-    xy = np.full((-(-n // width) * width, 2), -9.0, np.float32)
-    xy[:n] = uv
-    v = cv2.remap(mask, xy.reshape(-1, width, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                  borderValue=0)
-    v = v.reshape(-1)[:n].astype(np.float32)
-    on = v >= 127.5
-    starts, ends = bounds[:-1], bounds[1:]
-    off = np.flatnonzero(~on)
-    if len(off):
-        j = np.searchsorted(off, starts)
-        first_off = np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends)
-        first_off = np.minimum(first_off, ends)
-    else:
-        first_off = ends.copy()
-    crosses = (first_off < ends) & (first_off > starts)
-    k = np.maximum(first_off, starts + 1)
-    a = v[np.minimum(k - 1, len(v) - 1)]
-    b = v[np.minimum(k, len(v) - 1)]
-    frac = np.clip((a - 127.5) / np.maximum(a - b, 1e-6), 0.0, 1.0)
-    idx = np.where(crosses, (k - 1 - starts) + frac, np.maximum(first_off - 1 - starts, 0))
-    return idx, crosses
+    return kernels.walk_edges(np.ascontiguousarray(mask), np.ascontiguousarray(uv, float),
+                              np.ascontiguousarray(bounds, np.int64))
 
 
 class EndPlacer:

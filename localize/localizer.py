@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
+from appliance.localize import kernels
 from appliance.localize.curves import median
 from appliance.localize.dense import match_dense
 from appliance.localize.errors import LocalizeError
@@ -115,6 +116,7 @@ class Localizer:
         self.cfg = paper_config(cfg) if variant == "paper" else cfg
         self.rectifier = Rectifier.from_calibration(calib)
         self.d_range_px = disparity_range_px(calib, self.cfg.working_range_mm)
+        kernels.warm_up()               # (compiled or loaded now, not on the first frame)
 
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):

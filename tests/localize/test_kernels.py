@@ -1,0 +1,122 @@
+"""The compiled kernels (numba) against the numpy steps they replace."""
+
+import numpy as np
+
+from appliance.localize import kernels
+from appliance.localize.curves import fit_groups
+
+
+def test_segment_sums_are_numpys_reduceat_bit_for_bit():
+    """The power sums of the fits: numpy's pairwise summation, all block sizes (< 8, <= 128, halved)."""
+    rng = np.random.default_rng(1)
+    for n in list(range(1, 40)) + [127, 128, 129, 130, 255, 256, 257, 600, 1031]:
+        a = rng.normal(size=n) * 10.0 ** rng.uniform(-3, 5, n)
+        want = np.add.reduceat(np.concatenate([a, [0.0]]), [0, n])[0]
+        assert kernels._segment_sum(a, 0, n) == want
+        assert kernels._median(a) == np.median(a)
+        ties = np.round(a[: n // 2 + 1] / 1e3)                     # (repeated values)
+        assert kernels._median(ties) == np.median(ties)
+
+
+def test_fit_groups_is_least_squares_per_group():
+    """Each group's polynomial is the least-squares one (np.polyfit in the scaled parameter), its
+    degree lowered to what its distinct parameters support; an empty group gets a constant 0."""
+    rng = np.random.default_rng(2)
+    ts = [np.sort(rng.choice(np.arange(500.0), 60, replace=False)), np.zeros(0), np.repeat([3.0, 9.0], 5),
+          np.sort(rng.uniform(0, 80, 30))]
+    degrees = np.array([3, 2, 3, 2])
+    ys = [0.002 * t ** 2 - 0.3 * t + rng.normal(0, 0.5, len(t)) for t in ts]
+    g = np.repeat(np.arange(len(ts)), [len(t) for t in ts])
+    fit = fit_groups(np.concatenate(ts), np.concatenate(ys), g, len(ts), degrees)
+    np.testing.assert_array_equal(fit.degree, [3, 0, 1, 2])
+    assert not fit.coef[1].any()
+    for k in (0, 2, 3):
+        t, y, d = ts[k], ys[k], int(fit.degree[k])
+        assert fit.t0[k] == np.add.reduceat(t, [0])[0] / len(t)
+        want = np.polyfit((t - fit.t0[k]) / fit.ts[k], y, d)
+        np.testing.assert_allclose(fit.coef[k, 3 - d:], want, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(fit(np.full(len(t), k), t), np.polyval(want, (t - fit.t0[k]) / fit.ts[k]),
+                                   rtol=1e-12, atol=1e-9)
+
+
+def test_runs_find_and_between_are_the_numpy_lookups():
+    """Runs.find / Runs.between (compiled) against the numpy formulas they replace, on a soft mask
+    with queries off the image and non-finite columns."""
+    import cv2
+    from appliance.localize.edges import find_runs
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        h, w = 60, int(rng.integers(20, 300))
+        m = (cv2.GaussianBlur(rng.random((h, w)).astype(np.float32), (0, 0), 3) > 0.5).astype(np.uint8) * 255
+        runs = find_runs(cv2.GaussianBlur(m, (3, 3), 0), soft=True)
+        row = rng.integers(-2, h + 2, 300)
+        x = rng.uniform(-3, w + 3, 300)
+        x[::37] = np.nan
+        xi = np.rint(np.nan_to_num(x, nan=-1e9)).astype(int)
+        key, start = row * w + xi, runs.row * w + runs.x0
+        i = np.searchsorted(start, key, side="right") - 1
+        ok = np.isfinite(x) & (i >= 0) & (runs.row[np.maximum(i, 0)] == row) & (runs.x1[np.maximum(i, 0)] >= xi)
+        np.testing.assert_array_equal(runs.find(row, x), np.where(ok, i, -1))
+        lo = rng.uniform(-10, w, 300)
+        hi = lo + rng.uniform(-5, 60, 300)
+        q, r = runs.between(row, lo, hi)
+        centre = runs.row * w + runs.centre_px
+        want = [(k, j) for k in range(len(row)) for j in np.flatnonzero((centre >= row[k] * w + lo[k])
+                                                                         & (centre <= row[k] * w + hi[k]))]
+        assert list(zip(q.tolist(), r.tolist())) == want
+
+
+def test_bilinear_reads_are_cv2_remaps():
+    """The walks' mask reads: cv2.remap's bilinear value of uint8 images (border 0), points on and
+    off the image, 2e5 of them. OpenCV 5 interpolates in float32 by fused multiply-adds, as the kernel:
+    the same values (on a CPU without FMA, or OpenCV 4's fixed-point tables, a few points are one
+    level off); the walks then follow those values."""
+    import cv2
+    import numba
+    from appliance.localize.ends import walk_edges
+
+    @numba.njit
+    def read(img, xy):
+        return np.array([kernels.bilinear_u8(img, xy[i, 0], xy[i, 1]) for i in range(len(xy))])
+
+    rng = np.random.default_rng(7)
+    img = rng.integers(0, 256, (60, 80), dtype=np.uint8)
+    xy = np.column_stack([rng.uniform(-3, 83, 200_000), rng.uniform(-3, 63, 200_000)]).astype(np.float32)
+    want = cv2.remap(img, xy.reshape(-1, 1000, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                     borderValue=0).reshape(-1)
+    got = read(img, xy)
+    assert np.abs(got - want).max() <= 1
+    assert np.count_nonzero(got != want) <= (2 if int(cv2.__version__.split(".")[0]) >= 5 else len(xy) // 2)
+    # one walk per 1000 points: each walk's first point off the mask (< 127.5) and the crossing before it
+    bounds = np.arange(0, len(xy) + 1, 1000)
+    idx, crosses = walk_edges(img, xy.astype(float), bounds)
+    v = got.reshape(-1, 1000).astype(np.float32)
+    on = v >= 127.5
+    first_off = np.where(on.all(1), 1000, np.argmin(on, 1))
+    np.testing.assert_array_equal(crosses, (first_off > 0) & (first_off < 1000))
+    k = np.maximum(first_off, 1)
+    a, b = (v[np.arange(len(k)), np.minimum(j, 999)] for j in (k - 1, k))
+    frac = np.clip((a - 127.5) / np.maximum(a - b, 1e-6), 0.0, 1.0)
+    np.testing.assert_array_equal(idx, np.where(crosses, (k - 1) + frac, np.maximum(first_off - 1, 0)))
+
+
+def test_warm_up_compiles_every_signature_the_localizer_uses():
+    """After a Localizer is built (it warms the kernels up), localizing compiles nothing more: no frame
+    waits for numba (a live stream's first result, a worker's first pair)."""
+    from pathlib import Path
+
+    import cv2
+    import numba
+    from appliance.calibrate.model import load_calibration
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
+    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
+    jitted = {n: f for n, f in vars(kernels).items()      # (the ones the localizer calls)
+              if isinstance(f, numba.core.registry.CPUDispatcher) and not n.startswith("_") and n != "bilinear_u8"}
+    before = {n: len(f.signatures) for n, f in jitted.items()}
+    loc.localize(cv2.imread(str(fixtures / "scenes" / "left_00.png")), cv2.imread(str(fixtures / "scenes" / "right_00.png")))
+    assert {n: len(f.signatures) for n, f in jitted.items()} == before
+    assert all(before.values())

@@ -25,7 +25,7 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, occluder_confirmed, round_caps, silhouette_offset_px,
+from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, cap_radius, occluder_confirmed, round_caps, silhouette_offset_px,
                                      split_row_disparity)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
@@ -803,12 +803,16 @@ class EndPlacer:
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
                 return None                          # the branch leaves the view: no tip seen
+            uv, r_cap = uv_edge - out * back, r
         else:
-            back = r
-        uv = uv_edge - out * back
-        t = c.t_of(uv)
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
-        self.radius[node] = c.radius_px
+            # the tip is the centre of the round cap: its own radius back from where the centre line
+            # leaves the mask (the half-coverage crossing; the walk's edge lies WALK_EDGE_BIAS past
+            # it). A tapering branch's piece radius is ~10 % (p95 ~40 %) larger than the cap's.
+            r_cap = cap_radius(self.sm.left_mask, uv_edge, out, r)
+            r_cap = r if r_cap is None else r_cap
+            uv = c.uv_at(t_edge - sign * WALK_EDGE_BIAS)[0] - out * r_cap
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(c.t_of(uv))[0]])
+        self.radius[node] = r_cap
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of

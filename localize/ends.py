@@ -25,8 +25,8 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, cap_radius, occluder_confirmed, round_caps, silhouette_offset_px,
-                                     split_row_disparity)
+from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, cap_centre, cap_shapes_offsets, occluder_confirmed,
+                                     reads_round, silhouette_offset_px, split_row_disparity)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
@@ -762,7 +762,7 @@ class EndPlacer:
 
     def tips(self, nodes) -> None:
         """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
-        the ends that reach them read the mask together (:func:`tips.round_caps`: each end's values
+        the ends that reach them read the mask together (:func:`tips.cap_shapes`: each end's values
         as alone), before the probes beyond them (both only hide an end: the order does not matter)."""
         ends = []
         for node in nodes:
@@ -771,9 +771,9 @@ class EndPlacer:
                 ends.append((node, *end))
         if not ends:
             return
-        round_ = round_caps(self.sm.left_mask, [end[1:] for end in ends])
-        for (node, uv_edge, out, r), is_round in zip(ends, round_):
-            if not is_round:            # an occluder's edge ends it (tips.cap_shape)
+        shapes, offsets = cap_shapes_offsets(self.sm.left_mask, [end[1:4] for end in ends])
+        for (node, uv_edge, out, r, edge_bias_px), shape, offset in zip(ends, shapes, offsets):
+            if not reads_round(shape):            # an occluder's edge ends it (tips.cap_shape)
                 self.hidden.add(int(node))
                 continue
             half = max(4, int(round(r)))
@@ -782,10 +782,24 @@ class EndPlacer:
                                np.array([half]), self.sm.d_range_px[1]) and \
                     occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
                 self.hidden.add(int(node))
+                continue
+            # the tip is the centre of its round cap (tips.cap_centre, from the readings above): the
+            # cap's own radius (a tapering branch's piece radius is ~10 % (p95 ~40 %) larger) back from
+            # where the centre line leaves the mask (the half-coverage crossing: the walk's edge lies
+            # WALK_EDGE_BIAS past it), across the line where the branch's width is not centred on it.
+            # The disparity stays (the cap's rows, the run end).
+            centre = None if edge_bias_px is None else cap_centre(shape, offset, r)
+            if centre is not None:
+                back, across, rho = centre
+                self.uvd[node][:2] = uv_edge - out * (edge_bias_px + back) + np.array([-out[1], out[0]]) * across
+                self.radius[node] = rho
 
     def _tip_place(self, node: int) -> tuple | None:
-        """:meth:`tip` up to its round-cap check: the end placed, hidden where its checks so far
-        say; ``(uv_edge, out, r)`` for the rest where it is not (yet) hidden, else None."""
+        """:meth:`tip` up to its round-cap check: the end placed (one piece radius back from the
+        walk's edge), hidden where its checks so far say; ``(uv_edge, out, r, edge_bias_px)`` for
+        the rest where it is not (yet) hidden, else None (``edge_bias_px``: how far the walk's edge
+        lies past the half-coverage crossing, px; None for a cap cut by the view's edge, whose
+        placement from its chord stands)."""
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
             return None
@@ -803,16 +817,16 @@ class EndPlacer:
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
                 return None                          # the branch leaves the view: no tip seen
-            uv, r_cap = uv_edge - out * back, r
+            edge_bias_px = None                      # (placed from the chord: stays)
         else:
-            # the tip is the centre of the round cap: its own radius back from where the centre line
-            # leaves the mask (the half-coverage crossing; the walk's edge lies WALK_EDGE_BIAS past
-            # it). A tapering branch's piece radius is ~10 % (p95 ~40 %) larger than the cap's.
-            r_cap = cap_radius(self.sm.left_mask, uv_edge, out, r)
-            r_cap = r if r_cap is None else r_cap
-            uv = c.uv_at(t_edge - sign * WALK_EDGE_BIAS)[0] - out * r_cap
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(c.t_of(uv))[0]])
-        self.radius[node] = r_cap
+            back = r
+            edge_bias_px = WALK_EDGE_BIAS * speed
+        # (placed one piece radius back for the checks below; a tip that passes them all is moved
+        # onto its cap's centre in tips())
+        uv = uv_edge - out * back
+        t = c.t_of(uv)
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
+        self.radius[node] = c.radius_px
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
@@ -864,7 +878,7 @@ class EndPlacer:
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return None
-        return uv_edge, out, r
+        return uv_edge, out, r, edge_bias_px
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left

@@ -1,5 +1,5 @@
-"""Where a tip is placed along its branch: the cap's own radius (appliance.localize.tips.cap_radius,
-used by appliance.localize.ends.EndPlacer._tip_place), on tapering rods drawn anti-aliased."""
+"""Where a tip is placed along its branch: the cap's own radius (appliance.localize.tips.cap_radius /
+cap_centre, used by appliance.localize.ends.EndPlacer.tips), on tapering rods drawn anti-aliased."""
 
 import cv2
 import numpy as np

@@ -25,8 +25,9 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, cap_centre, cap_shapes_offsets, occluder_confirmed,
-                                     reads_round, silhouette_offset_px, split_row_disparity)
+from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, VIEW_EDGE_PX, at_view_edge, cap_centre,
+                                     cap_shapes_offsets, occluder_confirmed, reads_round, silhouette_offset_px,
+                                     split_row_disparity)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
@@ -788,11 +789,26 @@ class EndPlacer:
             # where the centre line leaves the mask (the half-coverage crossing: the walk's edge lies
             # WALK_EDGE_BIAS past it), across the line where the branch's width is not centred on it.
             # The disparity stays (the cap's rows, the run end).
+            # A tip whose width is read up to the view's edge keeps its place (the width may be cut
+            # there), and so does one the move alone would take within the features' edge margin
+            # (dense.match_dense: like the checks above, that test sees the place it had).
             centre = None if edge_bias_px is None else cap_centre(shape, offset, r)
-            if centre is not None:
-                back, across, rho = centre
-                self.uvd[node][:2] = uv_edge - out * (edge_bias_px + back) + np.array([-out[1], out[0]]) * across
-                self.radius[node] = rho
+            if centre is None:
+                continue
+            back, across, rho = centre
+            normal = np.array([-out[1], out[0]])
+            uv = uv_edge - out * (edge_bias_px + back) + normal * across
+            p = uv_edge - out * (CAP_WIDTH_BACK * r)
+            sides = p + np.outer([shape[0][0] + offset, offset - shape[0][0]], normal)   # (cut: at the last pixel + 0.5)
+            h, w = self.sm.left_mask.shape
+            if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
+                continue
+            margin = VIEW_EDGE_PX + self.g.scale
+            if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(
+                    self.uvd[node][0], self.uvd[node][1], w - 1 - self.uvd[node][0], h - 1 - self.uvd[node][1]):
+                continue
+            self.uvd[node][:2] = uv
+            self.radius[node] = rho
 
     def _tip_place(self, node: int) -> tuple | None:
         """:meth:`tip` up to its round-cap check: the end placed (one piece radius back from the

@@ -54,6 +54,9 @@ CAP_EDGE_BACK = 0.2
 # its end (where cap_shape reads the width), and stands within this range of the piece's radius
 CAP_WIDTH_BACK = 1.5
 CAP_RADIUS_RANGE = (0.5, 2.0)
+# features this close to the view's edge (px, plus the skeleton's scale for tips) are left out
+# (dense.match_dense's border_px): a tip's move onto its cap's centre does not take it there
+VIEW_EDGE_PX = 3.0
 
 
 def flat_cap_curves(b, segs: list, runs_lt: Runs) -> dict[int, BranchCurve]:
@@ -430,10 +433,11 @@ def cap_centre(shapes: list | None, offset_px: float, r: float) -> tuple[float, 
     this reading is 1.04 / 1.02 (median) of it (exact / colour masks), p95 |error| 0.66 / 0.49 px.
     The centre lies ``offset_px`` across from the fitted centre line (often 20-60 % of the radius
     off the middle there), so the line leaves the cap's outline ``sqrt(rho^2 - offset^2)`` beyond
-    the centre's foot on it. Where one side runs on past the cap (something touches the branch
-    there: a side's setback at or below :data:`TOUCH_BACK`) the width's middle is not the
-    branch's: the other side's reach from the fitted line is the radius (``shapes[1][0]``), about
-    that line.
+    the centre's foot on it. Where the lines about that middle do not read a round cap (both
+    sides' setbacks within :data:`MIN_CAP_BACK` ... :data:`MAX_CAP_BACK` of a round cap's), the
+    width is merged on one side with something touching the branch (running on past the cap, or
+    ending at it): the shorter side's reach from the fitted line is the radius (``shapes[1][0]``),
+    about that line.
 
     Returns
     -------
@@ -445,7 +449,7 @@ def cap_centre(shapes: list | None, offset_px: float, r: float) -> tuple[float, 
     if shapes is None or shapes[0] is None or not np.isfinite(offset_px):
         return None
     rho, across = shapes[0][0], float(offset_px)
-    if min(shapes[0][1:]) <= TOUCH_BACK:
+    if not MIN_CAP_BACK <= min(shapes[0][1:]) <= max(shapes[0][1:]) <= MAX_CAP_BACK:
         if shapes[1] is None:
             return None
         rho, across = shapes[1][0], 0.0

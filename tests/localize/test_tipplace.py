@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from appliance.config import load_config
 from appliance.localize import Localizer
-from appliance.localize.tips import cap_radius
+from appliance.localize.tips import cap_centre, cap_radius, cap_shapes_offsets
 
 from .shapes import ideal_rig
 
@@ -64,6 +64,19 @@ def test_a_touched_caps_radius_is_its_free_sides_reach():
     cv2.rectangle(mask, (int(tip[0] + r_tip - 1), 20), (int(tip[0] + r_tip + 8), 90), 255, -1)
     rho = cap_radius(mask, np.array([tip[0], tip[1] - r_tip]), np.array([0.0, -1.0]), 9.0)
     assert rho is not None and abs(rho - r_tip) < 0.5
+
+
+def test_a_cap_centre_off_the_fitted_line_is_found_across_it():
+    # a centre line fitted 2 px to the right of the rod's axis leaves the cap's outline
+    # sqrt(r^2 - 2^2) beyond the centre's foot on it: the centre is that far back and 2 px across
+    tip, r_tip = (300.0, 60.3), 6.0
+    mask = np.rint(255 * _round_cone_cover((420, 600), (300.0, 360.3), tip, 12.0, r_tip)).astype(np.uint8)
+    up = np.array([0.0, -1.0])
+    edge = np.array([302.0, tip[1] - np.sqrt(r_tip ** 2 - 4.0)])
+    shapes, offsets = cap_shapes_offsets(mask, [(edge, up, 9.0)])
+    back, across, rho = cap_centre(shapes[0], float(offsets[0]), 9.0)
+    centre = edge - up * back + np.array([-up[1], up[0]]) * across
+    assert np.hypot(*(centre - tip)) < 0.35 and abs(rho - r_tip) < 0.35
 
 
 # the drawn right view is the left one moved along the rows (see test_tipd: a long focal length and

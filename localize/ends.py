@@ -752,7 +752,7 @@ class EndPlacer:
         return res
 
     def tip(self, node: int) -> None:
-        """A tip: the end of the mask along the centre line, less the round cap (one radius).
+        """A tip: the end of the mask along the centre line, less the round cap (its own radius).
 
         An end is hidden, not a tip (kept as the piece's end but flagged in ``self.hidden``),
         when the right view's outline ends elsewhere along the branch than the left's (an
@@ -763,8 +763,9 @@ class EndPlacer:
 
     def tips(self, nodes) -> None:
         """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
-        the ends that reach them read the mask together (:func:`tips.cap_shapes`: each end's values
-        as alone), before the probes beyond them (both only hide an end: the order does not matter)."""
+        the ends that reach them read the mask together (:func:`tips.cap_shapes_offsets`: each end's
+        values as alone), before the probes beyond them (both only hide an end: the order does not
+        matter); a tip that passes them all moves onto its cap's centre (:meth:`_place_on_cap`)."""
         ends = []
         for node in nodes:
             end = self._tip_place(node)
@@ -784,31 +785,37 @@ class EndPlacer:
                     occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
                 self.hidden.add(int(node))
                 continue
-            # the tip is the centre of its round cap (tips.cap_centre, from the readings above): the
-            # cap's own radius (a tapering branch's piece radius is ~10 % (p95 ~40 %) larger) back from
-            # where the centre line leaves the mask (the half-coverage crossing: the walk's edge lies
-            # WALK_EDGE_BIAS past it), across the line where the branch's width is not centred on it.
-            # The disparity stays (the cap's rows, the run end).
-            # A tip whose width is read up to the view's edge keeps its place (the width may be cut
-            # there), and so does one the move alone would take within the features' edge margin
-            # (dense.match_dense: like the checks above, that test sees the place it had).
-            centre = None if edge_bias_px is None else cap_centre(shape, offset, r)
-            if centre is None:
-                continue
-            back, across, rho = centre
-            normal = np.array([-out[1], out[0]])
-            uv = uv_edge - out * (edge_bias_px + back) + normal * across
-            p = uv_edge - out * (CAP_WIDTH_BACK * r)
-            sides = p + np.outer([shape[0][0] + offset, offset - shape[0][0]], normal)   # (cut: at the last pixel + 0.5)
-            h, w = self.sm.left_mask.shape
-            if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
-                continue
-            margin = VIEW_EDGE_PX + self.g.scale
-            if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(
-                    self.uvd[node][0], self.uvd[node][1], w - 1 - self.uvd[node][0], h - 1 - self.uvd[node][1]):
-                continue
-            self.uvd[node][:2] = uv
-            self.radius[node] = rho
+            self._place_on_cap(node, uv_edge, out, r, edge_bias_px, shape, offset)
+
+    def _place_on_cap(self, node: int, uv_edge: np.ndarray, out: np.ndarray, r: float, edge_bias_px: float | None,
+                      shape: list | None, offset_px: float) -> None:
+        """Move a tip that passed its checks onto its round cap's centre (:func:`tips.cap_centre`,
+        from the round-cap readings ``shape`` and the width's middle ``offset_px``): the cap's own
+        radius (a tapering branch's piece radius ``r`` is ~10 % (p95 ~40 %) larger) back from
+        where the centre line leaves the mask (the half-coverage crossing: the walk's edge
+        ``uv_edge`` lies ``edge_bias_px`` past it), and across the line where the branch's width
+        is not centred on it; the tip's radius becomes the cap's. Its disparity stays (the cap's
+        rows, the run end). A tip whose width is read up to the view's edge keeps its place (the
+        width may be cut there), and so does one the move alone would take within the features'
+        edge margin (dense.match_dense: like the checks, that test sees the place it had), or a
+        cap cut by the view's edge (``edge_bias_px`` None: placed from its chord)."""
+        centre = None if edge_bias_px is None else cap_centre(shape, offset_px, r)
+        if centre is None:
+            return
+        back, across, rho = centre
+        normal = np.array([-out[1], out[0]])
+        uv = uv_edge - out * (edge_bias_px + back) + normal * across
+        p = uv_edge - out * (CAP_WIDTH_BACK * r)
+        sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)   # (cut: last pixel + 0.5)
+        h, w = self.sm.left_mask.shape
+        if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
+            return
+        margin = VIEW_EDGE_PX + self.g.scale
+        old = self.uvd[node]
+        if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
+            return
+        self.uvd[node][:2] = uv
+        self.radius[node] = rho
 
     def _tip_place(self, node: int) -> tuple | None:
         """:meth:`tip` up to its round-cap check: the end placed (one piece radius back from the

@@ -26,7 +26,8 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import (CAP_EDGE_BACK, at_view_edge, occluder_confirmed, round_caps, silhouette_offset_px,
+from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, VIEW_EDGE_PX, at_view_edge, cap_centre,
+                                     cap_shapes_offsets, occluder_confirmed, reads_round, silhouette_offset_px,
                                      split_row_disparity)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
@@ -731,7 +732,7 @@ class EndPlacer:
         return res
 
     def tip(self, node: int) -> None:
-        """A tip: the end of the mask along the centre line, less the round cap (one radius).
+        """A tip: the end of the mask along the centre line, less the round cap (its own radius).
 
         An end is hidden, not a tip (kept as the piece's end but flagged in ``self.hidden``),
         when the right view's outline ends elsewhere along the branch than the left's (an
@@ -742,8 +743,9 @@ class EndPlacer:
 
     def tips(self, nodes) -> None:
         """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
-        the ends that reach them read the mask together (:func:`tips.round_caps`: each end's values
-        as alone), before the probes beyond them (both only hide an end: the order does not matter)."""
+        the ends that reach them read the mask together (:func:`tips.cap_shapes_offsets`: each end's
+        values as alone), before the probes beyond them (both only hide an end: the order does not
+        matter); a tip that passes them all moves onto its cap's centre (:meth:`_place_on_cap`)."""
         ends = []
         for node in nodes:
             end = self._tip_place(node)
@@ -751,9 +753,9 @@ class EndPlacer:
                 ends.append((node, *end))
         if not ends:
             return
-        round_ = round_caps(self.sm.left_mask, [end[1:] for end in ends])
-        for (node, uv_edge, out, r), is_round in zip(ends, round_):
-            if not is_round:            # an occluder's edge ends it (tips.cap_shape)
+        shapes, offsets = cap_shapes_offsets(self.sm.left_mask, [end[1:4] for end in ends])
+        for (node, uv_edge, out, r, edge_bias_px), shape, offset in zip(ends, shapes, offsets):
+            if not reads_round(shape):            # an occluder's edge ends it (tips.cap_shape)
                 self.hidden.add(int(node))
                 continue
             half = max(4, int(round(r)))
@@ -762,10 +764,45 @@ class EndPlacer:
                                np.array([half]), self.sm.d_range_px[1]) and \
                     occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
                 self.hidden.add(int(node))
+                continue
+            self._place_on_cap(node, uv_edge, out, r, edge_bias_px, shape, offset)
+
+    def _place_on_cap(self, node: int, uv_edge: np.ndarray, out: np.ndarray, r: float, edge_bias_px: float | None,
+                      shape: list | None, offset_px: float) -> None:
+        """Move a tip that passed its checks onto its round cap's centre (:func:`tips.cap_centre`,
+        from the round-cap readings ``shape`` and the width's middle ``offset_px``): the cap's own
+        radius (a tapering branch's piece radius ``r`` is ~10 % (p95 ~40 %) larger) back from
+        where the centre line leaves the mask (the half-coverage crossing: the walk's edge
+        ``uv_edge`` lies ``edge_bias_px`` past it), and across the line where the branch's width
+        is not centred on it; the tip's radius becomes the cap's. Its disparity stays (the cap's
+        rows, the run end). A tip whose width is read up to the view's edge keeps its place (the
+        width may be cut there), and so does one the move alone would take within the features'
+        edge margin (dense.match_dense: like the checks, that test sees the place it had), or a
+        cap cut by the view's edge (``edge_bias_px`` None: placed from its chord)."""
+        centre = None if edge_bias_px is None else cap_centre(shape, offset_px, r)
+        if centre is None:
+            return
+        back, across, rho = centre
+        normal = np.array([-out[1], out[0]])
+        uv = uv_edge - out * (edge_bias_px + back) + normal * across
+        p = uv_edge - out * (CAP_WIDTH_BACK * r)
+        sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)   # (cut: last pixel + 0.5)
+        h, w = self.sm.left_mask.shape
+        if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
+            return
+        margin = VIEW_EDGE_PX + self.g.scale
+        old = self.uvd[node]
+        if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
+            return
+        self.uvd[node][:2] = uv
+        self.radius[node] = rho
 
     def _tip_place(self, node: int) -> tuple | None:
-        """:meth:`tip` up to its round-cap check: the end placed, hidden where its checks so far
-        say; ``(uv_edge, out, r)`` for the rest where it is not (yet) hidden, else None."""
+        """:meth:`tip` up to its round-cap check: the end placed (one piece radius back from the
+        walk's edge), hidden where its checks so far say; ``(uv_edge, out, r, edge_bias_px)`` for
+        the rest where it is not (yet) hidden, else None (``edge_bias_px``: how far the walk's edge
+        lies past the half-coverage crossing, px; None for a cap cut by the view's edge, whose
+        placement from its chord stands)."""
         segs = [s for s in self.incident[node] if s in self.curves]
         if not segs:
             return None
@@ -783,8 +820,12 @@ class EndPlacer:
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
                 return None                          # the branch leaves the view: no tip seen
+            edge_bias_px = None                      # (placed from the chord: stays)
         else:
             back = r
+            edge_bias_px = WALK_EDGE_BIAS * speed
+        # (placed one piece radius back for the checks below; a tip that passes them all is moved
+        # onto its cap's centre in tips())
         uv = uv_edge - out * back
         t = c.t_of(uv)
         self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
@@ -840,7 +881,7 @@ class EndPlacer:
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return None
-        return uv_edge, out, r
+        return uv_edge, out, r, edge_bias_px
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left

@@ -19,7 +19,7 @@ from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
-from appliance.localize.forkdisp import side_disparity_near
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -39,6 +39,17 @@ END_SHIFT_FLAT_PX = 6.0
 HIDDEN_FORK_MIN_DEG = 20.0
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# a flat parent side at a fork takes its disparity from its bark texture next to the fork
+FLAT_NEAR = True
+FLAT_NEAR_MIN_PX = 0.25
+# a flat parent's fork: the child's right outline read on the fork's row (not where it meets the parent's
+# line moved by the disparity being found); a child within this sine of the rows tells nothing
+FLAT_ROW = False
+# a flat parent whose two sides' texture disparities at the fork differ by more than this (px): the right
+# outline's disparity picks one
+FLAT_PICK = True
+FLAT_SIDES_DIFFER_PX = 0.5
+FLAT_ROW_MIN_SIN = 0.3
 # a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
@@ -273,7 +284,17 @@ class EndPlacer:
         # without the child's outline is withheld whatever its disparity (below): not read
         side_near = {}
         for s in parents if final and outline is not None else ():
-            v = side_disparity_near(self.curves[s], self.runs_l, self.runs_r, float(self.curves[s].t_of(xy)[0]))
+            c = self.curves[s]
+            if c.by_row:
+                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
+            elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
+                v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
+                                   self.sm.f_px, self.sm.offset_px)
+                # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
+                if v is not None and abs(v.d_px - at(s)) <= FLAT_NEAR_MIN_PX:
+                    v = None
+            else:
+                v = None
             if v is not None:
                 side_near[s] = v
         if side_near:
@@ -295,19 +316,30 @@ class EndPlacer:
             elif final:
                 self.place_pending(node)          # (if not made yet: it stands)
             return
-        agree = False
+        agree = seen_right = False
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
             # outline leaving it in the right view tells the fork's own (along the rows)
             d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
             # (unless the child's own disparity agrees with the parent's: the two views' outline
             # places may be a px or two apart, as with noisy masks)
-            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+            if d_out is None:
+                pass
+            elif FLAT_PICK and len(d_par) == 2 and all(s in side_near for s in parents) \
+                    and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
+                # the two sides' textures next to the fork disagree: the one the outline is nearer
+                # (the outline place itself is ~1 px off on its own), if within 1 px of it
+                pick = min(d_par, key=lambda v: abs(v - d_out))
+                if abs(pick - d_out) <= 1.0:
+                    d, agree = float(pick), True
+            elif FLAT_PICK and abs(d_out - d) <= 1.0:
+                seen_right = True       # the child's outline in the right view leaves the parent there too
+            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
                 d, agree = d_out, True
         from_outline = agree
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        agree = agree or child_ok and _agree(at(child), d)
+        agree = agree or seen_right or child_ok and _agree(at(child), d)
         # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
         # provisional place (no outline) is hidden whatever agrees: its checks run only when that
         # disparity would differ (the same results, the work skipped otherwise)
@@ -382,7 +414,7 @@ class EndPlacer:
         return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
-                                 mask: np.ndarray | None = None) -> np.ndarray | None:
+                                 mask: np.ndarray | None = None, points: bool = False):
         """The fork from the child's outline where it leaves the parent: None when unclear.
 
         Lines parallel to the parent's axis (``c1``, ``e1``), just clear of the parent's outline
@@ -393,6 +425,7 @@ class EndPlacer:
         angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
         further out is tried then. The intervals' ends are where the mask's coverage (0-255,
         bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
+        ``points``: the two middles (2, 2) on the child's axis instead of the fork.
         """
         mask = self.sm.left_mask if mask is None else mask
         n = np.array([-e1[1], e1[0]])
@@ -413,6 +446,8 @@ class EndPlacer:
                 continue
             m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
             if m2 is not None:
+                if points:
+                    return np.array([c1 + h1 * n + m1 * e1, c1 + (h1 + step) * n + m2 * e1])
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
 
@@ -448,6 +483,18 @@ class EndPlacer:
         if abs(e1[0]) < 0.9:
             return None
         r1 = xy - np.array([d, 0.0])
+        if FLAT_ROW:
+            # the child's axis in the right view (the middles of its outline on two lines along the
+            # parent) read on the fork's row: the fork's own disparity, whatever the parent's line
+            # (moved by ``d`` it moves the right fork along a steep child by d tan(parent's slope))
+            pts = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
+                                                self.sm.right_mask, points=True)
+            if pts is None:
+                return None
+            dv = pts[1] - pts[0]
+            if abs(dv[1]) < FLAT_ROW_MIN_SIN * np.hypot(*dv):      # a child near the rows: no row tells
+                return None
+            return float(xy[0] - (pts[0][0] + (xy[1] - pts[0][1]) * dv[0] / dv[1]))
         xy_r = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
         if xy_r is None or abs(xy_r[1] - xy[1]) > 1.0:

@@ -17,6 +17,7 @@ import numpy as np
 
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
+from appliance.localize.texture import surface_disparity, surface_to_axis
 
 
 # a parent side's fit carried at least this far (px of its parameter) to the fork is read again from its
@@ -105,6 +106,66 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         return None
     return SideNear(b, int(np.count_nonzero(keep)), n_gap_k, n_gap,
                     float(np.abs(x[keep]).min()), mad, a)
+
+
+# a flat parent side's disparity at a fork: its bark texture on patches from the fork this far along it
+FLAT_NEAR_PX = 24.0
+FLAT_STEP_PX = 3.0
+
+
+def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
+                   offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
+                   min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3) -> SideNear | None:
+    """A flat parent side's disparity at a fork from its bark texture next to the fork.
+
+    A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
+    along the whole piece, leaving out the junction's blob; where the branch turns in depth along it,
+    the fit read at the fork is a few tenths of a pixel off the fork's own depth (the fork often lies
+    tens of px past the span). The patches on the side's centre line (carried past its span) from the
+    fork to ``reach_px`` along the side, matched along the rows (``texture.surface_disparity``,
+    searched within 3 px of the curve's value) and moved back onto the axis, give the side's disparity
+    there: their median, of those correlating at ``min_score`` and within ``tol_d_px`` of the curve.
+    At the fork the child is at the parent's depth, so its bark in a patch does not bias it.
+
+    Parameters
+    ----------
+    c : BranchCurve
+        The side's curve (flat: parameter = column; a steep one gives None).
+    left_gray, right_gray : ndarray (H, W)
+        Rectified grey images.
+    t_fork : float
+        The fork's column on the side's curve.
+    f_px, offset_px : float
+        Focal length and the principal-point difference (``texture.surface_to_axis``).
+
+    Returns
+    -------
+    SideNear or None
+        None when fewer than ``min_patches`` patches hold.
+    """
+    if c.by_row or not math.isfinite(t_fork):
+        return None
+    lo, hi = c.t_range
+    sg = 1.0 if (t_fork < lo or (t_fork <= hi and t_fork < 0.5 * (lo + hi))) else -1.0
+    dt = np.arange(0.0, reach_px + 0.5 * step_px, step_px)
+    t = t_fork + sg * dt
+    uv = c.uv_at(t)
+    d_c = float(c.d_at(t_fork)[0])
+    scale = 1.0 + c.radius_px / f_px
+    d_s = (d_c - offset_px) * scale + offset_px          # the curve's value on the surface
+    half_h = np.full(len(t), max(1, int(0.6 * c.radius_px)))
+    d_surf, score = surface_disparity(left_gray, right_gray, uv, half_h, (d_s - 4.0, d_s + 4.0), half_w_px=12)
+    ok = np.isfinite(d_surf) & (score >= min_score)
+    if np.count_nonzero(ok) < min_patches:
+        return None
+    d_ax = surface_to_axis(d_surf[ok], c.radius_px, f_px, offset_px)
+    keep = np.abs(d_ax - d_c) <= tol_d_px
+    if np.count_nonzero(keep) < min_patches:
+        return None
+    d_ax, x = d_ax[keep], dt[ok][keep]
+    m = float(median(d_ax))
+    mad = 1.4826 * float(median(np.abs(d_ax - m)))
+    return SideNear(m, len(d_ax), 0, int(max(lo - t_fork, t_fork - hi, 0.0)), float(x.min()), mad, 0.0)
 
 
 def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:

@@ -282,7 +282,7 @@ class EndPlacer:
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
         # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
         # without the child's outline is withheld whatever its disparity (below): not read
-        side_near = {}
+        side_near, flat_read = {}, set()
         for s in parents if final and outline is not None else ():
             c = self.curves[s]
             if c.by_row:
@@ -291,8 +291,10 @@ class EndPlacer:
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
                                    self.sm.f_px, self.sm.offset_px)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
-                if v is not None and abs(v.d_px - at(s)) <= FLAT_NEAR_MIN_PX:
-                    v = None
+                if v is not None:
+                    flat_read.add(s)
+                    if abs(v.d_px - at(s)) <= FLAT_NEAR_MIN_PX:
+                        v = None
             else:
                 v = None
             if v is not None:
@@ -325,12 +327,12 @@ class EndPlacer:
             # places may be a px or two apart, as with noisy masks)
             if d_out is None:
                 pass
-            elif FLAT_PICK and len(d_par) == 2 and all(s in side_near for s in parents) \
+            elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
                     and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
-                # the two sides' textures next to the fork disagree: the one the outline is nearer
-                # (the outline place itself is ~1 px off on its own), if within 1 px of it
+                # the two sides' textures next to the fork disagree: the one the outline is nearer,
+                # if within the outline check's tolerance of it (each view's outline place is ~1 px off)
                 pick = min(d_par, key=lambda v: abs(v - d_out))
-                if abs(pick - d_out) <= 1.0:
+                if abs(pick - d_out) <= max(1.6, 0.009 * abs(d)):
                     d, agree = float(pick), True
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too

@@ -40,16 +40,14 @@ HIDDEN_FORK_MIN_DEG = 20.0
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
 # a flat parent side at a fork takes its disparity from its bark texture next to the fork
+# (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
 FLAT_NEAR = True
 FLAT_NEAR_MIN_PX = 0.25
-# a flat parent's fork: the child's right outline read on the fork's row (not where it meets the parent's
-# line moved by the disparity being found); a child within this sine of the rows tells nothing
-FLAT_ROW = False
-# a flat parent whose two sides' texture disparities at the fork differ by more than this (px): the right
-# outline's disparity picks one
+# a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
+# the two and the child's right outline's disparity (if within the outline check's tolerance of
+# the nearer side); the outline within 1 px of the parent's confirms the fork
 FLAT_PICK = True
 FLAT_SIDES_DIFFER_PX = 0.5
-FLAT_ROW_MIN_SIN = 0.3
 # a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
@@ -329,11 +327,11 @@ class EndPlacer:
                 pass
             elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
                     and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
-                # the two sides' textures next to the fork disagree: the one the outline is nearer,
-                # if within the outline check's tolerance of it (each view's outline place is ~1 px off)
-                pick = min(d_par, key=lambda v: abs(v - d_out))
-                if abs(pick - d_out) <= max(1.6, 0.009 * abs(d)):
-                    d, agree = float(pick), True
+                # the two sides' textures next to the fork disagree: the outline's disparity too, if
+                # within the outline check's tolerance of one (each view's outline place is ~1 px off)
+                # (picking the nearer side alone was worse: the outline's place is noisy)
+                if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
+                    d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
@@ -416,7 +414,7 @@ class EndPlacer:
         return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
-                                 mask: np.ndarray | None = None, points: bool = False):
+                                 mask: np.ndarray | None = None) -> np.ndarray | None:
         """The fork from the child's outline where it leaves the parent: None when unclear.
 
         Lines parallel to the parent's axis (``c1``, ``e1``), just clear of the parent's outline
@@ -427,7 +425,6 @@ class EndPlacer:
         angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
         further out is tried then. The intervals' ends are where the mask's coverage (0-255,
         bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
-        ``points``: the two middles (2, 2) on the child's axis instead of the fork.
         """
         mask = self.sm.left_mask if mask is None else mask
         n = np.array([-e1[1], e1[0]])
@@ -448,8 +445,6 @@ class EndPlacer:
                 continue
             m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
             if m2 is not None:
-                if points:
-                    return np.array([c1 + h1 * n + m1 * e1, c1 + (h1 + step) * n + m2 * e1])
                 return c1 + (m1 - (m2 - m1) * h1 / step) * e1
         return None
 
@@ -485,18 +480,6 @@ class EndPlacer:
         if abs(e1[0]) < 0.9:
             return None
         r1 = xy - np.array([d, 0.0])
-        if FLAT_ROW:
-            # the child's axis in the right view (the middles of its outline on two lines along the
-            # parent) read on the fork's row: the fork's own disparity, whatever the parent's line
-            # (moved by ``d`` it moves the right fork along a steep child by d tan(parent's slope))
-            pts = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
-                                                self.sm.right_mask, points=True)
-            if pts is None:
-                return None
-            dv = pts[1] - pts[0]
-            if abs(dv[1]) < FLAT_ROW_MIN_SIN * np.hypot(*dv):      # a child near the rows: no row tells
-                return None
-            return float(xy[0] - (pts[0][0] + (xy[1] - pts[0][1]) * dv[0] / dv[1]))
         xy_r = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
         if xy_r is None or abs(xy_r[1] - xy[1]) > 1.0:

@@ -112,6 +112,9 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
 # a flat parent side's disparity at a fork: its bark texture on patches from the fork this far along it
 FLAT_NEAR_PX = 24.0
 FLAT_STEP_PX = 6.0
+# each patch's value is carried to the fork along the curve's own slope (a branch turning in depth
+# along it: the patches' median lies ~12 px in)
+FLAT_ALONG = True
 
 
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
@@ -125,7 +128,8 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     tens of px past the span). The patches on the side's centre line (carried past its span) from the
     fork to ``reach_px`` along the side, matched along the rows (normalised cross-correlation as
     ``texture.surface_disparity``, searched within 3 px of the curve's value) and moved back onto the axis, give the side's disparity
-    there: their median, of those correlating at ``min_score`` and within ``tol_d_px`` of the curve.
+    there: their median (each carried to the fork along the curve's slope), of those correlating at
+    ``min_score`` and within ``tol_d_px`` of the curve.
     At the fork the child is at the parent's depth, so its bark in a patch does not bias it.
 
     Parameters
@@ -160,6 +164,8 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     if np.count_nonzero(ok) < min_patches:
         return None
     d_ax = surface_to_axis(d_surf[ok], c.radius_px, f_px, offset_px)
+    if FLAT_ALONG:      # each patch's value carried to the fork along the curve's own slope
+        d_ax = d_ax - (c.d_at(t[ok]) - d_c)
     keep = np.abs(d_ax - d_c) <= tol_d_px
     if np.count_nonzero(keep) < min_patches:
         return None

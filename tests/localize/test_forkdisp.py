@@ -146,3 +146,15 @@ def test_a_flat_side_without_texture_or_a_steep_side_gives_none():
     assert flat_side_near(c, grey, grey, 150.0, f_px=1e9) is None
     steep = BranchCurve(0, True, c.t_range, c.s_poly, c.d_poly, 8.0, len(t))
     assert flat_side_near(steep, left, right, 150.0, f_px=1e9) is None
+
+
+def test_a_flat_side_read_is_carried_to_the_fork_along_its_curves_slope():
+    left, right = textured_pair(flat_d)
+    t = np.arange(200.0, 301.0)
+    # a long piece's line fit with the right slope, 1 px off: the patches' median (~12 px in) is taken
+    # back to the fork's column along that slope
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1),
+                    Poly.fit(t, flat_d(t) + 1.0, 1), 8.0, len(t))
+    near = flat_side_near(c, left, right, 150.0, f_px=1e9)
+    assert near is not None
+    assert abs(near.d_px - flat_d(150.0)) <= 0.08

@@ -20,7 +20,7 @@ from appliance.config.schema import MatchConfig
 from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
-from appliance.localize.forkdisp import side_disparity_near
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -41,6 +41,15 @@ END_SHIFT_FLAT_PX = 6.0
 HIDDEN_FORK_MIN_DEG = 20.0
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# a flat parent side at a fork takes its disparity from its bark texture next to the fork
+# (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
+FLAT_NEAR = True
+FLAT_NEAR_MIN_PX = 0.25
+# a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
+# the two and the child's right outline's disparity (if within the outline check's tolerance of
+# the nearer side); the outline within 1 px of the parent's confirms the fork
+FLAT_PICK = True
+FLAT_SIDES_DIFFER_PX = 0.5
 # a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
@@ -252,9 +261,21 @@ class EndPlacer:
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
         # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
         # without the child's outline is withheld whatever its disparity (below): not read
-        side_near = {}
+        side_near, flat_read = {}, set()
         for s in parents if final and outline is not None else ():
-            v = side_disparity_near(self.curves[s], self.runs_l, self.runs_r, float(self.curves[s].t_of(xy)[0]))
+            c = self.curves[s]
+            if c.by_row:
+                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
+            elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
+                v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
+                                   self.sm.f_px, self.sm.offset_px)
+                # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
+                if v is not None:
+                    flat_read.add(s)
+                    if abs(v.d_px - at(s)) <= FLAT_NEAR_MIN_PX:
+                        v = None
+            else:
+                v = None
             if v is not None:
                 side_near[s] = v
         if side_near:
@@ -276,19 +297,30 @@ class EndPlacer:
             elif final:
                 self.place_pending(node)          # (if not made yet: it stands)
             return
-        agree = False
+        agree = seen_right = False
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
             # outline leaving it in the right view tells the fork's own (along the rows)
             d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
             # (unless the child's own disparity agrees with the parent's: the two views' outline
             # places may be a px or two apart, as with noisy masks)
-            if d_out is not None and 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+            if d_out is None:
+                pass
+            elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
+                    and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
+                # the two sides' textures next to the fork disagree: the outline's disparity too, if
+                # within the outline check's tolerance of one (each view's outline place is ~1 px off)
+                # (picking the nearer side alone was worse: the outline's place is noisy)
+                if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
+                    d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
+            elif FLAT_PICK and abs(d_out - d) <= 1.0:
+                seen_right = True       # the child's outline in the right view leaves the parent there too
+            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
                 d, agree = d_out, True
         from_outline = agree
         self.uvd[node] = np.array([xy[0], xy[1], d])
         self.radius[node] = rad[child]
-        agree = agree or child_ok and _agree(at(child), d)
+        agree = agree or seen_right or child_ok and _agree(at(child), d)
         # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
         # provisional place (no outline) is hidden whatever agrees: its checks run only when that
         # disparity would differ (the same results, the work skipped otherwise)

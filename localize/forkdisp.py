@@ -13,10 +13,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
+from appliance.localize.texture import surface_to_axis
 
 
 # a parent side's fit carried at least this far (px of its parameter) to the fork is read again from its
@@ -105,6 +107,105 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         return None
     return SideNear(b, int(np.count_nonzero(keep)), n_gap_k, n_gap,
                     float(np.abs(x[keep]).min()), mad, a)
+
+
+# a flat parent side's disparity at a fork: its bark texture on patches from the fork this far along it
+FLAT_NEAR_PX = 24.0
+FLAT_STEP_PX = 6.0
+# each patch's value is carried to the fork along the curve's own slope (a branch turning in depth
+# along it: the patches' median lies ~12 px in)
+FLAT_ALONG = True
+
+
+def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
+                   offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
+                   min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3) -> SideNear | None:
+    """A flat parent side's disparity at a fork from its bark texture next to the fork.
+
+    A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
+    along the whole piece, leaving out the junction's blob; where the branch turns in depth along it,
+    the fit read at the fork is a few tenths of a pixel off the fork's own depth (the fork often lies
+    tens of px past the span). The patches on the side's centre line (carried past its span) from the
+    fork to ``reach_px`` along the side, matched along the rows (normalised cross-correlation as
+    ``texture.surface_disparity``, searched within 3 px of the curve's value) and moved back onto the axis, give the side's disparity
+    there: their median (each carried to the fork along the curve's slope), of those correlating at
+    ``min_score`` and within ``tol_d_px`` of the curve.
+    At the fork the child is at the parent's depth, so its bark in a patch does not bias it.
+
+    Parameters
+    ----------
+    c : BranchCurve
+        The side's curve (flat: parameter = column; a steep one gives None).
+    left_gray, right_gray : ndarray (H, W)
+        Rectified grey images.
+    t_fork : float
+        The fork's column on the side's curve.
+    f_px, offset_px : float
+        Focal length and the principal-point difference (``texture.surface_to_axis``).
+
+    Returns
+    -------
+    SideNear or None
+        None when fewer than ``min_patches`` patches hold.
+    """
+    if c.by_row or not math.isfinite(t_fork):
+        return None
+    lo, hi = c.t_range
+    sg = 1.0 if (t_fork < lo or (t_fork <= hi and t_fork < 0.5 * (lo + hi))) else -1.0
+    dt = np.arange(0.0, reach_px + 0.5 * step_px, step_px)
+    t = t_fork + sg * dt
+    uv = c.uv_at(t)
+    d_c = float(c.d_at(t_fork)[0])
+    scale = 1.0 + c.radius_px / f_px
+    d_s = (d_c - offset_px) * scale + offset_px          # the curve's value on the surface
+    d_surf, score = _patch_disparity(left_gray, right_gray, uv, max(1, int(0.6 * c.radius_px)), 12,
+                                     int(math.floor(d_s - 3.0)), int(math.ceil(d_s + 3.0)))
+    ok = np.isfinite(d_surf) & (score >= min_score)
+    if np.count_nonzero(ok) < min_patches:
+        return None
+    d_ax = surface_to_axis(d_surf[ok], c.radius_px, f_px, offset_px)
+    if FLAT_ALONG:      # each patch's value carried to the fork along the curve's own slope
+        d_ax = d_ax - (c.d_at(t[ok]) - d_c)
+    keep = np.abs(d_ax - d_c) <= tol_d_px
+    if np.count_nonzero(keep) < min_patches:
+        return None
+    d_ax, x = d_ax[keep], dt[ok][keep]
+    m = float(median(d_ax))
+    mad = 1.4826 * float(median(np.abs(d_ax - m)))
+    return SideNear(m, len(d_ax), 0, int(max(lo - t_fork, t_fork - hi, 0.0)), float(x.min()), mad, 0.0)
+
+
+def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: int, hw: int, lo: int,
+                     hi: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel disparity (N,) of the (2 hh + 1) x (2 hw + 1) patches centred on ``uv`` (N, 2) (rounded)
+    searched along the row over ``lo``-``hi`` px, and their correlation (TM_CCOEFF_NORMED, as
+    :func:`texture.surface_disparity` for a few patches: each image read once over the patches' box;
+    NaN / -1 where a patch or its strip leaves the image or the patch is flat)."""
+    h, w = left.shape
+    n = len(uv)
+    d_out, score = np.full(n, np.nan), np.full(n, -1.0)
+    ui = np.rint(uv).astype(int)
+    y0, y1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1
+    x0, x1 = int(ui[:, 0].min()) - hw, int(ui[:, 0].max()) + hw + 1
+    if y0 < 0 or y1 > h or x0 - hi < 0 or x1 - lo > w or x0 < 0 or x1 > w:
+        return d_out, score
+    lbox = np.asarray(left[y0:y1, x0:x1])
+    rbox = np.asarray(right[y0:y1, x0 - hi:x1 - lo])
+    for i, (u, v) in enumerate(ui.tolist()):
+        tmpl = lbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0]
+        lo_v, hi_v = cv2.minMaxLoc(tmpl)[:2]
+        if hi_v - lo_v < 2.0:                    # no texture (texture._flat's bound)
+            continue
+        strip = rbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0 + hi - lo]
+        cc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+        k = int(cc.argmax())
+        off = 0.0
+        if 0 < k < len(cc) - 1:
+            den = float(cc[k - 1] - 2 * cc[k] + cc[k + 1])
+            off = 0.5 * float(cc[k - 1] - cc[k + 1]) / den if den < 0 else 0.0
+        d_out[i] = hi - (k + off)
+        score[i] = float(cc[k])
+    return d_out, score
 
 
 def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@
 import numpy as np
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
-from appliance.localize.forkdisp import side_disparity_near
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near
 
 H, W = 400, 320
 FORK_ROW = 150.0
@@ -100,3 +100,61 @@ def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
     assert sides and all(s.gap_px >= 6 and abs(s.d_px - d) <= 0.1 for s in sides)
     forks = [f for f in res.features if f.kind == "bifurcation"]
     assert len(forks) == 1 and abs((forks[0].left_px[0] - forks[0].right_px[0]) - d) <= 0.1
+
+
+def textured_pair(d_of_u, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Bark-like texture (blurred noise, 0-255) in the left view; the right view the same texture
+    moved left by ``d_of_u(u)`` (a flat branch leaning in depth along its columns)."""
+    import cv2
+    rng = np.random.default_rng(seed)
+    left = cv2.GaussianBlur(rng.uniform(0, 255, (H, W)).astype(np.float32), (0, 0), 1.5)
+    left = cv2.normalize(left, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    u = np.arange(W, dtype=np.float32)[None, :].repeat(H, 0)
+    v = np.arange(H, dtype=np.float32)[:, None].repeat(W, 1)
+    # right(u_r) = left(u_r + d): d taken at u_r + d's first guess (d varies slowly)
+    map_x = (u + d_of_u(u + d_of_u(u))).astype(np.float32)
+    right = cv2.remap(left, map_x, v, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    return left, right
+
+
+def flat_d(u):                          # the flat parent leans in depth: 0.02 px of disparity per column
+    return 20.0 + 0.02 * u
+
+
+def test_a_flat_side_is_read_from_its_texture_next_to_the_fork():
+    left, right = textured_pair(flat_d)
+    t = np.arange(200.0, 301.0)
+    # a short flat piece's texture fit is a constant over its span (columns 200-300): 1 px off at
+    # column 150, where the fork is
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1),
+                    Poly.constant(float(flat_d(t).mean())), 8.0, len(t))
+    fork_u = 150.0
+    assert abs(float(c.d_at(np.array([fork_u]))[0]) - flat_d(fork_u)) >= 0.9
+    near = flat_side_near(c, left, right, fork_u, f_px=1e9)       # (f: no surface-to-axis shift)
+    assert near is not None
+    # the patches 0-24 px along the side from the fork: their median is the disparity ~12 px in
+    assert abs(near.d_px - flat_d(fork_u + 12.0)) <= 0.1
+    assert near.nearest_px == 0.0 and near.n_rows >= 3
+
+
+def test_a_flat_side_without_texture_or_a_steep_side_gives_none():
+    left, right = textured_pair(flat_d)
+    t = np.arange(200.0, 301.0)
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1),
+                    Poly.constant(float(flat_d(t).mean())), 8.0, len(t))
+    grey = np.full((H, W), 128, np.uint8)
+    assert flat_side_near(c, grey, grey, 150.0, f_px=1e9) is None
+    steep = BranchCurve(0, True, c.t_range, c.s_poly, c.d_poly, 8.0, len(t))
+    assert flat_side_near(steep, left, right, 150.0, f_px=1e9) is None
+
+
+def test_a_flat_side_read_is_carried_to_the_fork_along_its_curves_slope():
+    left, right = textured_pair(flat_d)
+    t = np.arange(200.0, 301.0)
+    # a long piece's line fit with the right slope, 1 px off: the patches' median (~12 px in) is taken
+    # back to the fork's column along that slope
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1),
+                    Poly.fit(t, flat_d(t) + 1.0, 1), 8.0, len(t))
+    near = flat_side_near(c, left, right, 150.0, f_px=1e9)
+    assert near is not None
+    assert abs(near.d_px - flat_d(150.0)) <= 0.08

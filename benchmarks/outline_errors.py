@@ -33,7 +33,7 @@ import numpy as np
 from appliance.calibrate.model import load_calibration
 from appliance.config import load_config
 from appliance.localize.edges import find_runs
-from appliance.localize.rectify import Rectifier
+from appliance.localize.rectify import LazyRectified, Rectifier
 from appliance.localize.segment import segment_mask
 from appliance.synth.truth import load_truth
 
@@ -116,7 +116,7 @@ def collect(names, sub, seg_cfg, calib, rect: Rectifier) -> list[dict]:
             print(f"{name}: no coverage in the truth, skipped")
             continue
         cov = [rect.rectify(c.astype(np.float32), side) for side, c in enumerate((truth.cover_left, truth.cover_right))]
-        grey = [rect.rectify(cv2.cvtColor(im, cv2.COLOR_BGR2GRAY), side) for side, im in enumerate(imgs)]
+        grey = [LazyRectified(rect, im, side) for side, im in enumerate(imgs)]      # (as the localizer reads it)
         tf = truth.features
         feats = [rectified_points(calib, tf.left_px[tf.visible_left], 0),
                  rectified_points(calib, tf.right_px[tf.visible_right], 1)]

@@ -19,6 +19,7 @@ from appliance.localize.edges import Runs
 
 _REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this width
 WHOLE_PIXEL_SHARE = 0.5  # boundaries on the original's pixel boundaries: a binary mask (the grey step alone)
+STEEP_TAN = 1.73         # outlines within 60 deg of vertical are refined along the row (tan 60 deg)
 GREY_SD_PX = 0.10        # the grey step's error (sd, px) against the truth's outline (steep boundaries it moves)
 
 
@@ -227,7 +228,7 @@ def whole_pixel_share(gray, row: np.ndarray, x_px: np.ndarray) -> float:
 
 
 def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
-                max_tan: float = 1.0, max_dev_px: float = 0.6, min_moved: int = 50, grey_sd_px: float = GREY_SD_PX,
+                max_tan: float = STEEP_TAN, max_dev_px: float = 0.6, min_moved: int = 50, grey_sd_px: float = GREY_SD_PX,
                 **kw) -> Runs:
     """``runs`` with their boundaries moved to the grey image's outline (:func:`refine_boundaries`).
 
@@ -250,9 +251,10 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     gray : ndarray (H, W) uint8 or LazyRectified
         The rectified grey image of the same view.
     mask : ndarray (H, W) uint8, optional
-        The soft mask of the runs: only boundaries where the outline is steep are refined
-        (:func:`steep_boundaries` with ``max_tan``: along a row a shallow outline's step is
-        spread over pixels); all without it.
+        The soft mask of the runs: only boundaries where the outline is steep enough are refined
+        (:func:`steep_boundaries` with ``max_tan``, ``STEEP_TAN``: within 60 deg of the vertical;
+        along a row a shallower outline's step is spread over pixels: 45-60 deg gains, 60-90 deg
+        loses, docs/localize-outline.md); all without it.
     only : ndarray (R,) bool, optional
         Runs to refine (the others only take the bias); all without it.
     grey_sd_px : float

@@ -13,7 +13,7 @@ row, nearest the boundary (within 3 px). Split by:
   30-45, 45-60, > 60 deg;
 - place: within 25 px of a true tip or fork of that view ("end") or not ("body");
 - how refined (``subpixel.refine_runs`` over all runs): moved to the grey step ("grey"), steep but
-  no clear step ("steep, no step"), shallow (not tried); and, for colour masks, whether the mask's
+  no clear step ("steep, no step"), not tried ("shallow": beyond the module's STEEP_TAN, 45 deg before it); and, for colour masks, whether the mask's
   pixels at the crossing carry the recogniser's bark share (soft) or are whole (0/255).
 
 Prints |error| p50/p90/p95 and the signed median (inward positive: into the branch), px, of the mask's
@@ -88,7 +88,7 @@ def explain(sub, runs, grey: np.ndarray, soft: np.ndarray):
     0 moved to the grey step, 1 steep but no clear step, 2 shallow (not tried)."""
     n = len(runs.row)
     row, x = np.r_[runs.row, runs.row], np.r_[runs.left_px, runs.right_px]
-    steep = sub.steep_boundaries(soft, row, x)
+    steep = sub.steep_boundaries(soft, row, x, getattr(sub, "STEEP_TAN", 1.0))
     how = np.full(2 * n, 2)
     xr = sub.refine_boundaries(grey, row[steep], x[steep])
     how[np.flatnonzero(steep)] = np.where(xr != x[steep], 0, 1)

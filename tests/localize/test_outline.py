@@ -91,3 +91,29 @@ def test_the_grey_weight_follows_the_masks_scatter():
     assert 0.85 < grey_weight(rng.normal(0, np.hypot(0.3, grey_sd), 4000), grey_sd) < 0.95
     # a mask no worse than the grey step's own error: the mask
     assert grey_weight(rng.normal(0, 0.05, 4000), grey_sd) == 0.0
+
+
+def test_a_binary_mask_is_told_from_a_soft_one_through_the_rectification():
+    # the rig's remap tables move and distort: the binary mask's remapped outline still crosses
+    # one half on the original's pixel boundaries, a soft one's does not
+    from pathlib import Path
+
+    from appliance.calibrate.model import load_calibration
+    from appliance.localize.rectify import LazyRectified, Rectifier
+
+    calib = load_calibration(Path(__file__).resolve().parents[2] / "fixtures" / "rig.yaml")
+    rect = Rectifier.from_calibration(calib)
+    w, h = calib.image_size
+    off = (np.arange(4) + 0.5) / 4 - 0.5
+    ys, xs = (np.arange(h)[:, None] + off).ravel(), (np.arange(w)[:, None] + off).ravel()
+    left = 600.3 + 0.2 * (ys - h / 2)
+    cover = ((xs[None, :] >= left[:, None]) & (xs[None, :] <= left[:, None] + 20.0)).reshape(h, 4, w, 4).mean(axis=(1, 3))
+    grey = LazyRectified(rect, cv2.cvtColor(_grey(cover), cv2.COLOR_GRAY2BGR), 0)
+    rng = np.random.default_rng(5)
+    soft = np.clip(np.rint(255 * (cover + rng.normal(0, 0.08, cover.shape) * ((cover > 0) & (cover < 1)))), 0, 255)
+    shares = []
+    for m in ((cover >= 0.5).astype(np.uint8) * 255, soft.astype(np.uint8)):
+        runs = find_runs(rect.rectify(m, 0, fast=True), soft=True)
+        shares.append(whole_pixel_share(grey, np.r_[runs.row, runs.row], np.r_[runs.left_px, runs.right_px]))
+    assert shares[0] > 0.6
+    assert shares[1] < 0.4

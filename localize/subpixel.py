@@ -18,6 +18,9 @@ from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
 _REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this width
+WHOLE_PIXEL_SHARE = 0.5  # boundaries on the original's pixel boundaries: a binary mask (the grey step alone)
+STEEP_TAN = 1.73         # outlines within 60 deg of vertical are refined along the row (tan 60 deg)
+GREY_SD_PX = 0.10        # the grey step's error (sd, px) against the truth's outline (steep boundaries it moves)
 
 
 def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
@@ -166,14 +169,82 @@ def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px=(0.0,
     return grid[runs.row // cell_px, np.minimum((runs.x0 + runs.x1) // (2 * cell_px), cols - 1)]
 
 
+def grey_weight(dev_px: np.ndarray, grey_sd_px: float = GREY_SD_PX) -> float:
+    """Weight of the grey step against the mask's (bias-corrected) boundary, from their differences.
+
+    The two err independently: the differences' spread (1.4826 x their median absolute deviation,
+    robust) squared is the sum of both variances; the grey's, ``grey_sd_px`` squared, is known
+    (measured against the truth's outline, docs/localize-outline.md), so the mask's is the rest,
+    and the least-variance mix weighs the grey by the mask's share of the sum. A binary mask
+    (whole-pixel outline, spread ~0.28 px) gives ~0.87, the colour recogniser's soft outline
+    (~0.14 px) ~0.5, a mask as good as the grey step or better 0.
+
+    Parameters
+    ----------
+    dev_px : ndarray (K,)
+        Grey step minus the mask's boundary, inward positive, bias removed, px.
+    grey_sd_px : float
+
+    Returns
+    -------
+    float
+        0-1.
+    """
+    a = np.abs(dev_px - median(dev_px))
+    var = (1.4826 * float(median(a))) ** 2 if len(a) else 0.0
+    return max(var - grey_sd_px * grey_sd_px, 0.0) / var if var > 0 else 1.0
+
+
+def whole_pixel_share(gray, row: np.ndarray, x_px: np.ndarray, max_samples: int = 256) -> float:
+    """Share of boundaries lying within 0.1 px of a pixel boundary of the original (unrectified)
+    image, along its rows: a binary mask's outline, remapped with linear interpolation, crosses
+    one half there on steep outlines (measured: 0.66-0.83 of the steep boundaries with the exact
+    binary masks, 0.25-0.33 with the colour recogniser's bark share; a uniform spread gives 0.2).
+
+    Parameters
+    ----------
+    gray : ndarray (H, W) or LazyRectified
+        The view's rectified grey image: a LazyRectified's remap tables give the original
+        columns; an ndarray is taken as the original itself.
+    row : ndarray (K,) int
+    x_px : ndarray (K,) float
+    max_samples : int
+        At most this many boundaries are looked at (evenly spaced in the list).
+
+    Returns
+    -------
+    float
+    """
+    x_px = np.asarray(x_px, float)
+    if len(x_px) == 0:
+        return 0.0
+    step = -(-len(x_px) // max_samples)                    # (a share: a few hundred boundaries tell it)
+    row, x_px = np.asarray(row)[::step], x_px[::step]
+    sx = x_px
+    if not isinstance(gray, np.ndarray):
+        mx = gray.rectifier.float_maps(gray.side)[0]
+        xi = np.minimum(np.maximum(np.floor(x_px).astype(np.int64), 0), mx.shape[1] - 2)
+        f = x_px - xi
+        r = np.asarray(row, np.int64)
+        sx = mx[r, xi] * (1.0 - f) + mx[r, xi + 1] * f
+    frac = (sx + 0.5) % 1.0
+    return float(np.mean(np.minimum(frac, 1.0 - frac) < 0.1))
+
+
 def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
-                max_tan: float = 1.0, max_dev_px: float = 0.6, min_moved: int = 50, **kw) -> Runs:
+                max_tan: float = STEEP_TAN, max_dev_px: float = 0.6, min_moved: int = 50, grey_sd_px: float = GREY_SD_PX,
+                **kw) -> Runs:
     """``runs`` with their boundaries moved to the grey image's outline (:func:`refine_boundaries`).
 
     A segmenter's mask sits off the grey outline by some bias (its threshold, its cleaning): all
     boundaries first move by the median shift of those the grey image moves (if at least
-    ``min_moved``), then those move to the grey outline, at most ``max_dev_px`` from there (the
-    step's position is good, but a lit rim or the background's texture can pull it off). A
+    ``min_moved``), then those move towards the grey outline (at most ``max_dev_px`` from there:
+    the step's position is good, but a lit rim or the background's texture can pull it off), by
+    the weight :func:`grey_weight` gives the grey step against the mask from how far the two
+    scatter about each other (a soft outline such as the colour recogniser's bark share: ~0.5, the
+    mean of two estimates of about equal error). A binary mask's outline (:func:`whole_pixel_share`
+    at least ``WHOLE_PIXEL_SHARE``) goes to the grey step whole: its whole-pixel error is the
+    same over many rows of a near-vertical outline, where a mix keeps part of it in every row. A
     boundary moved out into the next pixel takes that pixel into the run (:meth:`Runs.find` looks
     runs up by pixel), where at least two background pixels part it from the next run.
 
@@ -184,11 +255,14 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     gray : ndarray (H, W) uint8 or LazyRectified
         The rectified grey image of the same view.
     mask : ndarray (H, W) uint8, optional
-        The soft mask of the runs: only boundaries where the outline is steep are refined
-        (:func:`steep_boundaries` with ``max_tan``: along a row a shallow outline's step is
-        spread over pixels); all without it.
+        The soft mask of the runs: only boundaries where the outline is steep enough are refined
+        (:func:`steep_boundaries` with ``max_tan``, ``STEEP_TAN``: within 60 deg of the vertical;
+        along a row a shallower outline's step is spread over pixels: 45-60 deg gains, 60-90 deg
+        loses, docs/localize-outline.md); all without it.
     only : ndarray (R,) bool, optional
         Runs to refine (the others only take the bias); all without it.
+    grey_sd_px : float
+        The grey step's own error (standard deviation, px) for :func:`grey_weight`.
     **kw
         Passed to :func:`refine_boundaries`.
 
@@ -206,13 +280,18 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     xr = refine_boundaries(gray, row[todo], x[todo], **kw)
     moved = xr != x[todo]
     todo, xr = todo[moved], xr[moved]
+    weight = 1.0
     if len(todo) >= min_moved:
         inward = np.where(todo < n, 1.0, -1.0)
-        bias = float(median((xr - x[todo]) * inward))        # (np.median's value, bit for bit)
+        dev = (xr - x[todo]) * inward
+        bias = float(median(dev))        # (np.median's value, bit for bit)
+        if whole_pixel_share(gray, row[todo], x[todo]) < WHOLE_PIXEL_SHARE:
+            weight = grey_weight(dev - bias, grey_sd_px)
         x[:n] += bias
         x[n:] -= bias
     xt = x[todo]
-    x[todo] = np.minimum(np.maximum(xr, xt - max_dev_px), xt + max_dev_px)     # (np.clip's values)
+    xg = np.minimum(np.maximum(xr, xt - max_dev_px), xt + max_dev_px)     # (np.clip's values)
+    x[todo] = xg if weight == 1.0 else xt + weight * (xg - xt)
     # never across the run's own middle (a thin run keeps a positive span)
     centre = runs.centre_px
     left, right = np.minimum(x[:n], centre), np.maximum(x[n:], centre)

@@ -19,7 +19,7 @@ from appliance.localize.edges import Runs
 
 _REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this width
 WHOLE_PIXEL_SHARE = 0.5  # boundaries on the original's pixel boundaries: a binary mask (the grey step alone)
-STEEP_TAN = 1.73         # outlines within 60 deg of vertical are refined along the row (tan 60 deg)
+STEEP_TAN = 1.0          # outlines within 45 deg of vertical are refined along the row
 GREY_SD_PX = 0.10        # the grey step's error (sd, px) against the truth's outline (steep boundaries it moves)
 
 
@@ -256,9 +256,9 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
         The rectified grey image of the same view.
     mask : ndarray (H, W) uint8, optional
         The soft mask of the runs: only boundaries where the outline is steep enough are refined
-        (:func:`steep_boundaries` with ``max_tan``, ``STEEP_TAN``: within 60 deg of the vertical;
-        along a row a shallower outline's step is spread over pixels: 45-60 deg gains, 60-90 deg
-        loses, docs/localize-outline.md); all without it.
+        (:func:`steep_boundaries` with ``max_tan``, ``STEEP_TAN``: within 45 deg of the vertical;
+        along a row a shallower outline's step is spread over pixels: 60 deg gained on the 28
+        scenes and lost on 32 fresh ones, docs/localize-outline.md); all without it.
     only : ndarray (R,) bool, optional
         Runs to refine (the others only take the bias); all without it.
     grey_sd_px : float

@@ -70,9 +70,9 @@ def test_a_soft_masks_outline_is_mixed_with_the_grey_step():
     assert np.mean(mixed) < 0.9 * min(np.mean(grey_alone), np.mean(mask_alone))
 
 
-def test_an_outline_50_deg_from_vertical_is_refined():
-    # tan 50 deg = 1.19: refined along the row since STEEP_TAN (60 deg)
-    cover, tl, tr = _bar(10.2, 1.19, 30.0)
+def test_an_outline_40_deg_from_vertical_is_refined():
+    # tan 40 deg = 0.84: refined along the row (STEEP_TAN: 45 deg)
+    cover, tl, tr = _bar(10.2, 0.84, 30.0)
     mask = (cover >= 0.5).astype(np.uint8) * 255
     runs = find_runs(mask, soft=True)
     ok = (runs.x0 > 3) & (runs.x1 < W - 4)

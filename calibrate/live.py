@@ -39,10 +39,18 @@ def pairs_folder(out: str | Path) -> Path:
 
 
 def _watch_enter(stop: threading.Event) -> None:
-    """Set ``stop`` when a line arrives on stdin; at EOF (no terminal, CI) do nothing."""
+    """Set ``stop`` when Enter is pressed on the terminal. Without a terminal on stdin (a script,
+    a pipe, CI) stdin is not read at all: stray input (or a /dev/null that is a plain file with
+    text in it, as on some sandboxes) must not end the capture before it starts."""
+    try:
+        if sys.stdin is None or not sys.stdin.isatty():
+            return
+    except (OSError, ValueError):
+        return
+
     def wait():
         try:
-            if sys.stdin is not None and sys.stdin.readline():
+            if sys.stdin.readline():
                 stop.set()
         except (OSError, ValueError):
             pass

@@ -19,11 +19,11 @@ OPENCV_DATA = Path("/usr/share/doc/opencv-doc/examples/data")
 OPENCV_KEYS = ("01", "02", "03", "04", "05", "06", "07", "08", "09", "11", "12", "13", "14")
 
 
-def appliance(*args: str, cwd: Path | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
-    """Run the installed ``appliance`` executable; stdin is closed (EOF), as in CI."""
+def appliance(*args: str, cwd: Path | None = None, timeout: float = 120, stdin: str = "") -> subprocess.CompletedProcess:
+    """Run the installed ``appliance`` executable; ``stdin`` is what a pipe gives it, then EOF (as in CI)."""
     exe = str(Path(sys.executable).with_name("appliance"))
     return subprocess.run([exe, *map(str, args)], cwd=cwd, capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=timeout)
+                          input=stdin, timeout=timeout)
 
 
 def chessboard_image(cols: int = 9, rows: int = 6, square_px: int = 40, margin_px: int = 60,

@@ -92,11 +92,14 @@ def test_swapped_folder_refused(tmp_path, boards):
     assert not (tmp_path / "c.yaml").exists()
 
 
-def test_live_capture_from_fake_device(tmp_path, boards, truth):
+@pytest.mark.parametrize("stdin", ["", "\n"], ids=["eof", "a line piped in"])
+def test_live_capture_from_fake_device(tmp_path, boards, truth, stdin):
+    # Enter stops the capture only on a terminal: a line piped in (a script) does not end it at once
     cfg = tmp_path / "fast.yaml"
     cfg.write_text("camera:\n  fake_rate_hz: -1.0\ncalibration:\n  detector: classic\n")
     out = tmp_path / "live" / "calib.yaml"
-    r = appliance("calibrate", "--device", f"fake:{boards[0]}", "--config", cfg, "--min-pairs", "6", "--out", out)
+    r = appliance("calibrate", "--device", f"fake:{boards[0]}", "--config", cfg, "--min-pairs", "6", "--out", out,
+                  stdin=stdin)
     assert r.returncode == 0, r.stderr
     kept = sorted((tmp_path / "live" / "calib_pairs").glob("left_*.png"))
     n_fixture = len(list(boards[0].glob("left_*.png")))

@@ -1,5 +1,5 @@
-"""Compiled loops (numba) for the match stage: the per-piece fits, the run look-ups, the ends' walks
-and the curves' evaluation (docs/localize-numba.md).
+"""Compiled loops (numba): for the match stage the per-piece fits, the run look-ups, the ends' walks
+and the curves' evaluation; for the skeleton the thinning and corner removal (docs/localize-numba.md).
 
 Each kernel replaces a stretch of small numpy calls (10-40 per piece or end, ~1-3 us each) by one
 compiled loop over the pieces, queries or points: the same rules and, where the arithmetic allows,
@@ -553,6 +553,96 @@ def eval_clamped(coef, dcoef, t0, ts, lo, hi, slopes, own_slopes, t):
     return out
 
 
+@numba.njit(**_JIT)
+def _code(flat, p, off):
+    """Neighbour code of the padded flat pixel ``p``: bit k = neighbour k (``off[k]`` away) set."""
+    c = 0
+    for k in range(8):
+        if flat[p + off[k]] != 0:
+            c |= 1 << k
+    return c
+
+
+@numba.njit(**_JIT)
+def zhang_suen_flat(flat, live, start, off, tab0, tab1):
+    """Zhang-Suen thinning in place on a zero-padded flat 0/1 image (``skeleton.zhang_suen``'s loop).
+
+    ``live`` (uint8, same size; modified): the pixels that may still go; ``start``: the first
+    sub-iteration's candidates (flat indices); ``off`` (8,): flat steps to the neighbours; ``tab0`` /
+    ``tab1`` (256,) bool: the sub-iterations' deletion tables. Each sub-iteration decides on the image
+    as the previous one left it, then deletes; later candidates are the live pixels next to a deletion
+    in the last two sub-iterations; stops after two sub-iterations without a deletion. Returns the
+    number of sub-iterations.
+    """
+    n = flat.size
+    near = (np.empty(n, np.int64), np.empty(n, np.int64))
+    n_near = np.zeros(2, np.int64)
+    for k in range(len(start)):
+        near[0][k] = start[k]
+        near[1][k] = start[k]
+    n_near[0] = n_near[1] = len(start)
+    seen = np.full(n, -1, np.int64)
+    cand = np.empty(n, np.int64)
+    gone = np.empty(n, np.int64)
+    i, quiet = 0, 0
+    while quiet < 2:
+        nc = 0
+        if i == 0:
+            for k in range(len(start)):
+                cand[nc] = start[k]
+                nc += 1
+        else:
+            for par in range(2):
+                lst = near[par]
+                for k in range(n_near[par]):
+                    p = lst[k]
+                    if live[p] != 0 and seen[p] != i:
+                        seen[p] = i
+                        cand[nc] = p
+                        nc += 1
+        tab = tab0 if (i & 1) == 0 else tab1
+        ng = 0
+        for k in range(nc):
+            p = cand[k]
+            if tab[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+            live[gone[k]] = 0
+        lst = near[i & 1]
+        m = 0
+        for k in range(ng):
+            for j in range(8):
+                q = gone[k] + off[j]
+                if live[q] != 0 and seen[q] != -2 - i:      # (each neighbour once per list)
+                    seen[q] = -2 - i
+                    lst[m] = q
+                    m += 1
+        n_near[i & 1] = m
+        quiet = 0 if ng else quiet + 1
+        i += 1
+    return i
+
+
+@numba.njit(**_JIT)
+def remove_corners_flat(flat, idx, w2, corner):
+    """``skeleton.remove_corners``' two passes in place on a zero-padded flat 0/1 image of row length
+    ``w2``: the set pixels ``idx`` (row-major flat indices) of parity 0, then of parity 1, each pass
+    deciding on the image as the previous pass left it (all its pixels first, then the deletions)."""
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    gone = np.empty(len(idx), np.int64)
+    for par in range(2):
+        ng = 0
+        for k in range(len(idx)):
+            p = idx[k]
+            if ((p // w2 + p % w2) & 1) == par and corner[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -572,3 +662,7 @@ def warm_up() -> None:
     runs_between(_readonly(f.copy()), i, 4, f, f)
     walk_edges(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     eval_clamped(f[:2], f[:1], 0.0, 1.0, 0.0, 1.0, f[:2], True, np.arange(4.0))
+    img, tab = np.zeros(16, np.uint8), np.zeros(256, bool)
+    off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)
+    zhang_suen_flat(img, img.copy(), i[:0], off, tab, tab)
+    remove_corners_flat(img, i[:0], 4, tab)

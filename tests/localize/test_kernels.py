@@ -120,3 +120,56 @@ def test_warm_up_compiles_every_signature_the_localizer_uses():
     loc.localize(cv2.imread(str(fixtures / "scenes" / "left_00.png")), cv2.imread(str(fixtures / "scenes" / "right_00.png")))
     assert {n: len(f.signatures) for n, f in jitted.items()} == before
     assert all(before.values())
+
+
+def _zhang_suen_numpy(mask):
+    """The numpy thinning the kernel replaced (every sub-iteration over all pixels, all at once)."""
+    from appliance.localize.skeleton import SparseImage, zhang_suen_tables
+    tables = zhang_suen_tables()
+    img = SparseImage.from_image(mask)
+    h, w = img.shape
+    inner = np.zeros((h + 2, w + 2), bool)
+    inner[2:h, 2:w] = True                       # (pixels on the image border stay)
+    i, quiet = 0, 0
+    while quiet < 2:
+        idx = np.flatnonzero(img.flat.view(bool) & inner.reshape(-1))
+        gone = idx[tables[i & 1][img.codes(idx)]]
+        img.flat[gone] = 0
+        quiet = 0 if len(gone) else quiet + 1
+        i += 1
+    return img.image()
+
+
+def _remove_corners_numpy(skel01):
+    """The numpy corner removal the kernel replaced (two passes by parity, each all at once)."""
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    corner = neighbour_tables()[2]
+    img = SparseImage.from_image(skel01)
+    idx = np.flatnonzero(img.flat.view(bool))
+    parity = (idx // (img.shape[1] + 2) + idx % (img.shape[1] + 2)) & 1
+    for p in (0, 1):
+        at = idx[parity == p]
+        img.flat[at[corner[img.codes(at)]]] = 0
+    return img.image()
+
+
+def test_thinning_and_corner_kernels_are_the_numpy_passes():
+    """zhang_suen / remove_corners (compiled) give the numpy passes' images on random blobs and
+    noise, and zhang_suen is still cv2.ximgproc.thinning where OpenCV's contrib module is there."""
+    import cv2
+
+    from appliance.localize.skeleton import remove_corners, zhang_suen
+    rng = np.random.default_rng(5)
+    thinning = getattr(getattr(cv2, "ximgproc", None), "thinning", None)
+    for _ in range(120):
+        h, w = rng.integers(3, 50, 2)
+        m = (rng.random((h, w)) < rng.uniform(0.2, 0.95)).astype(np.uint8)
+        m = cv2.dilate(m, np.ones((int(rng.integers(1, 4)),) * 2, np.uint8))
+        thin = zhang_suen(m)
+        np.testing.assert_array_equal(thin, _zhang_suen_numpy(m))
+        if thinning is not None:
+            np.testing.assert_array_equal(thin, thinning(m * 255) > 0)
+        noise = (rng.random((h, w)) < 0.5).astype(np.uint8)
+        for img in (thin, noise):
+            np.testing.assert_array_equal(remove_corners(img), _remove_corners_numpy(img))
+    assert zhang_suen(np.ones((9, 9), np.uint8))[4, 4] == 1 and remove_corners(np.eye(5, dtype=np.uint8)).sum() == 5

@@ -1,5 +1,6 @@
 """Compiled loops (numba): for the match stage the per-piece fits, the run look-ups, the ends' walks
-and the curves' evaluation; for the skeleton the thinning and corner removal (docs/localize-numba.md).
+and the curves' evaluation; for the skeleton the thinning and corner removal; for the colour
+recogniser the bark test of the tiles near bark by a lookup table (docs/localize-numba.md).
 
 Each kernel replaces a stretch of small numpy calls (10-40 per piece or end, ~1-3 us each) by one
 compiled loop over the pieces, queries or points: the same rules and, where the arithmetic allows,
@@ -643,6 +644,32 @@ def remove_corners_flat(flat, idx, w2, corner):
             flat[gone[k]] = 0
 
 
+@numba.njit(**_JIT)
+def bark_tiles(bgr, lut, tiles, tile_px, out):
+    """The bark test of every pixel of the flagged tiles, by a colour lookup table, in one pass; the
+    rest of ``out`` untouched.
+
+    ``bgr`` (H, W, 3) uint8; ``lut`` (2^21,) uint8: bit ``k & 7`` of byte ``k >> 3`` is the test of the
+    colour ``k = b << 16 | g << 8 | r``; ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square
+    tile (the last tile row and column reach the image's bottom and right edges); ``out`` (H, W)
+    uint8 gets 255 (bark) or 0.
+    """
+    h, w = out.shape
+    th, tw = tiles.shape
+    for ty in range(th):
+        y0 = ty * tile_px
+        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+        for tx in range(tw):
+            if tiles[ty, tx] == 0:
+                continue
+            x0 = tx * tile_px
+            x1 = w if tx == tw - 1 else min(x0 + tile_px, w)
+            for y in range(y0, y1):
+                for x in range(x0, x1):
+                    k = (np.int64(bgr[y, x, 0]) << 16) | (np.int64(bgr[y, x, 1]) << 8) | np.int64(bgr[y, x, 2])
+                    out[y, x] = 255 if (lut[k >> 3] >> (k & 7)) & 1 else 0
+    return out
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -666,3 +693,5 @@ def warm_up() -> None:
     off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)
     zhang_suen_flat(img, img.copy(), i[:0], off, tab, tab)
     remove_corners_flat(img, i[:0], 4, tab)
+    bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
+               np.zeros((4, 4), np.uint8))

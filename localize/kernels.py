@@ -670,6 +670,50 @@ def bark_tiles(bgr, lut, tiles, tile_px, out):
                     out[y, x] = 255 if (lut[k >> 3] >> (k & 7)) & 1 else 0
     return out
 
+@numba.njit(**_JIT)
+def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
+    """``segment.unmix_edges``' per-block unmixing and the coverage of its outline pixels, float32 in
+    numpy's order of operations (the numpy steps' values bit for bit).
+
+    For each block ``blocks[i]`` (row-major index into ``n_o`` (hs, ws) float32, the background's
+    255-weighted sample count, and ``s_o`` (hs, ws, 3) float32, its colour sums): the background's
+    mean colour ``c_o``, and where it has samples (n > 0.5) and is at least ``sqrt(min_sin2)`` off the
+    bark's chromaticity ``chi`` (3,) float32, the vector ``v = (c_o - (c_o . chi) chi) / det``; each of
+    the block's ``factor`` x ``factor`` pixels where ``ring`` (H, W) is non-zero then gets
+    ``clip((1 - p . v) * 255 + 0.5, 0, 255)`` as uint8 in ``out`` (H, W), ``p`` its BGR colour. Returns
+    the number of blocks unmixed.
+    """
+    ws = n_o.shape[1]
+    one, scale, half = np.float32(1.0), np.float32(255.0), np.float32(0.5)
+    inv255, lim = np.float32(1.0 / 255), np.float32(min_sin2)
+    done = 0
+    for i in range(len(blocks)):
+        by, bx = blocks[i] // ws, blocks[i] % ws
+        n = n_o[by, bx] * inv255
+        nn = max(n, one)
+        c0, c1, c2 = s_o[by, bx, 0] / nn, s_o[by, bx, 1] / nn, s_o[by, bx, 2] / nn
+        c_chi = c0 * chi[0]
+        c_chi += c1 * chi[1]
+        c_chi += c2 * chi[2]
+        c_c = c0 * c0
+        c_c += c1 * c1
+        c_c += c2 * c2
+        det = c_c - c_chi * c_chi
+        if not (n > half and det > lim * c_c):
+            continue
+        done += 1
+        v0, v1, v2 = (c0 - c_chi * chi[0]) / det, (c1 - c_chi * chi[1]) / det, (c2 - c_chi * chi[2]) / det
+        for y in range(by * factor, (by + 1) * factor):
+            for x in range(bx * factor, (bx + 1) * factor):
+                if ring[y, x] == 0:
+                    continue
+                c = np.float32(bgr[y, x, 0]) * v0
+                c += np.float32(bgr[y, x, 1]) * v1
+                c += np.float32(bgr[y, x, 2]) * v2
+                c = (one - c) * scale + half
+                out[y, x] = np.uint8(min(max(c, np.float32(0.0)), np.float32(255.0)))
+    return done
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -695,3 +739,5 @@ def warm_up() -> None:
     remove_corners_flat(img, i[:0], 4, tab)
     bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
                np.zeros((4, 4), np.uint8))
+    unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
+                 np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))

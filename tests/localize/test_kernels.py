@@ -271,3 +271,41 @@ def test_unmix_blocks_gives_the_numpy_steps_coverage():
             want = _unmix_numpy(bgr, m, 20, band)
             assert np.count_nonzero((want > 0) & (want < 255)) > 100
             np.testing.assert_array_equal(unmix_edges(bgr, m, 20, band), want)
+
+
+def _run_bounds_numpy(mask, above):
+    """The numpy steps kernels.run_bounds replaced (edges._run_bounds before it)."""
+    import cv2
+    h, w = mask.shape
+    wp = w + 2
+    n = h * wp
+    m = np.zeros(n, np.uint8)
+    cv2.threshold(mask, above, 1, cv2.THRESH_BINARY, dst=m.reshape(h, wp)[:, 1:-1])
+    change = np.empty((n + 7) // 8 * 8, np.uint8)
+    np.bitwise_xor(m[1:], m[:-1], out=change[:n - 1])
+    change[n - 1:] = 0
+    words = change.view(np.uint64)
+    wi = np.flatnonzero(words != 0)
+    bi = np.flatnonzero(words[wi].view(np.uint8) != 0)
+    row, col = np.divmod(wi[bi >> 3] * 8 + (bi & 7), wp)
+    return row[0::2].astype(np.int64), col[0::2].astype(np.int64), col[1::2].astype(np.int64) - 1
+
+
+def test_run_bounds_are_the_numpy_steps_runs():
+    """edges._run_bounds (compiled, skipping background by 64-bit words) gives the numpy steps' runs on
+    random images of every width (rows not aligned to words), sparse and dense, both thresholds, and
+    more runs than its first buffers hold."""
+    from appliance.localize.edges import _run_bounds
+
+    rng = np.random.default_rng(8)
+    images = [(rng.random((h, w)) < rng.uniform(0, 1)) * rng.integers(0, 256, (h, w))
+              for h, w in rng.integers(1, 40, (150, 2))]
+    images += [np.tile([0, 200], (40, 500)), np.zeros((3, 16)), np.full((2, 9), 255)]
+    for img in images:
+        img = np.ascontiguousarray(img, np.uint8)
+        for above in (0, 127):
+            want, got = _run_bounds_numpy(img, above), _run_bounds(img, above)
+            for a, b in zip(want, got):
+                np.testing.assert_array_equal(b, a)
+                assert b.dtype == np.int64
+    assert len(_run_bounds(np.tile(np.uint8([0, 200]), (40, 500)), 127)[0]) == 20000

@@ -714,37 +714,6 @@ def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
                 out[y, x] = np.uint8(min(max(c, np.float32(0.0)), np.float32(255.0)))
     return done
 
-@numba.njit(**_JIT)
-def run_bounds(flat, words, h, w, above, row, x0, x1):
-    """``edges._run_bounds``: the runs of ``flat > above`` along each row of an (h, w) uint8 image
-    (``flat`` its pixels row-major, ``words`` the same bytes as uint64, the last ``len % 8`` left out):
-    row, first and last column of each, row-major, into ``row``, ``x0``, ``x1``. Outside a run, 8
-    pixels at a time while their word is 0 (masks are mostly background). Returns the number of runs,
-    or -1 when the buffers are too short."""
-    n, cap, nw = 0, len(row), len(words)
-    for y in range(h):
-        inside = False
-        p, end = y * w, y * w + w
-        while p < end:
-            if not inside and (p & 7) == 0 and p + 8 <= end and (p >> 3) < nw and words[p >> 3] == 0:
-                p += 8
-                continue
-            on = flat[p] > above
-            if on != inside:
-                if on:
-                    if n == cap:
-                        return -1
-                    row[n], x0[n] = y, p - y * w
-                else:
-                    x1[n] = p - y * w - 1
-                    n += 1
-                inside = on
-            p += 1
-        if inside:
-            x1[n] = w - 1
-            n += 1
-    return n
-
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -770,6 +739,5 @@ def warm_up() -> None:
     remove_corners_flat(img, i[:0], 4, tab)
     bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
                np.zeros((4, 4), np.uint8))
-    run_bounds(np.zeros(16, np.uint8), np.zeros(2, np.uint64), 4, 4, 0, i.copy(), i.copy(), i.copy())
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))

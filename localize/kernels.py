@@ -1,6 +1,6 @@
 """Compiled loops (numba): for the match stage the per-piece fits, the run look-ups, the ends' walks
-and the curves' evaluation; for the skeleton the thinning and corner removal; for the colour
-recogniser the bark test of the tiles near bark by a lookup table (docs/localize-numba.md).
+and the curves' evaluation; for the skeleton the thinning, corner removal and graph's pixel work;
+for the colour recogniser the bark test of the tiles near bark by a lookup table (docs/localize-numba.md).
 
 Each kernel replaces a stretch of small numpy calls (10-40 per piece or end, ~1-3 us each) by one
 compiled loop over the pieces, queries or points: the same rules and, where the arithmetic allows,
@@ -714,6 +714,122 @@ def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
                 out[y, x] = np.uint8(min(max(c, np.float32(0.0)), np.float32(255.0)))
     return done
 
+@numba.njit(**_JIT)
+def _find(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(**_JIT)
+def _components(idx, pos, on, w2, w):
+    """8-connected components of the pixels ``idx[on]`` (``idx``: row-major flat indices into a
+    zero-padded image of row length ``w2``): labels 1..n per pixel (0 where not ``on``) numbered as
+    ``cv2.connectedComponents`` numbers them, by the first 2 x 2 block of each (blocks row-major; the
+    block-based scan's order, checked on random images), and n. ``pos``: each flat pixel's index into
+    ``idx``, -1 where none."""
+    m = len(idx)
+    parent = np.arange(m)
+    for i in range(m):
+        if not on[i]:
+            continue
+        p = idx[i]
+        for q in (p - 1, p - w2 - 1, p - w2, p - w2 + 1):        # (neighbours scanned before p)
+            j = pos[q]
+            if j >= 0 and on[j]:
+                a, b = _find(parent, i), _find(parent, j)
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+    wb = (w + 1) // 2
+    first = np.full(m, np.iinfo(np.int64).max)
+    for i in range(m):
+        if on[i]:
+            r = _find(parent, i)
+            y, x = idx[i] // w2 - 1, idx[i] % w2 - 1
+            first[r] = min(first[r], (y // 2) * wb + x // 2)
+    roots = np.array([i for i in range(m) if on[i] and parent[i] == i], np.int64)
+    order = np.argsort(first[roots])
+    rank = np.zeros(m, np.int64)
+    for k in range(len(order)):
+        rank[roots[order[k]]] = k + 1
+    lab = np.zeros(m, np.int64)
+    for i in range(m):
+        if on[i]:
+            lab[i] = rank[_find(parent, i)]
+    return lab, len(roots)
+
+
+@numba.njit(**_JIT)
+def _unique_pairs(a, b, n):
+    """Distinct pairs (a[k], b[k]) of the first ``n``, sorted, as (K, 2) int64."""
+    key = np.empty(n, np.int64)
+    for k in range(n):
+        key[k] = (a[k] << 32) | b[k]
+    key = np.sort(key)
+    out = np.empty((n, 2), np.int64)
+    c = 0
+    for k in range(n):
+        if k == 0 or key[k] != key[k - 1]:
+            out[c, 0], out[c, 1] = key[k] >> 32, key[k] & 0xFFFFFFFF
+            c += 1
+    return out[:c]
+
+
+@numba.njit(**_JIT)
+def graph_core(flat, idx, w2, w, count):
+    """``graph.build_graph``'s pixel work on a zero-padded flat 0/1 skeleton (row length ``w2``, image
+    width ``w``; ``idx`` its set pixels, row-major): each pixel's neighbour count (``count`` table), the
+    junction (>= 3) and path (2) pixels' 8-connected component labels (as ``cv2.connectedComponents``
+    numbers them), the segment-node contacts (segment, node) and node-node contacts (node, node),
+    1-based, distinct and sorted, and per segment the steps to its E, SE, S, SW neighbours (4, S + 1).
+    Node ids: junctions 1..J by label, then the endpoints (1 neighbour) in row-major order."""
+    m = len(idx)
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    pos = np.full(len(flat), -1, np.int32)
+    for i in range(m):
+        pos[idx[i]] = i
+    n = np.empty(m, np.int64)
+    for i in range(m):
+        c = 0
+        for k in range(8):
+            if flat[idx[i] + off[k]] != 0:
+                c |= 1 << k
+        n[i] = count[c]
+    jlab, n_j = _components(idx, pos, n >= 3, w2, w)
+    slab, n_s = _components(idx, pos, n == 2, w2, w)
+    node = jlab.copy()
+    e = n_j
+    for i in range(m):
+        if n[i] == 1:
+            e += 1
+            node[i] = e
+    ps, pn, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    steps = np.zeros((4, n_s + 1), np.int64)
+    for i in range(m):
+        if n[i] != 2:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0:
+                if node[j] > 0:
+                    ps[c], pn[c] = slab[i], node[j]
+                    c += 1
+                if 2 <= k <= 5 and slab[j] == slab[i]:
+                    steps[k - 2, slab[i]] += 1
+    sn = _unique_pairs(ps, pn, c)
+    a, b, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    for i in range(m):
+        if node[i] == 0:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0 and node[j] > 0 and node[j] != node[i]:
+                a[c], b[c] = min(node[i], node[j]), max(node[i], node[j])
+                c += 1
+    return n, jlab, n_j, slab, n_s, sn, _unique_pairs(a, b, c), steps
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -739,5 +855,6 @@ def warm_up() -> None:
     remove_corners_flat(img, i[:0], 4, tab)
     bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
                np.zeros((4, 4), np.uint8))
+    graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))

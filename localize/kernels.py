@@ -743,21 +743,28 @@ def _components(idx, pos, on, w2, w):
                     parent[max(a, b)] = min(a, b)
     wb = (w + 1) // 2
     first = np.full(m, np.iinfo(np.int64).max)
+    n_roots = 0
     for i in range(m):
         if on[i]:
             r = _find(parent, i)
             y, x = idx[i] // w2 - 1, idx[i] % w2 - 1
             first[r] = min(first[r], (y // 2) * wb + x // 2)
-    roots = np.array([i for i in range(m) if on[i] and parent[i] == i], np.int64)
-    order = np.argsort(first[roots])
+            n_roots += parent[i] == i
+    key = np.empty(n_roots, np.int64)                          # (first block, root) in one sortable key
+    c = 0
+    for i in range(m):
+        if on[i] and parent[i] == i:
+            key[c] = first[i] * m + i
+            c += 1
+    key = _sorted(key)                                         # (not np.argsort: its compile time)
     rank = np.zeros(m, np.int64)
-    for k in range(len(order)):
-        rank[roots[order[k]]] = k + 1
+    for k in range(n_roots):
+        rank[key[k] % m] = k + 1
     lab = np.zeros(m, np.int64)
     for i in range(m):
         if on[i]:
             lab[i] = rank[_find(parent, i)]
-    return lab, len(roots)
+    return lab, n_roots
 
 
 @numba.njit(**_JIT)
@@ -766,7 +773,7 @@ def _unique_pairs(a, b, n):
     key = np.empty(n, np.int64)
     for k in range(n):
         key[k] = (a[k] << 32) | b[k]
-    key = np.sort(key)
+    key = _sorted(key)
     out = np.empty((n, 2), np.int64)
     c = 0
     for k in range(n):

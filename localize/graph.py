@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 from appliance.localize.skeleton import (
     Skeleton,
     SparseImage,
@@ -124,7 +125,8 @@ def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
 
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
-    """The graph of a skeleton (see module docstring); works at the skeleton pixels only."""
+    """The graph of a skeleton (see module docstring); works at the skeleton pixels only (the pixel
+    work compiled: :func:`kernels.graph_core`, the labels ``cv2.connectedComponents``' own)."""
     img = SparseImage.from_image(skel.image)
     h, w = img.shape
     idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
@@ -132,11 +134,11 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
     yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
     yx -= 1
     count, _, _ = neighbour_tables()
-    n = count[img.codes(idx)]
-    jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
-    pidx = idx[n == 2]
+    n, jlab, n_j, slab, n_s, sn, nn, steps = kernels.graph_core(img.flat, idx, w + 2, w, count)
+    jm, em, pm = n >= 3, n == 1, n == 2
+    jyx, eyx, pyx = yx[jm], yx[em], yx[pm]
+    jlab, slab = jlab[jm], slab[pm]
 
-    n_j, jlab = _labels(img.shape, jyx)
     node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
     n_nodes = len(node_pixels)
     node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
@@ -147,33 +149,13 @@ def build_graph(skel: Skeleton) -> SkeletonGraph:
         for c in (0, 1):
             node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
     node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
-
-    n_s, slab = _labels(img.shape, pyx)
     seg_yx = _group(slab, pyx, n_s)
 
-    # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
-    # at the skeleton pixels in flat, zero-padded id images, all 8 neighbours at once
-    node_flat = np.zeros(img.flat.shape, np.int32)
-    seg_flat = np.zeros(img.flat.shape, np.int32)
-    nidx = np.concatenate([idx[n >= 3], idx[n == 1]])
-    node_flat[nidx] = node_of
-    seg_flat[pidx] = slab
-    off = img.offsets()
-    at = pidx[:, None] + off                                    # (P, 8)
-    nb = node_flat.take(at)
-    hit = nb > 0
-    sn = np.column_stack([np.broadcast_to(slab[:, None], nb.shape)[hit], nb[hit]])
-    nb = node_flat.take(nidx[:, None] + off)
-    hit = (nb > 0) & (nb != node_of[:, None])
-    nn = np.sort(np.column_stack([np.broadcast_to(node_of[:, None], nb.shape)[hit], nb[hit]]), axis=1)
     # E, SE, S, SW: each step along a segment counted once; added direction by direction (the same sums)
-    same = seg_flat.take(at[:, 2:6]) == slab[:, None]
-    steps = np.bincount((slab[:, None] + np.arange(4) * (n_s + 1))[same], minlength=4 * (n_s + 1)).reshape(4, n_s + 1)
     length = np.zeros(n_s + 1)
     for k in range(4):
         length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
-    sn = _unique_pairs(sn) - 1                                  # sorted by segment, then node
-    nn = _unique_pairs(nn) - 1
+    sn, nn = sn - 1, nn - 1                                     # sorted by segment, then node
     ends = np.full((n_s, 2), -1)
     first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
     rank = np.arange(len(sn)) - first

@@ -1,5 +1,6 @@
-"""Compiled loops (numba) for the match stage: the per-piece fits, the run look-ups, the ends' walks
-and the curves' evaluation (docs/localize-numba.md).
+"""Compiled loops (numba): for the match stage the per-piece fits, the run look-ups, the ends' walks
+and the curves' evaluation; for the skeleton the thinning, corner removal and graph's pixel work;
+for the colour recogniser the bark test of the tiles near bark by a lookup table (docs/localize-numba.md).
 
 Each kernel replaces a stretch of small numpy calls (10-40 per piece or end, ~1-3 us each) by one
 compiled loop over the pieces, queries or points: the same rules and, where the arithmetic allows,
@@ -553,6 +554,289 @@ def eval_clamped(coef, dcoef, t0, ts, lo, hi, slopes, own_slopes, t):
     return out
 
 
+@numba.njit(**_JIT)
+def _code(flat, p, off):
+    """Neighbour code of the padded flat pixel ``p``: bit k = neighbour k (``off[k]`` away) set."""
+    c = 0
+    for k in range(8):
+        if flat[p + off[k]] != 0:
+            c |= 1 << k
+    return c
+
+
+@numba.njit(**_JIT)
+def zhang_suen_flat(flat, live, start, off, tab0, tab1):
+    """Zhang-Suen thinning in place on a zero-padded flat 0/1 image (``skeleton.zhang_suen``'s loop).
+
+    ``live`` (uint8, same size; modified): the pixels that may still go; ``start``: the first
+    sub-iteration's candidates (flat indices); ``off`` (8,): flat steps to the neighbours; ``tab0`` /
+    ``tab1`` (256,) bool: the sub-iterations' deletion tables. Each sub-iteration decides on the image
+    as the previous one left it, then deletes; later candidates are the live pixels next to a deletion
+    in the last two sub-iterations; stops after two sub-iterations without a deletion. Returns the
+    number of sub-iterations.
+    """
+    n = flat.size
+    near = (np.empty(n, np.int64), np.empty(n, np.int64))
+    n_near = np.zeros(2, np.int64)
+    for k in range(len(start)):
+        near[0][k] = start[k]
+        near[1][k] = start[k]
+    n_near[0] = n_near[1] = len(start)
+    seen = np.full(n, -1, np.int64)
+    cand = np.empty(n, np.int64)
+    gone = np.empty(n, np.int64)
+    i, quiet = 0, 0
+    while quiet < 2:
+        nc = 0
+        if i == 0:
+            for k in range(len(start)):
+                cand[nc] = start[k]
+                nc += 1
+        else:
+            for par in range(2):
+                lst = near[par]
+                for k in range(n_near[par]):
+                    p = lst[k]
+                    if live[p] != 0 and seen[p] != i:
+                        seen[p] = i
+                        cand[nc] = p
+                        nc += 1
+        tab = tab0 if (i & 1) == 0 else tab1
+        ng = 0
+        for k in range(nc):
+            p = cand[k]
+            if tab[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+            live[gone[k]] = 0
+        lst = near[i & 1]
+        m = 0
+        for k in range(ng):
+            for j in range(8):
+                q = gone[k] + off[j]
+                if live[q] != 0 and seen[q] != -2 - i:      # (each neighbour once per list)
+                    seen[q] = -2 - i
+                    lst[m] = q
+                    m += 1
+        n_near[i & 1] = m
+        quiet = 0 if ng else quiet + 1
+        i += 1
+    return i
+
+
+@numba.njit(**_JIT)
+def remove_corners_flat(flat, idx, w2, corner):
+    """``skeleton.remove_corners``' two passes in place on a zero-padded flat 0/1 image of row length
+    ``w2``: the set pixels ``idx`` (row-major flat indices) of parity 0, then of parity 1, each pass
+    deciding on the image as the previous pass left it (all its pixels first, then the deletions)."""
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    gone = np.empty(len(idx), np.int64)
+    for par in range(2):
+        ng = 0
+        for k in range(len(idx)):
+            p = idx[k]
+            if ((p // w2 + p % w2) & 1) == par and corner[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+
+
+@numba.njit(**_JIT)
+def bark_tiles(bgr, lut, tiles, tile_px, out):
+    """The bark test of every pixel of the flagged tiles, by a colour lookup table, in one pass; the
+    rest of ``out`` untouched.
+
+    ``bgr`` (H, W, 3) uint8; ``lut`` (2^21,) uint8: bit ``k & 7`` of byte ``k >> 3`` is the test of the
+    colour ``k = b << 16 | g << 8 | r``; ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square
+    tile (the last tile row and column reach the image's bottom and right edges); ``out`` (H, W)
+    uint8 gets 255 (bark) or 0.
+    """
+    h, w = out.shape
+    th, tw = tiles.shape
+    for ty in range(th):
+        y0 = ty * tile_px
+        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+        for tx in range(tw):
+            if tiles[ty, tx] == 0:
+                continue
+            x0 = tx * tile_px
+            x1 = w if tx == tw - 1 else min(x0 + tile_px, w)
+            for y in range(y0, y1):
+                for x in range(x0, x1):
+                    k = (np.int64(bgr[y, x, 0]) << 16) | (np.int64(bgr[y, x, 1]) << 8) | np.int64(bgr[y, x, 2])
+                    out[y, x] = 255 if (lut[k >> 3] >> (k & 7)) & 1 else 0
+    return out
+
+@numba.njit(**_JIT)
+def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
+    """``segment.unmix_edges``' per-block unmixing and the coverage of its outline pixels, float32 in
+    numpy's order of operations (the numpy steps' values bit for bit).
+
+    For each block ``blocks[i]`` (row-major index into ``n_o`` (hs, ws) float32, the background's
+    255-weighted sample count, and ``s_o`` (hs, ws, 3) float32, its colour sums): the background's
+    mean colour ``c_o``, and where it has samples (n > 0.5) and is at least ``sqrt(min_sin2)`` off the
+    bark's chromaticity ``chi`` (3,) float32, the vector ``v = (c_o - (c_o . chi) chi) / det``; each of
+    the block's ``factor`` x ``factor`` pixels where ``ring`` (H, W) is non-zero then gets
+    ``clip((1 - p . v) * 255 + 0.5, 0, 255)`` as uint8 in ``out`` (H, W), ``p`` its BGR colour. Returns
+    the number of blocks unmixed.
+    """
+    ws = n_o.shape[1]
+    one, scale, half = np.float32(1.0), np.float32(255.0), np.float32(0.5)
+    inv255, lim = np.float32(1.0 / 255), np.float32(min_sin2)
+    done = 0
+    for i in range(len(blocks)):
+        by, bx = blocks[i] // ws, blocks[i] % ws
+        n = n_o[by, bx] * inv255
+        nn = max(n, one)
+        c0, c1, c2 = s_o[by, bx, 0] / nn, s_o[by, bx, 1] / nn, s_o[by, bx, 2] / nn
+        c_chi = c0 * chi[0]
+        c_chi += c1 * chi[1]
+        c_chi += c2 * chi[2]
+        c_c = c0 * c0
+        c_c += c1 * c1
+        c_c += c2 * c2
+        det = c_c - c_chi * c_chi
+        if not (n > half and det > lim * c_c):
+            continue
+        done += 1
+        v0, v1, v2 = (c0 - c_chi * chi[0]) / det, (c1 - c_chi * chi[1]) / det, (c2 - c_chi * chi[2]) / det
+        for y in range(by * factor, (by + 1) * factor):
+            for x in range(bx * factor, (bx + 1) * factor):
+                if ring[y, x] == 0:
+                    continue
+                c = np.float32(bgr[y, x, 0]) * v0
+                c += np.float32(bgr[y, x, 1]) * v1
+                c += np.float32(bgr[y, x, 2]) * v2
+                c = (one - c) * scale + half
+                out[y, x] = np.uint8(min(max(c, np.float32(0.0)), np.float32(255.0)))
+    return done
+
+@numba.njit(**_JIT)
+def _find(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(**_JIT)
+def _components(idx, pos, on, w2, w):
+    """8-connected components of the pixels ``idx[on]`` (``idx``: row-major flat indices into a
+    zero-padded image of row length ``w2``): labels 1..n per pixel (0 where not ``on``) numbered as
+    ``cv2.connectedComponents`` numbers them, by the first 2 x 2 block of each (blocks row-major; the
+    block-based scan's order, checked on random images), and n. ``pos``: each flat pixel's index into
+    ``idx``, -1 where none."""
+    m = len(idx)
+    parent = np.arange(m)
+    for i in range(m):
+        if not on[i]:
+            continue
+        p = idx[i]
+        for q in (p - 1, p - w2 - 1, p - w2, p - w2 + 1):        # (neighbours scanned before p)
+            j = pos[q]
+            if j >= 0 and on[j]:
+                a, b = _find(parent, i), _find(parent, j)
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+    wb = (w + 1) // 2
+    first = np.full(m, np.iinfo(np.int64).max)
+    n_roots = 0
+    for i in range(m):
+        if on[i]:
+            r = _find(parent, i)
+            y, x = idx[i] // w2 - 1, idx[i] % w2 - 1
+            first[r] = min(first[r], (y // 2) * wb + x // 2)
+            n_roots += parent[i] == i
+    key = np.empty(n_roots, np.int64)                          # (first block, root) in one sortable key
+    c = 0
+    for i in range(m):
+        if on[i] and parent[i] == i:
+            key[c] = first[i] * m + i
+            c += 1
+    key = _sorted(key)                                         # (not np.argsort: its compile time)
+    rank = np.zeros(m, np.int64)
+    for k in range(n_roots):
+        rank[key[k] % m] = k + 1
+    lab = np.zeros(m, np.int64)
+    for i in range(m):
+        if on[i]:
+            lab[i] = rank[_find(parent, i)]
+    return lab, n_roots
+
+
+@numba.njit(**_JIT)
+def _unique_pairs(a, b, n):
+    """Distinct pairs (a[k], b[k]) of the first ``n``, sorted, as (K, 2) int64."""
+    key = np.empty(n, np.int64)
+    for k in range(n):
+        key[k] = (a[k] << 32) | b[k]
+    key = _sorted(key)
+    out = np.empty((n, 2), np.int64)
+    c = 0
+    for k in range(n):
+        if k == 0 or key[k] != key[k - 1]:
+            out[c, 0], out[c, 1] = key[k] >> 32, key[k] & 0xFFFFFFFF
+            c += 1
+    return out[:c]
+
+
+@numba.njit(**_JIT)
+def graph_core(flat, idx, w2, w, count):
+    """``graph.build_graph``'s pixel work on a zero-padded flat 0/1 skeleton (row length ``w2``, image
+    width ``w``; ``idx`` its set pixels, row-major): each pixel's neighbour count (``count`` table), the
+    junction (>= 3) and path (2) pixels' 8-connected component labels (as ``cv2.connectedComponents``
+    numbers them), the segment-node contacts (segment, node) and node-node contacts (node, node),
+    1-based, distinct and sorted, and per segment the steps to its E, SE, S, SW neighbours (4, S + 1).
+    Node ids: junctions 1..J by label, then the endpoints (1 neighbour) in row-major order."""
+    m = len(idx)
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    pos = np.full(len(flat), -1, np.int32)
+    for i in range(m):
+        pos[idx[i]] = i
+    n = np.empty(m, np.int64)
+    for i in range(m):
+        c = 0
+        for k in range(8):
+            if flat[idx[i] + off[k]] != 0:
+                c |= 1 << k
+        n[i] = count[c]
+    jlab, n_j = _components(idx, pos, n >= 3, w2, w)
+    slab, n_s = _components(idx, pos, n == 2, w2, w)
+    node = jlab.copy()
+    e = n_j
+    for i in range(m):
+        if n[i] == 1:
+            e += 1
+            node[i] = e
+    ps, pn, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    steps = np.zeros((4, n_s + 1), np.int64)
+    for i in range(m):
+        if n[i] != 2:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0:
+                if node[j] > 0:
+                    ps[c], pn[c] = slab[i], node[j]
+                    c += 1
+                if 2 <= k <= 5 and slab[j] == slab[i]:
+                    steps[k - 2, slab[i]] += 1
+    sn = _unique_pairs(ps, pn, c)
+    a, b, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    for i in range(m):
+        if node[i] == 0:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0 and node[j] > 0 and node[j] != node[i]:
+                a[c], b[c] = min(node[i], node[j]), max(node[i], node[j])
+                c += 1
+    return n, jlab, n_j, slab, n_s, sn, _unique_pairs(a, b, c), steps
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -572,3 +856,12 @@ def warm_up() -> None:
     runs_between(_readonly(f.copy()), i, 4, f, f)
     walk_edges(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     eval_clamped(f[:2], f[:1], 0.0, 1.0, 0.0, 1.0, f[:2], True, np.arange(4.0))
+    img, tab = np.zeros(16, np.uint8), np.zeros(256, bool)
+    off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)
+    zhang_suen_flat(img, img.copy(), i[:0], off, tab, tab)
+    remove_corners_flat(img, i[:0], 4, tab)
+    bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
+               np.zeros((4, 4), np.uint8))
+    graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
+    unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
+                 np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))

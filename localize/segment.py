@@ -7,10 +7,13 @@ its masks are passed to :meth:`Localizer.localize` as ``mask_left``/``mask_right
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import lru_cache
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
+from appliance.localize import kernels
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean
 
@@ -70,6 +73,28 @@ def _hsv_threshold(bgr: np.ndarray, cfg: SegmentConfig, dst: np.ndarray | None =
     return m
 
 
+def bark_lut(cfg: SegmentConfig) -> np.ndarray:
+    """:func:`bark_hsv`'s test of every 8-bit colour, bit-packed: bit ``k & 7`` of byte ``k >> 3`` is
+    that of BGR colour ``k = b << 16 | g << 8 | r``; (2^21,) uint8 (2 MB), read-only. Taken by OpenCV's
+    own conversion and thresholds (:func:`_hsv_threshold`) of all 2^24 colours, so a look-up is their
+    value exactly; ~40 ms, once per process and set of thresholds (the localizer's, when it is built)."""
+    return _bark_lut(cfg.hue_min, cfg.hue_max, cfg.saturation_max, cfg.value_min, cfg.value_max)
+
+
+@lru_cache(maxsize=4)
+def _bark_lut(hue_min: int, hue_max: int, saturation_max: int, value_min: int, value_max: int) -> np.ndarray:
+    cfg = SimpleNamespace(hue_min=hue_min, hue_max=hue_max, saturation_max=saturation_max, value_min=value_min,
+                          value_max=value_max)                 # (the thresholds _hsv_threshold reads)
+    lut = np.zeros(1 << 21, np.uint8)
+    g, r = np.meshgrid(np.arange(256, dtype=np.uint8), np.arange(256, dtype=np.uint8), indexing="ij")
+    img = np.dstack([np.zeros_like(g), g, r])                  # (256 g, 256 r) BGR: colours b << 16 + g << 8 + r
+    for b in range(256):
+        img[:, :, 0] = b
+        lut[b << 13:(b + 1) << 13] = np.packbits(_hsv_threshold(img, cfg).reshape(-1) != 0, bitorder="little")
+    lut.setflags(write=False)
+    return lut
+
+
 def sample_nearest(img: np.ndarray, factor: int) -> np.ndarray:
     """Every ``factor``-th pixel of every ``factor``-th row (the whole blocks' first pixels: a
     nearest-neighbour resize), shape (H // factor, W // factor[, C])."""
@@ -78,7 +103,7 @@ def sample_nearest(img: np.ndarray, factor: int) -> np.ndarray:
     return cv2.resize(img[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
 
 
-def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int = 32,
+def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int = 16,
               small: np.ndarray | None = None) -> np.ndarray:
     """:func:`bark_hsv`'s raw bark mask (uint8 0/255, (H, W)), converted and thresholded only near bark.
 
@@ -90,7 +115,10 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     along the rows (or columns) between two sampled ones for 3 tiles or more, or along the image's
     bottom (right) edge below (right of) the last sampled row (column), which the clean-up keeps if
     its area reaches ``min_area_px`` (a strip 3 px wide and ~130 px long). The fixture scenes and the
-    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested).
+    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The tiles' pixels are
+    tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels.bark_tiles`), so small
+    tiles cost no calls: 16 px tiles cover ~21 % of fixture 00's image (32 px: 35 %), ~0.6 against
+    ~1.2 ms per 1280x960 image for 32 px tiles converted by OpenCV one run of tiles at a time.
 
     ``small``: the sample, :func:`sample_nearest` (``bgr``, ``sample``), when already taken.
     """
@@ -107,21 +135,12 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     if (th * b, tw * b) != (hs, ws):
         hit = cv2.copyMakeBorder(hit, 0, th * b - hs, 0, tw * b - ws, cv2.BORDER_CONSTANT, value=0)
     tiles = cv2.dilate(block_mean(hit, b) if b > 1 else hit, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
-    ty, tx = np.nonzero(tiles)
-    if len(ty) == 0:
+    n_tiles = cv2.countNonZero(tiles)
+    if n_tiles == 0:
         return out
-    if len(ty) > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: in one call
+    if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: in one call
         return _hsv_threshold(bgr, cfg, dst=out)
-    # runs of needed tiles along each tile row (the last row / column of tiles reaches the image's edge)
-    t = tile_px
-    start = np.flatnonzero(np.concatenate([[True], (ty[1:] != ty[:-1]) | (tx[1:] != tx[:-1] + 1)]))
-    end = np.concatenate([start[1:], [len(ty)]]) - 1
-    y0s, x0s, x1s = ty[start] * t, tx[start] * t, (tx[end] + 1) * t
-    last_y, last_x = (th - 1) * t, (tw - 1) * t
-    for y0, x0, x1 in zip(y0s.tolist(), x0s.tolist(), x1s.tolist()):
-        y1 = h if y0 >= last_y else y0 + t
-        x1 = w if x1 > last_x else x1
-        _hsv_threshold(bgr[y0:y1, x0:x1], cfg, dst=out[y0:y1, x0:x1])
+    kernels.bark_tiles(bgr, bark_lut(cfg), tiles, tile_px, out)          # (compiled: no call per tile)
     return out
 
 
@@ -202,8 +221,9 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     background has nearly the bark's chromaticity (less than ~3 deg apart), keep their value,
     as do those of the last ``H % factor`` rows and ``W % factor`` columns. Thresholded at 0.5
     this is the exact masks' pixel-coverage rule; the soft values give the rectified coverage
-    sub-pixel outlines. ~0.9 ms per 1280x960 image alone, ~1.2 ms inside the pipeline (outline
-    pixels found per block).
+    sub-pixel outlines. ~0.5 ms per 1280x960 image alone, ~1.2 ms cache-cold (outline pixels
+    found per block; the blocks' unmixing and their pixels in one compiled pass,
+    :func:`kernels.unmix_blocks`).
 
     ``out`` (may be ``mask`` itself) receives the result, a copy of ``mask`` by default;
     ``scratch``, a uint8 (H, W) array that may be overwritten (not ``mask``), holds the outline.
@@ -232,24 +252,9 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     win = (max(1, round(window_px / factor)),) * 2
     n_o = cv2.boxFilter(away, cv2.CV_32F, win, normalize=False)
     s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
-    n = n_o.reshape(-1).take(bi) * (1.0 / 255)
-    c_o = s_o.reshape(-1, 3).take(bi, axis=0) / np.maximum(n, 1.0)[:, None]
-    c_chi = c_o @ chi
-    c_c = np.einsum("ij,ij->i", c_o, c_o)
-    det = c_c - c_chi * c_chi                                   # |c_o|^2 sin^2(c_o, chi)
-    ok = (n > 0.5) & (det > _MIN_SIN2 * c_c)
-    bi, v = bi[ok], (c_o[ok] - c_chi[ok, None] * chi) / det[ok, None]
-    off = (np.arange(factor)[:, None] * w + np.arange(factor)).reshape(-1)
-    fi = ((bi // ws) * (factor * w) + (bi % ws) * factor)[:, None] + off
-    on = np.flatnonzero(ring.reshape(-1).take(fi) != 0)         # the outline pixels of the blocks, in order
-    fi = fi.reshape(-1).take(on)
-    v = v.take(on // (factor * factor), axis=0)                  # (each pixel its block's vector)
-    p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)
-    cover = p[:, 0] * v[:, 0]                # (np.einsum("ij,ij->i", p, v)'s sums, ~4x faster)
-    cover += p[:, 1] * v[:, 1]
-    cover += p[:, 2] * v[:, 2]
-    cover = 1.0 - cover
-    out.reshape(-1)[fi] = np.minimum(np.maximum(cover * 255.0 + 0.5, 0), 255).astype(np.uint8)   # (np.clip's values)
+    # per block the background's mean colour and the unmixing vector, then each outline pixel's 1 - p . v
+    # (compiled: numpy's float32 steps, the same values)
+    kernels.unmix_blocks(bgr, ring, bi, n_o, s_o, chi, _MIN_SIN2, factor, out)
     return out
 
 

@@ -16,6 +16,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 
 # neighbour k of pixel (y, x) is at (y + DY[k], x + DX[k]): N, NE, E, SE, S, SW, W, NW
 DY = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
@@ -173,16 +174,13 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     """Remove redundant staircase corner and bump pixels (two passes by pixel parity); uint8 0/1.
 
     After this every pixel of a simple path has exactly two neighbours, so the paper's
-    neighbour-count rules (1: endpoint, >= 3: bifurcation) hold.
+    neighbour-count rules (1: endpoint, >= 3: bifurcation) hold. Each pass decides on the image
+    as the previous pass left it (compiled: :func:`kernels.remove_corners_flat`).
     """
     _, _, corner = neighbour_tables()
     img = SparseImage.from_image(skel01)
-    h, w = img.shape
     idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
-    parity = (idx // (w + 2) + idx % (w + 2)) & 1         # (of the padded position: the same parity)
-    for p in (0, 1):            # each pass decided on the image as the previous pass left it
-        at = idx[parity == p]
-        img.flat[at[corner[img.codes(at)]]] = 0
+    kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
     return img.image()
 
 
@@ -224,7 +222,7 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     m = binary(mask)
     h, w = m.shape
     # ``flat``: the image 0/1 with a zero border (the neighbour codes); ``live``: the pixels that may
-    # still go (foreground, not on the image border), 0/1 bytes read as bool
+    # still go (foreground, not on the image border)
     flat = cv2.copyMakeBorder(m, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0).reshape(-1)
     live = flat.copy()
     pad = live.reshape(h + 2, w + 2)
@@ -233,29 +231,7 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     outline = cv2.copyMakeBorder(m - cv2.erode(m, np.ones((3, 3), np.uint8)), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
     start = np.flatnonzero(outline.reshape(-1).view(bool))        # row-major, as pixels()
     start = start[live.take(start).view(bool)]
-    off = DY * (w + 2) + DX
-    near = [start, start]              # pixels next to a deletion in the last two sub-iterations
-    stamp = np.zeros(flat.shape, np.int64)
-    i, quiet = 0, 0
-    while quiet < 2:
-        if i == 0:
-            cand = start
-        else:
-            cand = np.concatenate(near)
-            cand = cand[live.take(cand).view(bool)]
-            order = np.arange(len(cand))
-            stamp[cand] = order
-            cand = cand[stamp.take(cand) == order]          # each pixel once
-        nb = flat.take(cand[:, None] + off)                # (N, 8) bytes 0/1: SparseImage.codes
-        code = (nb.view(np.uint64)[:, 0] * _GATHER_BITS) >> _TOP_BYTE if _LITTLE_ENDIAN else \
-            np.packbits(nb, axis=1, bitorder="little").reshape(-1)
-        gone = cand[tables[i & 1].take(code)]
-        flat[gone] = 0
-        live[gone] = 0
-        nb = (gone[:, None] + off).reshape(-1)
-        near[i & 1] = nb[live.take(nb).view(bool)]
-        quiet = 0 if len(gone) else quiet + 1
-        i += 1
+    kernels.zhang_suen_flat(flat, live, start, (DY * (w + 2) + DX).astype(np.int64), *tables)
     return binary(flat.reshape(h + 2, w + 2)[1:-1, 1:-1])
 
 

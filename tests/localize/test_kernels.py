@@ -1,5 +1,7 @@
 """The compiled kernels (numba) against the numpy steps they replace."""
 
+from dataclasses import replace
+
 import numpy as np
 
 from appliance.localize import kernels
@@ -120,3 +122,271 @@ def test_warm_up_compiles_every_signature_the_localizer_uses():
     loc.localize(cv2.imread(str(fixtures / "scenes" / "left_00.png")), cv2.imread(str(fixtures / "scenes" / "right_00.png")))
     assert {n: len(f.signatures) for n, f in jitted.items()} == before
     assert all(before.values())
+
+
+def _zhang_suen_numpy(mask):
+    """The numpy thinning the kernel replaced (every sub-iteration over all pixels, all at once)."""
+    from appliance.localize.skeleton import SparseImage, zhang_suen_tables
+    tables = zhang_suen_tables()
+    img = SparseImage.from_image(mask)
+    h, w = img.shape
+    inner = np.zeros((h + 2, w + 2), bool)
+    inner[2:h, 2:w] = True                       # (pixels on the image border stay)
+    i, quiet = 0, 0
+    while quiet < 2:
+        idx = np.flatnonzero(img.flat.view(bool) & inner.reshape(-1))
+        gone = idx[tables[i & 1][img.codes(idx)]]
+        img.flat[gone] = 0
+        quiet = 0 if len(gone) else quiet + 1
+        i += 1
+    return img.image()
+
+
+def _remove_corners_numpy(skel01):
+    """The numpy corner removal the kernel replaced (two passes by parity, each all at once)."""
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    corner = neighbour_tables()[2]
+    img = SparseImage.from_image(skel01)
+    idx = np.flatnonzero(img.flat.view(bool))
+    parity = (idx // (img.shape[1] + 2) + idx % (img.shape[1] + 2)) & 1
+    for p in (0, 1):
+        at = idx[parity == p]
+        img.flat[at[corner[img.codes(at)]]] = 0
+    return img.image()
+
+
+def test_thinning_and_corner_kernels_are_the_numpy_passes():
+    """zhang_suen / remove_corners (compiled) give the numpy passes' images on random blobs and
+    noise, and zhang_suen is still cv2.ximgproc.thinning where OpenCV's contrib module is there."""
+    import cv2
+
+    from appliance.localize.skeleton import remove_corners, zhang_suen
+    rng = np.random.default_rng(5)
+    thinning = getattr(getattr(cv2, "ximgproc", None), "thinning", None)
+    for _ in range(120):
+        h, w = rng.integers(3, 50, 2)
+        m = (rng.random((h, w)) < rng.uniform(0.2, 0.95)).astype(np.uint8)
+        m = cv2.dilate(m, np.ones((int(rng.integers(1, 4)),) * 2, np.uint8))
+        thin = zhang_suen(m)
+        np.testing.assert_array_equal(thin, _zhang_suen_numpy(m))
+        if thinning is not None:
+            np.testing.assert_array_equal(thin, thinning(m * 255) > 0)
+        noise = (rng.random((h, w)) < 0.5).astype(np.uint8)
+        for img in (thin, noise):
+            np.testing.assert_array_equal(remove_corners(img), _remove_corners_numpy(img))
+    assert zhang_suen(np.ones((9, 9), np.uint8))[4, 4] == 1 and remove_corners(np.eye(5, dtype=np.uint8)).sum() == 5
+
+
+def test_bark_tiles_is_opencvs_hsv_threshold_in_the_tiles():
+    """bark_tiles with bark_lut's table gives OpenCV's HSV thresholds (bark_hsv) pixel for pixel in the
+    flagged tiles (edge tiles reaching the image's edges) and leaves the rest, for a hue range wrapping
+    through red, one not wrapping and one wrapping without containing 120; the table is bark_hsv's test
+    of every colour."""
+    import cv2
+
+    from appliance.config import load_config
+    from appliance.localize.segment import bark_hsv, bark_lut
+
+    base = load_config().localize.segment
+    rng = np.random.default_rng(6)
+    img = rng.integers(0, 256, (70, 90, 3), np.uint8)
+    img[:35] = cv2.GaussianBlur(img[:35], (0, 0), 3)           # (smooth colours too)
+    for hues in ((base.hue_min, base.hue_max), (5, 40), (175, 130)):
+        cfg = replace(base, hue_min=hues[0], hue_max=hues[1])
+        want = bark_hsv(img, cfg)[1]
+        assert 0 < cv2.countNonZero(want) < want.size
+        tiles = (rng.random((5, 6)) < 0.6).astype(np.uint8)
+        got = kernels.bark_tiles(img, bark_lut(cfg), tiles, 16, np.full(want.shape, 7, np.uint8))
+        inside = np.kron(tiles, np.ones((16, 16), np.uint8))[:70, :90].astype(bool)
+        np.testing.assert_array_equal(got[inside], want[inside])
+        assert (got[~inside] == 7).all()
+        every = np.unpackbits(bark_lut(cfg), bitorder="little").reshape(4096, 4096)    # all 2^24 colours
+        k = np.arange(1 << 24, dtype=np.int64)
+        colours = np.stack([k >> 16, (k >> 8) & 255, k & 255], 1).astype(np.uint8).reshape(4096, 4096, 3)
+        np.testing.assert_array_equal(every * 255, bark_hsv(colours, cfg)[1])
+
+
+def _unmix_numpy(bgr, mask, window_px, band_px, factor=4):
+    """The numpy steps unmix_blocks replaced (segment.unmix_edges before the kernel)."""
+    import cv2
+
+    from appliance.localize.segment import _K3, _MIN_SIN2, sample_nearest
+    from appliance.localize.skeleton import block_mean
+    h, w = mask.shape
+    hs, ws = h // factor, w // factor
+    ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8))
+    bi = np.flatnonzero(block_mean(ring[:hs * factor, :ws * factor], factor) != 0)
+    out = mask.copy()
+    small = sample_nearest(bgr, factor)
+    ms = cv2.resize(mask[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+    chi = np.array(cv2.mean(small, mask=cv2.erode(ms, _K3))[:3], np.float32)
+    if not chi.any():
+        chi = np.array(cv2.mean(small, mask=ms)[:3], np.float32)
+    chi /= max(float(np.linalg.norm(chi)), 1e-6)
+    away = cv2.bitwise_not(cv2.dilate(ms, _K3))
+    win = (max(1, round(window_px / factor)),) * 2
+    n_o = cv2.boxFilter(away, cv2.CV_32F, win, normalize=False)
+    s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
+    n = n_o.reshape(-1).take(bi) * (1.0 / 255)
+    c_o = s_o.reshape(-1, 3).take(bi, axis=0) / np.maximum(n, 1.0)[:, None]
+    c_chi = c_o @ chi
+    c_c = np.einsum("ij,ij->i", c_o, c_o)
+    det = c_c - c_chi * c_chi
+    ok = (n > 0.5) & (det > _MIN_SIN2 * c_c)
+    bi, v = bi[ok], (c_o[ok] - c_chi[ok, None] * chi) / det[ok, None]
+    off = (np.arange(factor)[:, None] * w + np.arange(factor)).reshape(-1)
+    fi = ((bi // ws) * (factor * w) + (bi % ws) * factor)[:, None] + off
+    on = np.flatnonzero(ring.reshape(-1).take(fi) != 0)
+    fi = fi.reshape(-1).take(on)
+    v = v.take(on // (factor * factor), axis=0)
+    p = bgr.reshape(-1, 3).take(fi, axis=0).astype(np.float32)
+    cover = p[:, 0] * v[:, 0]
+    cover += p[:, 1] * v[:, 1]
+    cover += p[:, 2] * v[:, 2]
+    cover = 1.0 - cover
+    out.reshape(-1)[fi] = np.minimum(np.maximum(cover * 255.0 + 0.5, 0), 255).astype(np.uint8)
+    return out
+
+
+def test_unmix_blocks_gives_the_numpy_steps_coverage():
+    """unmix_edges (its blocks and outline pixels compiled) equals the numpy steps it replaced, bit for
+    bit, on a fixture scene's cleaned mask and on a noisy rendered disc (both outline bands)."""
+    from pathlib import Path
+
+    import cv2
+
+    from appliance.config import load_config
+    from appliance.localize.segment import bark_hsv, clean_mask, unmix_edges
+
+    cfg = load_config().localize.segment
+    img = cv2.imread(str(Path(__file__).resolve().parents[2] / "fixtures" / "scenes" / "left_00.png"))
+    mask = clean_mask(bark_hsv(img, cfg)[1], cfg)
+    rng = np.random.default_rng(7)
+    disc = np.zeros((122, 161), np.uint8)
+    cv2.circle(disc, (80, 60), 33, 255, -1)
+    noisy = np.clip(np.where(disc[..., None] > 0, (60, 70, 90), (200, 160, 90)) + rng.normal(0, 12, (122, 161, 3)),
+                    0, 255).astype(np.uint8)
+    for bgr, m in ((img, mask), (cv2.GaussianBlur(noisy, (0, 0), 1.0), disc)):
+        for band in (1, 2):
+            want = _unmix_numpy(bgr, m, 20, band)
+            assert np.count_nonzero((want > 0) & (want < 255)) > 100
+            np.testing.assert_array_equal(unmix_edges(bgr, m, 20, band), want)
+
+
+def _labels_numpy(shape: tuple[int, int], yx: np.ndarray) -> tuple[int, np.ndarray]:
+    """8-connected components of a few pixels (N, 2): (count, label 1..count of each pixel)."""
+    import cv2
+    img = np.zeros(shape, np.uint8)
+    img[yx[:, 0], yx[:, 1]] = 1
+    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    return n - 1, lab[yx[:, 0], yx[:, 1]]
+
+
+def _unique_pairs_numpy(pairs: np.ndarray) -> np.ndarray:
+    """Distinct rows of a (N, 2) array of non-negative ints, sorted."""
+    if len(pairs) == 0:
+        return pairs.reshape(0, 2)
+    key = pairs[:, 0].astype(np.int64) << 32 | pairs[:, 1].astype(np.int64)
+    key = np.unique(key)
+    return np.column_stack([key >> 32, key & 0xFFFFFFFF])
+
+
+def _build_graph_numpy(skel):
+    """graph.build_graph before kernels.graph_core (numpy and cv2.connectedComponents)."""
+    import cv2
+    from appliance.localize import graph as G
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph
+    img = SparseImage.from_image(skel.image)
+    h, w = img.shape
+    idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
+    yx = np.empty((len(idx), 2), np.int64)
+    yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
+    yx -= 1
+    count, _, _ = neighbour_tables()
+    n = count[img.codes(idx)]
+    jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
+    pidx = idx[n == 2]
+
+    n_j, jlab = _labels_numpy(img.shape, jyx)
+    node_pixels = G._group(jlab, jyx, n_j) + list(eyx[:, None, :])
+    n_nodes = len(node_pixels)
+    node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
+    node_yx = np.zeros((n_nodes, 2))
+    if n_nodes:
+        nyx = np.concatenate([jyx, eyx])                    # (2-D: np.vstack's)
+        size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
+        for c in (0, 1):
+            node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
+    node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
+
+    n_s, slab = _labels_numpy(img.shape, pyx)
+    seg_yx = G._group(slab, pyx, n_s)
+
+    # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
+    # at the skeleton pixels in flat, zero-padded id images, all 8 neighbours at once
+    node_flat = np.zeros(img.flat.shape, np.int32)
+    seg_flat = np.zeros(img.flat.shape, np.int32)
+    nidx = np.concatenate([idx[n >= 3], idx[n == 1]])
+    node_flat[nidx] = node_of
+    seg_flat[pidx] = slab
+    off = img.offsets()
+    at = pidx[:, None] + off                                    # (P, 8)
+    nb = node_flat.take(at)
+    hit = nb > 0
+    sn = np.column_stack([np.broadcast_to(slab[:, None], nb.shape)[hit], nb[hit]])
+    nb = node_flat.take(nidx[:, None] + off)
+    hit = (nb > 0) & (nb != node_of[:, None])
+    nn = np.sort(np.column_stack([np.broadcast_to(node_of[:, None], nb.shape)[hit], nb[hit]]), axis=1)
+    # E, SE, S, SW: each step along a segment counted once; added direction by direction (the same sums)
+    same = seg_flat.take(at[:, 2:6]) == slab[:, None]
+    steps = np.bincount((slab[:, None] + np.arange(4) * (n_s + 1))[same], minlength=4 * (n_s + 1)).reshape(4, n_s + 1)
+    length = np.zeros(n_s + 1)
+    for k in range(4):
+        length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
+    sn = _unique_pairs_numpy(sn) - 1                                  # sorted by segment, then node
+    nn = _unique_pairs_numpy(nn) - 1
+    ends = np.full((n_s, 2), -1)
+    first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
+    rank = np.arange(len(sn)) - first
+    two = rank < 2
+    ends[sn[two, 0], rank[two]] = sn[two, 1]
+    filled = np.minimum(np.bincount(sn[:, 0], minlength=n_s), 2)
+    length = length[1:] + filled                    # plus one step onto each end node
+    seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
+    seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
+    length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
+    return SkeletonGraph(img.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
+                         seg_yx, length)
+
+
+def test_graph_core_gives_the_numpy_graph():
+    """build_graph (its pixel work compiled) gives the numpy and cv2.connectedComponents graph, every
+    array the same, on random images (any pixels, any scale) and their thinned skeletons; the kernel's
+    component labels are cv2.connectedComponents' numbers."""
+    import cv2
+
+    from appliance.localize.graph import build_graph
+    from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables, skeletonize
+
+    rng = np.random.default_rng(9)
+    for _ in range(150):
+        h, w = rng.integers(1, 45, 2)
+        img = (rng.random((h, w)) < rng.uniform(0.02, 0.7)).astype(np.uint8)
+        for skel in (Skeleton(img, int(rng.integers(1, 5))), skeletonize(img * 255, "thinning")):
+            a, b = build_graph(skel), _build_graph_numpy(skel)
+            assert a.shape == b.shape and a.scale == b.scale
+            for f in ("node_yx", "node_kind", "seg_nodes", "seg_length_px", "seg_recovered"):
+                assert getattr(a, f).dtype == getattr(b, f).dtype
+                np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+            for f in ("node_pixels", "seg_yx"):
+                assert len(getattr(a, f)) == len(getattr(b, f))
+                for p, q in zip(getattr(a, f), getattr(b, f)):
+                    np.testing.assert_array_equal(p, q)
+        sp = SparseImage.from_image(img)
+        idx = np.flatnonzero(sp.flat)
+        _, jlab, n_j, _, _, _, _, _ = kernels.graph_core(sp.flat, idx, w + 2, w, np.full(256, 3, np.uint8))
+        n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)    # (every pixel a junction)
+        assert n_j == n - 1
+        np.testing.assert_array_equal(jlab, lab.reshape(-1)[np.flatnonzero(img)])
+    assert len(build_graph(Skeleton(np.eye(6, dtype=np.uint8))).seg_yx) == 1 and neighbour_tables()[0][3] == 2

@@ -474,9 +474,9 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
         d_poly, inl_d = robust_fit(ug, d_axis, degree)
         if SLANT and degree == 1:   # the axis further behind the surface where the branch turns in depth
             h, w = sm.left_mask.shape
-            k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), float(d_poly.deriv()(ug[:1])[0]), dv, sm.f_px,
+            k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
                                        (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
-            d_poly, inl_d = robust_fit(ug, surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k), 1)
+            d_poly, inl_d = robust_fit(ug, surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k), degree)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
     for n in g.seg_nodes[s]:
         b.place_pending(n)                # (a provisional fork, made when read)

@@ -1,9 +1,11 @@
 """Disparity of the bark surface by normalised cross-correlation along rows.
 
 Used where the branch outline says nothing about disparity: on near-horizontal pieces a
-row runs along the branch, but the bark texture still pins each point. The surface seen
-at the centre line is about one radius nearer than the axis; :func:`surface_to_axis`
-moves the disparity back onto the axis.
+row runs along the branch, but the bark texture still pins each point. The surface a
+patch sees is nearer than the axis: 0.94 radius on the mean of its rows (+-0.6 radius,
+:func:`patch_depth_fraction`), more where the branch turns in depth (the line of sight
+meets the cylinder at a slant, :func:`slant_depth_factor`); :func:`surface_to_axis` moves
+the disparity back onto the axis.
 """
 
 from __future__ import annotations
@@ -234,7 +236,7 @@ def patch_depth_fraction(radius_px: float, half_h_px: int, slope=0.0):
     return np.sqrt(np.clip(1.0 - t * t, 0.0, None)).mean(axis=-1)
 
 
-def slant_depth_factor(u_px: np.ndarray, v_px: np.ndarray, d_px: np.ndarray, dd_du: float, dv_du: np.ndarray,
+def slant_depth_factor(u_px: np.ndarray, v_px: np.ndarray, d_px: np.ndarray, dd_du, dv_du: np.ndarray,
                        f_px: float, centre_px: tuple[float, float], offset_px: float = 0.0) -> np.ndarray:
     """How much deeper than one radius the axis lies behind the surface along the line of sight.
 
@@ -249,7 +251,7 @@ def slant_depth_factor(u_px: np.ndarray, v_px: np.ndarray, d_px: np.ndarray, dd_
     ----------
     u_px, v_px, d_px : ndarray (N,)
         Axis points in the rectified left view, and their disparity.
-    dd_du : float
+    dd_du : float or ndarray (N,)
         The axis' disparity slope along the rows (px per px).
     dv_du : ndarray (N,)
         Its centre line's slope.

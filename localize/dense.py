@@ -53,11 +53,14 @@ from appliance.localize.single_edge import (
 )
 from appliance.localize.subpixel import near_points, refine_runs
 from appliance.localize.texture import (
+    patch_depth_fraction,
+    slant_depth_factor,
     surface_disparity,
     surface_disparity_many,
     surface_to_axis,
 )
 
+SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
 
 
@@ -379,6 +382,11 @@ def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px
     return bool(ok.any()) and int((np.abs(d[None, :] - fit) <= tol_line_px).sum(1).max()) >= max(3, need)
 
 
+def _patch_half_h(radius_px: float) -> int:
+    """A flat piece's texture patches' half height, px: 0.6 radius (inside the branch)."""
+    return max(1, int(0.6 * radius_px))
+
+
 def _flat_curve(b: EndPlacer, s: int, runs_lt: Runs) -> BranchCurve | None:
     """A flat piece: centre line v(u) from the columns; disparity from the bark texture, or
     else from the forks/joints at its ends (:func:`_flat_curves` of one piece)."""
@@ -425,7 +433,7 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     lo, hi = float(t[inl].min()), float(t[inl].max())
     u = np.arange(lo, hi + 1, 6.0)
     uv = np.column_stack([u, v_poly(u)])
-    half_h = np.full(len(u), max(1, int(0.6 * radius)))
+    half_h = np.full(len(u), _patch_half_h(radius))
     # a few patches searched over the whole range give a prior; all patches then search near it
     coarse = np.unique(linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
     # both searches read one neighbourhood of each image: one lazy read each (the coarse search's
@@ -458,9 +466,17 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
     good &= on_right                                   # the match must land on a branch in the right view
     good[on_right] &= sm.right_mask[np.rint(uv[on_right, 1]).astype(int), xr[on_right]] >= 128
     if good.sum() >= 3:
-        d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px)
+        ug, dv = u[good], v_poly.deriv()(u[good])
+        k = patch_depth_fraction(radius, _patch_half_h(radius), dv)
+        d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
         # texture disparities are noisy: a constant for short pieces, a line for long ones
-        d_poly, inl_d = robust_fit(u[good], d_axis, 0 if hi - lo < 100 else 1)
+        degree = 0 if hi - lo < 100 else 1
+        d_poly, inl_d = robust_fit(ug, d_axis, degree)
+        if SLANT and degree == 1:   # the axis further behind the surface where the branch turns in depth
+            h, w = sm.left_mask.shape
+            k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
+                                       (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
+            d_poly, inl_d = robust_fit(ug, surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k), degree)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
     for n in g.seg_nodes[s]:
         b.place_pending(n)                # (a provisional fork, made when read)

@@ -75,7 +75,7 @@ def test_nearer_in_front_tells_an_occluder_from_the_background():
 
 
 def test_surface_to_axis_moves_back_by_one_radius():
-    d = surface_to_axis(np.array([100.0]), radius_px=10.0, f_px=1000.0)
+    d = surface_to_axis(np.array([100.0]), radius_px=10.0, f_px=1000.0, depth_fraction=1.0)
     assert d[0] == pytest.approx(100.0 / 1.01)
     assert surface_to_axis(np.array([50.0]), 0.0, 1000.0, offset_px=3.0)[0] == pytest.approx(50.0)
 

@@ -53,6 +53,10 @@ FLAT_SIDES_DIFFER_PX = 0.5
 # a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
+# a flat tip on a piece without texture (its disparity carried from its fork) keeps its run end's
+# disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
+CARRIED_D_PX = 2.0
+CARRIED_D_PER_PX = 0.1
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -871,7 +875,7 @@ class EndPlacer:
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
             if d_end is None and c.segment in self.cap_segments:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
-            if d_end is None:
+            if d_end is None or not self._carried_agrees(c, node, d_end):
                 self.hidden.add(int(node))
                 return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
@@ -914,6 +918,24 @@ class EndPlacer:
                 self.hidden.add(int(node))
                 return None
         return uv_edge, out, r, edge_bias_px
+
+    def _carried_agrees(self, c: BranchCurve, node: int, d_end: float) -> bool:
+        """Whether a flat tip's run-end disparity ``d_end`` (px) may stand on a piece without texture.
+
+        A flat piece whose bark gave no disparity carries its end node's (a fork's) to the tip
+        (``n_samples == 0``, not a cap curve of tips.py). The run end is picked nearest that prior,
+        so when the junction is two branches merely crossing in the image (another depth) the end
+        found is another branch's. Such an end must lie within ``CARRIED_D_PX`` plus
+        ``CARRIED_D_PER_PX`` per px the prior was carried (a branch inclined in depth); else the
+        tip has no depth of its own and is withheld.
+        """
+        if c.n_samples > 0 or c.segment in self.cap_segments:
+            return True
+        others = [n for n in self.g.seg_nodes[c.segment] if n >= 0 and n != node and n in self.uvd]
+        if not others:
+            return True
+        carried = min(float(np.hypot(*(self.uvd[n][:2] - self.uvd[node][:2]))) for n in others)
+        return bool(abs(d_end - self.uvd[node][2]) <= CARRIED_D_PX + CARRIED_D_PER_PX * carried)
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left

@@ -416,3 +416,21 @@ def test_forks_made_when_read_and_walks_made_at_once_give_the_same_result(monkey
             assert all(np.array_equal(a.uvd[n], b.uvd[n]) for n in a.uvd)
             n_pending += len(a._pending)
     assert n_pending >= 1                       # some provisional forks were never made
+
+
+@pytest.mark.parametrize("n_samples, d_end, kept", [(0, 101.0, True), (0, 110.0, True), (0, 140.0, False),
+                                                     (12, 140.0, True)])
+def test_a_flat_tip_without_texture_keeps_only_a_run_end_near_its_carried_disparity(n_samples, d_end, kept):
+    # a flat piece 80 px long from a fork (d 100 px) to its tip: without bark texture its disparity
+    # is the fork's, carried; the tip's run end may differ by 2 px + 0.1 px per px carried (10 px),
+    # not by 40 (another branch's run end, the fork two branches merely crossing); a piece whose
+    # texture gave its disparity is not judged by this
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import EndPlacer
+
+    c = BranchCurve(0, False, (300.0, 380.0), Poly.constant(200.0), Poly.constant(100.0), 5.0, n_samples)
+    placer = SimpleNamespace(g=SimpleNamespace(seg_nodes=[(1, 2)]), cap_segments=set(),
+                             uvd={1: np.array([380.0, 200.0, 100.0]), 2: np.array([300.0, 200.0, 100.0])})
+    assert EndPlacer._carried_agrees(placer, c, 2, d_end) is kept

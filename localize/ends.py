@@ -57,6 +57,10 @@ END_RUN_CUT_PX = 2.0
 # disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
 CARRIED_D_PX = 2.0
 CARRIED_D_PER_PX = 0.1
+# a flat parent whose two sides disagree at a fork, the child's curve carried further than this to
+# it (px), takes the side its child's right outline agrees with (within this, px) and the outline
+CHILD_CARRY_PX = 12.0
+SIDE_OUTLINE_PX = 0.5
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -286,9 +290,11 @@ class EndPlacer:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
             # the middle of the three pieces' disparities
+            sides = d_par
             d_par = [float(sorted([*d_par, at(child)])[1])]      # (the median of three, as np.median)
         if parents:
             d = float(sum(d_par) / len(d_par))    # (np.mean's sums of one or two values, bit for bit)
@@ -310,6 +316,12 @@ class EndPlacer:
             # places may be a px or two apart, as with noisy masks)
             if d_out is None:
                 pass
+            elif sides is not None and self._carried_px(child, xy) > CHILD_CARRY_PX \
+                    and min(abs(v - d_out) for v in sides) <= SIDE_OUTLINE_PX:
+                # the median above took the child's curve carried far to the fork (its end slope
+                # carried tens of rows): the side that the right outline confirms (seed 151's fork,
+                # +2.5 px from the child's carried curve)
+                d, agree = 0.5 * (min(sides, key=lambda v: abs(v - d_out)) + d_out), True
             elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
                     and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
                 # the two sides' textures next to the fork disagree: the outline's disparity too, if
@@ -344,6 +356,14 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _carried_px(self, s: int, xy: np.ndarray) -> float:
+        """How far (in its parameter: rows or columns) piece ``s``'s curve is carried past its
+        fitted span to reach ``xy`` (2,); 0 inside it."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = float(c.t_of(xy)[0])
+        return max(lo - t, t - hi, 0.0)
 
     def defer_forks(self, nodes) -> None:
         """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their

@@ -434,3 +434,19 @@ def test_a_flat_tip_without_texture_keeps_only_a_run_end_near_its_carried_dispar
     placer = SimpleNamespace(g=SimpleNamespace(seg_nodes=[(1, 2)]), cap_segments=set(),
                              uvd={1: np.array([380.0, 200.0, 100.0]), 2: np.array([300.0, 200.0, 100.0])})
     assert EndPlacer._carried_agrees(placer, c, 2, d_end) is kept
+
+
+def test_a_curve_carried_to_a_fork_counts_the_rows_past_its_span():
+    # a steep child fitted on rows 695-718 reaches a fork on row 662 only along its end slope:
+    # carried 33 rows (more than CHILD_CARRY_PX: its disparity there is not the median's pick
+    # when the right outline confirms a parent side); a fork inside the span carries nothing
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import CHILD_CARRY_PX, EndPlacer
+
+    c = BranchCurve(0, True, (695.0, 718.0), Poly.constant(300.0), Poly.constant(250.0), 9.0, 24)
+    placer = SimpleNamespace(curves={0: c})
+    assert EndPlacer._carried_px(placer, 0, np.array([345.0, 662.0])) == 33.0 > CHILD_CARRY_PX
+    assert EndPlacer._carried_px(placer, 0, np.array([300.0, 700.0])) == 0.0
+    assert EndPlacer._carried_px(placer, 0, np.array([300.0, 720.0])) == 2.0

@@ -61,6 +61,9 @@ CARRIED_D_PER_PX = 0.1
 # it (px), takes the side its child's right outline agrees with (within this, px) and the outline
 CHILD_CARRY_PX = 12.0
 SIDE_OUTLINE_PX = 0.5
+# a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
+# from the flat parent's disparity at its end next to the fork (px), discredits that outline
+CHILD_DEPTH_PX = 6.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,6 +154,9 @@ class EndPlacer:
         self._pending: set[int] = set()           # junctions whose provisional place is made when read
         self._pending_curves: dict | None = None  # (the curves it is made with: those before the flat pieces')
         self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
+        # forks on a flat parent set from the right outline of a child without a curve yet:
+        # {node: (child piece, the parent's own disparity)} (recheck_outline_forks)
+        self._from_outline: dict[int, tuple[int, float]] = {}
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -332,6 +338,8 @@ class EndPlacer:
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+                if child not in self.curves:            # (checked again: recheck_outline_forks)
+                    self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
         from_outline = agree
         self.uvd[node] = np.array([xy[0], xy[1], d])
@@ -356,6 +364,23 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def recheck_outline_forks(self) -> None:
+        """Forks on a flat parent whose disparity the right outline of a child without a curve
+        set (:meth:`fork`) take the parent's own back where the child has since gained a stub's
+        curve (caps.py) more than ``CHILD_DEPTH_PX`` from the parent's at its end next to the
+        fork: a child pointing steeply in depth, whose right outline leaves the parent where the
+        child is already nearer or further (seed 145's fork: +1.3 px from the outline, the
+        parent's texture +0.3)."""
+        for node, (child, d_par) in self._from_outline.items():
+            c = self.curves.get(child)
+            if c is None or node not in self.uvd:
+                continue
+            lo, hi = c.t_range
+            t = float(c.t_of(self.node_xy[node])[0])
+            d_child = float(c.d_at(hi if abs(t - hi) <= abs(t - lo) else lo)[0])
+            if abs(d_child - d_par) > CHILD_DEPTH_PX:
+                self.uvd[node][2] = d_par
 
     def _carried_px(self, s: int, xy: np.ndarray) -> float:
         """How far (in its parameter: rows or columns) piece ``s``'s curve is carried past its

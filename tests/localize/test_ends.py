@@ -450,3 +450,21 @@ def test_a_curve_carried_to_a_fork_counts_the_rows_past_its_span():
     assert EndPlacer._carried_px(placer, 0, np.array([345.0, 662.0])) == 33.0 > CHILD_CARRY_PX
     assert EndPlacer._carried_px(placer, 0, np.array([300.0, 700.0])) == 0.0
     assert EndPlacer._carried_px(placer, 0, np.array([300.0, 720.0])) == 2.0
+
+
+@pytest.mark.parametrize("d_child, d_fork", [(161.7, 143.0), (146.0, 144.4)])
+def test_a_stub_curve_far_in_depth_discredits_its_forks_right_outline(d_child, d_fork):
+    # a fork on a flat parent (own disparity 143.0 px) took 144.4 from its child's right outline;
+    # the child, a stub whose curve (rows 213-225, the fork on row 241) came later, lies at 161.7:
+    # it points steeply in depth, its right outline left the parent where it is already nearer,
+    # so the parent's own disparity stands; a stub at 146 px leaves the outline's
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import EndPlacer
+
+    c = BranchCurve(4, True, (213.5, 225.5), Poly.constant(200.0), Poly.constant(d_child), 7.0, 7)
+    placer = SimpleNamespace(curves={4: c}, _from_outline={0: (4, 143.0)}, node_xy=np.array([[157.0, 241.5]]),
+                             uvd={0: np.array([157.0, 241.5, 144.4])})
+    EndPlacer.recheck_outline_forks(placer)
+    assert placer.uvd[0][2] == pytest.approx(d_fork)

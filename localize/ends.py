@@ -64,6 +64,12 @@ SIDE_OUTLINE_PX = 0.5
 # a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
+# a steep tip whose cap rows' two edges (both the cap's) give disparities apart by a median within
+# this (px), most rows alike, has no depth of its own: one view's outline is wider by a few px all across the cap (a
+# colour mask taking in background on one side); a larger split is one side merged with another
+# branch in one view, which split_row_disparity resolves
+CAP_SPLIT_PX = (3.0, 8.0)
+CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -950,6 +956,9 @@ class EndPlacer:
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            if d_cap is not None and np.isnan(d_cap):
+                self.hidden.add(int(node))
+                return None
             if d_cap is not None:
                 self.uvd[node][2] = d_cap
         if self.cfg.oblique_end_ratio > 0:
@@ -1078,6 +1087,12 @@ class EndPlacer:
         both = cap_lo & cap_hi
         d = np.where(cap_lo, e_lo, e_hi)
         d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)
+        import os
+        if both.sum() >= 3:
+            split = np.abs(e_lo[both] - e_hi[both])
+            m = median(split)
+            if CAP_SPLIT_PX[0] < m <= CAP_SPLIT_PX[1] and (np.abs(split - m) <= 1.0).mean() >= CAP_SPLIT_SHARE:
+                return np.nan           # one view's outline is off across the cap: no depth
         d = d * cap_row_scale(rows, p[1], 0.5 * (h - 1), sm.f_px)
         d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
         if len(d) < 3:

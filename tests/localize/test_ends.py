@@ -468,3 +468,21 @@ def test_a_stub_curve_far_in_depth_discredits_its_forks_right_outline(d_child, d
                              uvd={0: np.array([157.0, 241.5, 144.4])})
     EndPlacer.recheck_outline_forks(placer)
     assert placer.uvd[0][2] == pytest.approx(d_fork)
+
+
+@pytest.mark.parametrize("widen_px, kept", [(0, True), (5, False)])
+def test_a_tip_whose_left_outline_is_wider_all_across_its_cap_is_withheld(widen_px, kept):
+    # a steep rod (radius 10 px, 84 px of disparity) ends in a round cap at the top; the left mask
+    # taking in 5 px of background on the right side of the cap's rows (a colour mask's error)
+    # makes the cap's two edges disagree by ~5 px on every row: the tip is not reported (the
+    # bottom tip stands)
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=10.0, top=(300.0, 60.0), bottom=(290.0, 420.0))
+    ml = ml.copy()
+    for v in range(40, 100):
+        on = np.flatnonzero(ml[v])
+        ml[v, on[-1] + 1: on[-1] + 1 + widen_px] = 255
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint"]
+    assert any(f.left_px[1] > 400 and abs(f.left_px[0] - f.right_px[0] - d) <= 0.3 for f in tips)
+    assert any(f.left_px[1] < 80 for f in tips) is kept

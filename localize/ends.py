@@ -65,10 +65,11 @@ SIDE_OUTLINE_PX = 0.5
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
 # a steep tip whose cap rows' two edges (both the cap's) give disparities apart by a median within
-# this (px), most rows alike, has no depth of its own: one view's outline is wider by a few px all across the cap (a
-# colour mask taking in background on one side); a larger split is one side merged with another
-# branch in one view, which split_row_disparity resolves
-CAP_SPLIT_PX = (3.0, 8.0)
+# this (px), most rows alike, has no depth of its own: one view's outline is wider by a few px all
+# across the cap (a colour mask taking in background on one side); a larger split is one side
+# merged with another branch in one view, which split_row_disparity resolves, and so is a smaller
+# one (something touching the cap, 3 px nearer: test_a_tip_touched_on_one_side...)
+CAP_SPLIT_PX = (4.0, 8.0)
 CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
 
 
@@ -1087,7 +1088,6 @@ class EndPlacer:
         both = cap_lo & cap_hi
         d = np.where(cap_lo, e_lo, e_hi)
         d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)
-        import os
         if both.sum() >= 3:
             split = np.abs(e_lo[both] - e_hi[both])
             m = median(split)

@@ -481,7 +481,8 @@ def test_a_tip_whose_left_outline_is_wider_all_across_its_cap_is_withheld(widen_
     ml = ml.copy()
     for v in range(40, 100):
         on = np.flatnonzero(ml[v])
-        ml[v, on[-1] + 1: on[-1] + 1 + widen_px] = 255
+        if len(on):
+            ml[v, on[-1] + 1: on[-1] + 1 + widen_px] = 255
     res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
     tips = [f for f in res.features if f.kind == "endpoint"]
     assert any(f.left_px[1] > 400 and abs(f.left_px[0] - f.right_px[0] - d) <= 0.3 for f in tips)

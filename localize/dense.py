@@ -572,6 +572,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     for node in np.flatnonzero(kinds == JUNCTION):
         b.fork(node, final=True)
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
+    b.recheck_outline_forks()           # (a child's new stub curve may discredit its right outline)
     if flat:            # short flat pieces without texture: their tips by the round cap (tips.py)
         curves.update(flat_cap_curves(b, [s for s in flat if s not in curves], runs_lt))
     ends = np.flatnonzero(kinds == ENDPOINT).tolist()

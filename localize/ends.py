@@ -53,6 +53,24 @@ FLAT_SIDES_DIFFER_PX = 0.5
 # a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
+# a flat tip on a piece without texture (its disparity carried from its fork) keeps its run end's
+# disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
+CARRIED_D_PX = 2.0
+CARRIED_D_PER_PX = 0.1
+# a flat parent whose two sides disagree at a fork, the child's curve carried further than this to
+# it (px), takes the side its child's right outline agrees with (within this, px) and the outline
+CHILD_CARRY_PX = 12.0
+SIDE_OUTLINE_PX = 0.5
+# a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
+# from the flat parent's disparity at its end next to the fork (px), discredits that outline
+CHILD_DEPTH_PX = 6.0
+# a steep tip whose cap rows' two edges (both the cap's) give disparities apart by a median within
+# this (px), most rows alike, has no depth of its own: one view's outline is wider by a few px all
+# across the cap (a colour mask taking in background on one side); a larger split is one side
+# merged with another branch in one view, which split_row_disparity resolves, and so is a smaller
+# one (something touching the cap, 3 px nearer: test_a_tip_touched_on_one_side...)
+CAP_SPLIT_PX = (4.0, 8.0)
+CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -143,6 +161,9 @@ class EndPlacer:
         self._pending: set[int] = set()           # junctions whose provisional place is made when read
         self._pending_curves: dict | None = None  # (the curves it is made with: those before the flat pieces')
         self.cap_segments: set[int] = set()      # flat pieces whose curve is their cap's (tips.py)
+        # forks on a flat parent set from the right outline of a child without a curve yet:
+        # {node: (child piece, the parent's own disparity)} (recheck_outline_forks)
+        self._from_outline: dict[int, tuple[int, float]] = {}
 
     def seg_points(self, s: int) -> np.ndarray:
         """Centre line of a piece (N, 2): its fitted curve, or else its skeleton pixels (read-only)."""
@@ -282,9 +303,11 @@ class EndPlacer:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
             # the middle of the three pieces' disparities
+            sides = d_par
             d_par = [float(sorted([*d_par, at(child)])[1])]      # (the median of three, as np.median)
         if parents:
             d = float(sum(d_par) / len(d_par))    # (np.mean's sums of one or two values, bit for bit)
@@ -306,6 +329,12 @@ class EndPlacer:
             # places may be a px or two apart, as with noisy masks)
             if d_out is None:
                 pass
+            elif sides is not None and self._carried_px(child, xy) > CHILD_CARRY_PX \
+                    and min(abs(v - d_out) for v in sides) <= SIDE_OUTLINE_PX:
+                # the median above took the child's curve carried far to the fork (its end slope
+                # carried tens of rows): the side that the right outline confirms (seed 151's fork,
+                # +2.5 px from the child's carried curve)
+                d, agree = 0.5 * (min(sides, key=lambda v: abs(v - d_out)) + d_out), True
             elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
                     and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
                 # the two sides' textures next to the fork disagree: the outline's disparity too, if
@@ -316,6 +345,8 @@ class EndPlacer:
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+                if child not in self.curves:            # (checked again: recheck_outline_forks)
+                    self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
         from_outline = agree
         self.uvd[node] = np.array([xy[0], xy[1], d])
@@ -340,6 +371,31 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def recheck_outline_forks(self) -> None:
+        """Forks on a flat parent whose disparity the right outline of a child without a curve
+        set (:meth:`fork`) take the parent's own back where the child has since gained a stub's
+        curve (caps.py) more than ``CHILD_DEPTH_PX`` from the parent's at its end next to the
+        fork: a child pointing steeply in depth, whose right outline leaves the parent where the
+        child is already nearer or further (seed 145's fork: +1.3 px from the outline, the
+        parent's texture +0.3)."""
+        for node, (child, d_par) in self._from_outline.items():
+            c = self.curves.get(child)
+            if c is None or node not in self.uvd:
+                continue
+            lo, hi = c.t_range
+            t = float(c.t_of(self.node_xy[node])[0])
+            d_child = float(c.d_at(hi if abs(t - hi) <= abs(t - lo) else lo)[0])
+            if abs(d_child - d_par) > CHILD_DEPTH_PX:
+                self.uvd[node][2] = d_par
+
+    def _carried_px(self, s: int, xy: np.ndarray) -> float:
+        """How far (in its parameter: rows or columns) piece ``s``'s curve is carried past its
+        fitted span to reach ``xy`` (2,); 0 inside it."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = float(c.t_of(xy)[0])
+        return max(lo - t, t - hi, 0.0)
 
     def defer_forks(self, nodes) -> None:
         """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their
@@ -871,7 +927,7 @@ class EndPlacer:
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
             if d_end is None and c.segment in self.cap_segments:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
-            if d_end is None:
+            if d_end is None or not self._carried_agrees(c, node, d_end):
                 self.hidden.add(int(node))
                 return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
@@ -901,6 +957,9 @@ class EndPlacer:
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            if d_cap is not None and np.isnan(d_cap):
+                self.hidden.add(int(node))
+                return None
             if d_cap is not None:
                 self.uvd[node][2] = d_cap
         if self.cfg.oblique_end_ratio > 0:
@@ -914,6 +973,24 @@ class EndPlacer:
                 self.hidden.add(int(node))
                 return None
         return uv_edge, out, r, edge_bias_px
+
+    def _carried_agrees(self, c: BranchCurve, node: int, d_end: float) -> bool:
+        """Whether a flat tip's run-end disparity ``d_end`` (px) may stand on a piece without texture.
+
+        A flat piece whose bark gave no disparity carries its end node's (a fork's) to the tip
+        (``n_samples == 0``, not a cap curve of tips.py). The run end is picked nearest that prior,
+        so when the junction is two branches merely crossing in the image (another depth) the end
+        found is another branch's. Such an end must lie within ``CARRIED_D_PX`` plus
+        ``CARRIED_D_PER_PX`` per px the prior was carried (a branch inclined in depth); else the
+        tip has no depth of its own and is withheld.
+        """
+        if c.n_samples > 0 or c.segment in self.cap_segments:
+            return True
+        others = [n for n in self.g.seg_nodes[c.segment] if n >= 0 and n != node and n in self.uvd]
+        if not others:
+            return True
+        carried = min(float(np.hypot(*(self.uvd[n][:2] - self.uvd[node][:2]))) for n in others)
+        return bool(abs(d_end - self.uvd[node][2]) <= CARRIED_D_PX + CARRIED_D_PER_PX * carried)
 
     def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
         """Whether the right view shows a clearly wider branch just past a steep piece's left
@@ -1011,6 +1088,11 @@ class EndPlacer:
         both = cap_lo & cap_hi
         d = np.where(cap_lo, e_lo, e_hi)
         d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)
+        if both.sum() >= 3:
+            split = np.abs(e_lo[both] - e_hi[both])
+            m = median(split)
+            if CAP_SPLIT_PX[0] < m <= CAP_SPLIT_PX[1] and (np.abs(split - m) <= 1.0).mean() >= CAP_SPLIT_SHARE:
+                return np.nan           # one view's outline is off across the cap: no depth
         d = d * cap_row_scale(rows, p[1], 0.5 * (h - 1), sm.f_px)
         d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
         if len(d) < 3:

@@ -416,3 +416,74 @@ def test_forks_made_when_read_and_walks_made_at_once_give_the_same_result(monkey
             assert all(np.array_equal(a.uvd[n], b.uvd[n]) for n in a.uvd)
             n_pending += len(a._pending)
     assert n_pending >= 1                       # some provisional forks were never made
+
+
+@pytest.mark.parametrize("n_samples, d_end, kept", [(0, 101.0, True), (0, 110.0, True), (0, 140.0, False),
+                                                     (12, 140.0, True)])
+def test_a_flat_tip_without_texture_keeps_only_a_run_end_near_its_carried_disparity(n_samples, d_end, kept):
+    # a flat piece 80 px long from a fork (d 100 px) to its tip: without bark texture its disparity
+    # is the fork's, carried; the tip's run end may differ by 2 px + 0.1 px per px carried (10 px),
+    # not by 40 (another branch's run end, the fork two branches merely crossing); a piece whose
+    # texture gave its disparity is not judged by this
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import EndPlacer
+
+    c = BranchCurve(0, False, (300.0, 380.0), Poly.constant(200.0), Poly.constant(100.0), 5.0, n_samples)
+    placer = SimpleNamespace(g=SimpleNamespace(seg_nodes=[(1, 2)]), cap_segments=set(),
+                             uvd={1: np.array([380.0, 200.0, 100.0]), 2: np.array([300.0, 200.0, 100.0])})
+    assert EndPlacer._carried_agrees(placer, c, 2, d_end) is kept
+
+
+def test_a_curve_carried_to_a_fork_counts_the_rows_past_its_span():
+    # a steep child fitted on rows 695-718 reaches a fork on row 662 only along its end slope:
+    # carried 33 rows (more than CHILD_CARRY_PX: its disparity there is not the median's pick
+    # when the right outline confirms a parent side); a fork inside the span carries nothing
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import CHILD_CARRY_PX, EndPlacer
+
+    c = BranchCurve(0, True, (695.0, 718.0), Poly.constant(300.0), Poly.constant(250.0), 9.0, 24)
+    placer = SimpleNamespace(curves={0: c})
+    assert EndPlacer._carried_px(placer, 0, np.array([345.0, 662.0])) == 33.0 > CHILD_CARRY_PX
+    assert EndPlacer._carried_px(placer, 0, np.array([300.0, 700.0])) == 0.0
+    assert EndPlacer._carried_px(placer, 0, np.array([300.0, 720.0])) == 2.0
+
+
+@pytest.mark.parametrize("d_child, d_fork", [(161.7, 143.0), (146.0, 144.4)])
+def test_a_stub_curve_far_in_depth_discredits_its_forks_right_outline(d_child, d_fork):
+    # a fork on a flat parent (own disparity 143.0 px) took 144.4 from its child's right outline;
+    # the child, a stub whose curve (rows 213-225, the fork on row 241) came later, lies at 161.7:
+    # it points steeply in depth, its right outline left the parent where it is already nearer,
+    # so the parent's own disparity stands; a stub at 146 px leaves the outline's
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import EndPlacer
+
+    c = BranchCurve(4, True, (213.5, 225.5), Poly.constant(200.0), Poly.constant(d_child), 7.0, 7)
+    placer = SimpleNamespace(curves={4: c}, _from_outline={0: (4, 143.0)}, node_xy=np.array([[157.0, 241.5]]),
+                             uvd={0: np.array([157.0, 241.5, 144.4])})
+    EndPlacer.recheck_outline_forks(placer)
+    assert placer.uvd[0][2] == pytest.approx(d_fork)
+
+
+@pytest.mark.parametrize("widen_px, kept", [(0, True), (5, False)])
+def test_a_tip_whose_left_outline_is_wider_all_across_its_cap_is_withheld(widen_px, kept):
+    # a steep rod (radius 10 px, 84 px of disparity) ends in a round cap at the top; the left mask
+    # taking in 5 px of background on the right side of the cap's rows (a colour mask's error)
+    # makes the cap's two edges disagree by ~5 px on every row: the tip is not reported (the
+    # bottom tip stands)
+    calib = ideal_rig()
+    left, right, ml, mr, d = branch_pair(calib, 1000.0, radius_px=10.0, top=(300.0, 60.0), bottom=(290.0, 420.0))
+    ml = ml.copy()
+    for v in range(40, 100):
+        on = np.flatnonzero(ml[v])
+        if len(on):
+            ml[v, on[-1] + 1: on[-1] + 1 + widen_px] = 255
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint"]
+    assert any(f.left_px[1] > 400 and abs(f.left_px[0] - f.right_px[0] - d) <= 0.3 for f in tips)
+    assert any(f.left_px[1] < 80 for f in tips) is kept

@@ -1,0 +1,34 @@
+"""Trust checks for a flat piece's bark-texture disparity line (issue 5: gross errors).
+
+A flat piece of 100 px or more gets a line through its texture patches' disparities
+(``dense._flat_finish``). A line through a handful of matches (seed 126: 3 of 21 patches,
+0.5 px per px, ~450 mm off; seed 113: 5 of 31) is not a measurement of the branch: such a piece
+is withheld (no curve) rather than reported at a wrong depth.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MIN_LINE_INLIERS = 7        # a texture line needs at least this many inlier patches ...
+MIN_LINE_SHARE = 0.15       # ... and this share of the piece's patches (6 px apart)
+MIN_LINE_SPREAD = 0.2       # ... spread over this share of the piece's length
+
+
+def line_supported(u_inl_px: np.ndarray, n_patches: int, lo_px: float, hi_px: float) -> bool:
+    """Whether a flat piece's texture line is backed by enough patches along it.
+
+    Parameters
+    ----------
+    u_inl_px : (K,) columns (px) of the patches the line fit kept (inliers).
+    n_patches : number of texture patches laid along the piece (all, matched or not).
+    lo_px, hi_px : the piece's column range (px).
+
+    Returns
+    -------
+    True when at least ``max(MIN_LINE_INLIERS, MIN_LINE_SHARE * n_patches)`` inliers span at
+    least ``MIN_LINE_SPREAD`` of ``hi_px - lo_px``.
+    """
+    u = np.asarray(u_inl_px, float)
+    if len(u) < max(MIN_LINE_INLIERS, MIN_LINE_SHARE * n_patches):
+        return False
+    return float(u.max() - u.min()) >= MIN_LINE_SPREAD * (hi_px - lo_px)

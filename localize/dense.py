@@ -38,7 +38,7 @@ from appliance.localize.curves import (
 from appliance.localize import kernels
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
-from appliance.localize.flatfit import line_supported
+from appliance.localize.flatfit import at_window_edge_dropped, line_supported
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -401,7 +401,7 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     found = [_flat_search(b, s, runs_lt) for s in segs]
     fine = [f for f in found if f is not None and f[7] is not None]
     for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
-        f[6] = res
+        f[6] = (at_window_edge_dropped(res[0], f[7][4]), res[1])
     out = {}
     for s, f in zip(segs, found):
         c = _flat_finish(b, s, *f[:7]) if f is not None else None

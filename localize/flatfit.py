@@ -32,3 +32,14 @@ def line_supported(u_inl_px: np.ndarray, n_patches: int, lo_px: float, hi_px: fl
     if len(u) < max(MIN_LINE_INLIERS, MIN_LINE_SHARE * n_patches):
         return False
     return float(u.max() - u.min()) >= MIN_LINE_SPREAD * (hi_px - lo_px)
+
+
+def at_window_edge_dropped(d_px: np.ndarray, window_px: tuple[float, float]) -> np.ndarray:
+    """Texture disparities (N,) with those at an end of their search window (``window_px``: the
+    fine search's (lo, hi), px, widened to whole px as the search does, around the coarse prior) set to NaN: the correlation still rose there,
+    so its peak lies outside the window and the value is the window's, not the bark's (seed 149
+    colour piece 12: 12 of 19 patches at exactly prior -6 or +6 px)."""
+    d = np.asarray(d_px, float)
+    lo, hi = np.floor(window_px[0]), np.ceil(window_px[1])        # (the search's whole px)
+    edge = (np.abs(d - lo) < 1e-6) | (np.abs(d - hi) < 1e-6)
+    return np.where(edge, np.nan, d)

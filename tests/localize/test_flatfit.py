@@ -1,7 +1,9 @@
 """Trust checks on a flat piece's texture line (localize/flatfit.py)."""
+import cv2
 import numpy as np
 
-from appliance.localize.flatfit import line_supported
+from appliance.localize.flatfit import at_window_edge_dropped, line_supported
+from appliance.localize.texture import surface_disparity
 
 
 def test_a_line_through_three_clustered_patches_is_not_supported():
@@ -25,3 +27,25 @@ def test_a_line_through_a_third_of_the_patches_spread_out_is_supported():
     u = np.arange(0.0, 196.0, 6.0)
     assert line_supported(u[10:18], len(u), 0.0, 195.0)
     assert line_supported(u[::2], len(u), 0.0, 195.0)
+
+
+def test_disparities_at_the_search_windows_ends_are_dropped():
+    # the fine search around a prior of 209.6 px runs over whole px 203 ... 216
+    d = np.array([203.0, 204.5, 210.47, 216.0, 215.99, np.nan])
+    out = at_window_edge_dropped(d, (203.6, 215.6))
+    assert np.isnan(out[[0, 3, 5]]).all()
+    assert np.allclose(out[[1, 2, 4]], [204.5, 210.47, 215.99])
+
+
+def test_a_texture_search_whose_peak_lies_beyond_the_window_is_dropped():
+    # a real search: bark shifted by 20 px, searched over 8 ... 14 px: the best is the window's end
+    rng = np.random.default_rng(3)
+    left = cv2.GaussianBlur(rng.uniform(0, 255, (40, 200)).astype(np.float32), (0, 0), 6) * 20   # smooth bark
+    right = np.roll(left, -20, axis=1)
+    uv = np.array([[100.0, 20.0], [120.0, 20.0]])
+    window = (8.0, 14.0)
+    d, _ = surface_disparity(left, right, uv, np.array([5, 5]), window, half_w_px=12)
+    assert np.allclose(d, 14.0)                     # (clamped to the window's end)
+    assert np.isnan(at_window_edge_dropped(d, window)).all()
+    d_ok, _ = surface_disparity(left, right, uv, np.array([5, 5]), (16.0, 24.0), half_w_px=12)
+    assert np.allclose(at_window_edge_dropped(d_ok, (16.0, 24.0)), 20.0, atol=0.05)

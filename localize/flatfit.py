@@ -43,3 +43,24 @@ def at_window_edge_dropped(d_px: np.ndarray, window_px: tuple[float, float]) -> 
     lo, hi = np.floor(window_px[0]), np.ceil(window_px[1])        # (the search's whole px)
     edge = (np.abs(d - lo) < 1e-6) | (np.abs(d - hi) < 1e-6)
     return np.where(edge, np.nan, d)
+
+
+FEW_LINE_PATCHES = 11      # a texture line from this many inliers or fewer scatters (MAD) at most ...
+MAX_LINE_MAD_PX = 1.25      # ... this about the line ...
+FEW_PATCHES = 5             # ... and a constant from this many patches or fewer at most ...
+MAX_FEW_MAD_PX = 2.3        # ... this (good pieces: 0.1-1 px; ambiguous bark matches 1.3-4.6 px)
+
+
+def scatter_ok(residual_px: np.ndarray, degree: int) -> bool:
+    """Whether a flat piece's texture fit's inlier residuals (K,) (px, axis disparity minus the
+    fit) are tight enough to be the branch's: their MAD at most ``MAX_LINE_MAD_PX`` for a line
+    from at most ``FEW_LINE_PATCHES`` inliers, ``MAX_FEW_MAD_PX`` for a constant from at most
+    ``FEW_PATCHES`` (fits from more patches: no limit; seed 110's good line from 28 patches
+    scatters 1.2-1.3 px). Seeds 149 (colour p12, 1.28 px), 151 (colour p22, 2.1 px), 142, 146, 126, 115."""
+    r = np.asarray(residual_px, float)
+    if len(r) == 0:
+        return True
+    mad = float(np.median(np.abs(r - np.median(r))))
+    if degree >= 1:
+        return len(r) > FEW_LINE_PATCHES or mad <= MAX_LINE_MAD_PX
+    return len(r) > FEW_PATCHES or mad <= MAX_FEW_MAD_PX

@@ -2,7 +2,7 @@
 import cv2
 import numpy as np
 
-from appliance.localize.flatfit import at_window_edge_dropped, line_supported
+from appliance.localize.flatfit import at_window_edge_dropped, line_supported, scatter_ok
 from appliance.localize.texture import surface_disparity
 
 
@@ -49,3 +49,17 @@ def test_a_texture_search_whose_peak_lies_beyond_the_window_is_dropped():
     assert np.isnan(at_window_edge_dropped(d, window)).all()
     d_ok, _ = surface_disparity(left, right, uv, np.array([5, 5]), (16.0, 24.0), half_w_px=12)
     assert np.allclose(at_window_edge_dropped(d_ok, (16.0, 24.0)), 20.0, atol=0.05)
+
+
+def test_a_line_from_few_patches_scattered_over_px_is_not_trusted():
+    # seed 149 colour piece 12's kind: 7 patches 205-212 px about a line (MAD ~1.3-2 px)
+    r = np.array([-2.1, 1.8, -1.5, 2.4, -0.4, 1.6, -2.6])
+    assert not scatter_ok(r, 1)
+    assert scatter_ok(0.2 * r, 1)                    # bark matched to 0.3 px: fine
+    assert scatter_ok(np.tile(r, 4), 1)              # 28 patches: the line's own bend, not judged
+
+
+def test_a_constant_from_three_patches_px_apart_is_not_trusted():
+    assert not scatter_ok(np.array([-4.0, 0.5, 4.6]), 0)
+    assert scatter_ok(np.array([-0.4, 0.1, 0.5]), 0)
+    assert scatter_ok(np.array([-4.0, 0.5, 4.6, -3.0, 3.5, 0.0, 2.8]), 0)   # 7 patches: not judged

@@ -38,6 +38,7 @@ from appliance.localize.curves import (
 from appliance.localize import kernels
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
+from appliance.localize.flatfit import at_window_edge_dropped, line_supported, scatter_ok
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -400,7 +401,7 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     found = [_flat_search(b, s, runs_lt) for s in segs]
     fine = [f for f in found if f is not None and f[7] is not None]
     for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
-        f[6] = res
+        f[6] = (at_window_edge_dropped(res[0], f[7][4]), res[1])
     out = {}
     for s, f in zip(segs, found):
         c = _flat_finish(b, s, *f[:7]) if f is not None else None
@@ -476,7 +477,12 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
             h, w = sm.left_mask.shape
             k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
                                        (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
-            d_poly, inl_d = robust_fit(ug, surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k), degree)
+            d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
+            d_poly, inl_d = robust_fit(ug, d_axis, degree)
+        if degree == 1 and not line_supported(ug[inl_d], len(u), lo, hi):
+            return None                 # a line through a handful of matches: withheld (flatfit.py)
+        if not scatter_ok((d_axis - d_poly(ug))[inl_d], degree):
+            return None                 # matches scattered over px: ambiguous bark (flatfit.py)
         return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
     for n in g.seg_nodes[s]:
         b.place_pending(n)                # (a provisional fork, made when read)

@@ -473,17 +473,16 @@ class EndPlacer:
         s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
         step = max(1.5 * r_child, 6.0)
         pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
-        # the mask read once on the four lines (the second pair is needed when the first is unclear)
-        samples = EndPlacer._line_samples([(c1 + h * n, s0 + h * cot) for pair in pairs for h in pair],
-                                          e1, r_child, sin_t, mask)
-        for i, (h1, _) in enumerate(pairs):
-            m1 = EndPlacer._interval_middle(*samples[2 * i], r_child, sin_t)
-            if m1 is None:
-                continue
-            m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
-            if m2 is not None:
-                return c1 + (m1 - (m2 - m1) * h1 / step) * e1
-        return None
+        # the four lines' samples and interval middles compiled (kernels.child_outline_pairs: the
+        # values of _line_samples + _interval_middle, the mask read only where the scans look)
+        hs = np.array([h for pair in pairs for h in pair])
+        reach = (4.7 * r_child + 3) / sin_t + 2            # (as _line_samples)
+        i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
+                                                np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
+        if i < 0:
+            return None
+        h1 = pairs[i][0]
+        return c1 + (m1 - (m2 - m1) * h1 / step) * e1
 
     def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.

@@ -189,8 +189,8 @@ class EndPlacer:
     def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
         """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
         pts = self.seg_points(s)
-        dist = np.hypot(*(pts - p).T)
-        sel = pts[(dist >= 1.6 * r) & (dist <= 1.6 * r + max(40.0, 4 * r))]
+        # (compiled: the same distances and points as np.hypot and the boolean selection)
+        sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
         return sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:
@@ -818,6 +818,30 @@ class EndPlacer:
         done[(offset_px, right, True) if whole else (offset_px, right)] = res
         return res
 
+    def _walk_sides(self, c: BranchCurve, node: int, offset_px: float) -> tuple[float, float]:
+        """:meth:`_walk_out`'s parameters of the parallels ``offset_px`` and ``-offset_px`` to either
+        side (left view, sub-pixel), both walks read by one :func:`walk_edges` call (each walk's
+        values are its own: the same results, cached as :meth:`_walk_out` caches them)."""
+        self._walk_out(c, node)                        # (the plain walk: its samples and normals cached)
+        hit = self._walk_cache[node, id(c)]
+        _, t, sign, uv, normal, done = hit
+        keys = [(offset_px, False), (-offset_px, False)]
+        if not offset_px or any(k in done for k in keys):
+            return self._walk_out(c, node, offset_px)[0], self._walk_out(c, node, -offset_px)[0]
+        if normal is None:
+            ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))      # (as _walk_out)
+            step = ab[:len(t)] - ab[len(t):]
+            step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
+            normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
+        n = len(t)
+        idx, crosses = walk_edges(self.sm.left_mask, np.concatenate([uv + offset_px * normal, uv + -offset_px * normal]),
+                                  np.array([0, n, 2 * n]))
+        out = []
+        for i, k in enumerate(keys):
+            done[k] = (self._walk_t(t, sign, idx[i], crosses[i]), sign)
+            out.append(done[k][0])
+        return out[0], out[1]
+
     def tip(self, node: int) -> None:
         """A tip: the end of the mask along the centre line, less the round cap (its own radius).
 
@@ -966,8 +990,7 @@ class EndPlacer:
             # usually cuts the branch obliquely (in both views alike when the leaf sits on the
             # branch): such an end is hidden, not a tip. The sides are 0.4 radius off the axis
             # (further out, a tapering tip or a radius a little too large ends a side early)
-            t_a, _ = self._walk_out(c, node, 0.4 * r)
-            t_b, _ = self._walk_out(c, node, -0.4 * r)
+            t_a, t_b = self._walk_sides(c, node, 0.4 * r)
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return None

@@ -588,6 +588,28 @@ def child_outline_pairs(mask, bases, s_c, e, reach, r_child, sin_t):
 
 
 @numba.njit(**_JIT)
+def near_points(pts, px, py, lo, hi):
+    """``ends.EndPlacer._near_points``' selection: the points ``pts`` (N, 2) whose distance (``np.hypot``)
+    from (``px``, ``py``) lies in [``lo``, ``hi``], in order, and every point's distance (N,)."""
+    n = len(pts)
+    dist = np.empty(n)
+    keep = np.zeros(n, np.bool_)
+    m = 0
+    for i in range(n):
+        dist[i] = np.hypot(pts[i, 0] - px, pts[i, 1] - py)
+        if dist[i] >= lo and dist[i] <= hi:
+            keep[i] = True
+            m += 1
+    sel = np.empty((m, 2))
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            sel[j, 0], sel[j, 1] = pts[i, 0], pts[i, 1]
+            j += 1
+    return sel, dist
+
+
+@numba.njit(**_JIT)
 def _horner(c, x):
     """``Poly.at``'s sum of coefficients ``c`` (highest power first) at the scaled parameter ``x``."""
     if len(c) == 1:
@@ -940,6 +962,7 @@ def warm_up() -> None:
     runs_between(_readonly(f.copy()), i, 4, f, f)
     walk_edges(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     child_outline_pairs(np.zeros((4, 4), np.uint8), np.zeros((4, 2)), f, f[:2], 5.0, 1.0, 1.0)
+    near_points(_readonly(np.zeros((4, 2))), 0.0, 0.0, 1.0, 2.0)
     eval_clamped(f[:2], f[:1], 0.0, 1.0, 0.0, 1.0, f[:2], True, np.arange(4.0))
     img, tab = np.zeros(16, np.uint8), np.zeros(256, bool)
     off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)

@@ -436,3 +436,17 @@ def test_child_outline_pairs_is_line_samples_and_interval_middles():
             assert (int(got[0]), float(got[1]), float(got[2])) == want
             found += want[0] >= 0
     assert found > 50
+
+
+def test_near_points_is_numpys_hypot_selection():
+    """A junction's near points: the same distances (np.hypot) and the same points, in order."""
+    rng = np.random.default_rng(6)
+    for n in (0, 1, 3, 40, 500):
+        pts = rng.uniform(-50, 300, (n, 2)) * rng.choice([1.0, 1e-3, 1e3])
+        pts.setflags(write=False)
+        p = rng.uniform(0, 200, 2)
+        for lo, hi in ((0.0, 1e9), (10.0, 60.0), (30.0, 30.0)):
+            sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), lo, hi)
+            want = np.hypot(*(pts - p).T)
+            np.testing.assert_array_equal(dist, want)
+            np.testing.assert_array_equal(sel, pts[(want >= lo) & (want <= hi)])

@@ -189,8 +189,8 @@ class EndPlacer:
     def _near_points(self, s: int, p: np.ndarray, r: float) -> np.ndarray:
         """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
         pts = self.seg_points(s)
-        dist = np.hypot(*(pts - p).T)
-        sel = pts[(dist >= 1.6 * r) & (dist <= 1.6 * r + max(40.0, 4 * r))]
+        # (compiled: the same distances and points as np.hypot and the boolean selection)
+        sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
         return sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:
@@ -473,17 +473,16 @@ class EndPlacer:
         s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
         step = max(1.5 * r_child, 6.0)
         pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
-        # the mask read once on the four lines (the second pair is needed when the first is unclear)
-        samples = EndPlacer._line_samples([(c1 + h * n, s0 + h * cot) for pair in pairs for h in pair],
-                                          e1, r_child, sin_t, mask)
-        for i, (h1, _) in enumerate(pairs):
-            m1 = EndPlacer._interval_middle(*samples[2 * i], r_child, sin_t)
-            if m1 is None:
-                continue
-            m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
-            if m2 is not None:
-                return c1 + (m1 - (m2 - m1) * h1 / step) * e1
-        return None
+        # the four lines' samples and interval middles compiled (kernels.child_outline_pairs: the
+        # values of _line_samples + _interval_middle, the mask read only where the scans look)
+        hs = np.array([h for pair in pairs for h in pair])
+        reach = (4.7 * r_child + 3) / sin_t + 2            # (as _line_samples)
+        i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
+                                                np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
+        if i < 0:
+            return None
+        h1 = pairs[i][0]
+        return c1 + (m1 - (m2 - m1) * h1 / step) * e1
 
     def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.
@@ -819,6 +818,30 @@ class EndPlacer:
         done[(offset_px, right, True) if whole else (offset_px, right)] = res
         return res
 
+    def _walk_sides(self, c: BranchCurve, node: int, offset_px: float) -> tuple[float, float]:
+        """:meth:`_walk_out`'s parameters of the parallels ``offset_px`` and ``-offset_px`` to either
+        side (left view, sub-pixel), both walks read by one :func:`walk_edges` call (each walk's
+        values are its own: the same results, cached as :meth:`_walk_out` caches them)."""
+        self._walk_out(c, node)                        # (the plain walk: its samples and normals cached)
+        hit = self._walk_cache[node, id(c)]
+        _, t, sign, uv, normal, done = hit
+        keys = [(offset_px, False), (-offset_px, False)]
+        if not offset_px or any(k in done for k in keys):
+            return self._walk_out(c, node, offset_px)[0], self._walk_out(c, node, -offset_px)[0]
+        if normal is None:
+            ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))      # (as _walk_out)
+            step = ab[:len(t)] - ab[len(t):]
+            step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
+            normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
+        n = len(t)
+        idx, crosses = walk_edges(self.sm.left_mask, np.concatenate([uv + offset_px * normal, uv + -offset_px * normal]),
+                                  np.array([0, n, 2 * n]))
+        out = []
+        for i, k in enumerate(keys):
+            done[k] = (self._walk_t(t, sign, idx[i], crosses[i]), sign)
+            out.append(done[k][0])
+        return out[0], out[1]
+
     def tip(self, node: int) -> None:
         """A tip: the end of the mask along the centre line, less the round cap (its own radius).
 
@@ -967,8 +990,7 @@ class EndPlacer:
             # usually cuts the branch obliquely (in both views alike when the leaf sits on the
             # branch): such an end is hidden, not a tip. The sides are 0.4 radius off the axis
             # (further out, a tapering tip or a radius a little too large ends a side early)
-            t_a, _ = self._walk_out(c, node, 0.4 * r)
-            t_b, _ = self._walk_out(c, node, -0.4 * r)
+            t_a, t_b = self._walk_sides(c, node, 0.4 * r)
             if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
                 self.hidden.add(int(node))
                 return None

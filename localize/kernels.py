@@ -504,6 +504,112 @@ def walk_edges(mask, uv, bounds):
 
 
 @numba.njit(**_JIT)
+def _interval_middle(mask, bx, by, ex, ey, start, stop, s_c, r_child, sin_t):
+    """``ends.EndPlacer._interval_middle`` of ``_line_samples``' samples of one line ``(bx, by) + s (ex, ey)``:
+    ``s`` is ``np.arange(start, stop, 1.0)`` (numpy's values: ``start + i * ((start + 1) - start)``), the
+    mask read at each point by :func:`bilinear_u8` (``cv2.remap`` of the float32 points). Returns
+    (found, middle)."""
+    n = int(np.ceil(stop - start))
+    if n < 2:
+        return False, 0.0
+    delta = (start + 1.0) - start
+    ds = delta                                   # (s[1] - s[0])
+    ic = int(np.rint((s_c - start) / ds))
+    w = int(2 * r_child / sin_t / ds)
+    lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, n)
+    if lo_i >= hi_i:
+        return False, 0.0
+    vals = np.full(n, -1.0)                      # (read when needed: each point's value is its own)
+
+    def s_of(i):
+        return start if i == 0 else start + 1.0 if i == 1 else start + i * delta
+    c = min(max(ic, lo_i), hi_i - 1)
+    k = -1
+    for dd in range(max(c - lo_i, hi_i - 1 - c) + 1):
+        j = c - dd
+        if j >= lo_i:
+            if vals[j] < 0:
+                s = s_of(j)
+                vals[j] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
+            if vals[j] >= 128:
+                k = j
+                break
+        j = c + dd
+        if j < hi_i:
+            if vals[j] < 0:
+                s = s_of(j)
+                vals[j] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
+            if vals[j] >= 128:
+                k = j
+                break
+    if k < 0:
+        return False, 0.0
+    a = k - 1
+    while a >= 0:
+        if vals[a] < 0:
+            s = s_of(a)
+            vals[a] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
+        if vals[a] < 128:
+            break
+        a -= 1
+    b = k + 1
+    while b < n:
+        if vals[b] < 0:
+            s = s_of(b)
+            vals[b] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
+        if vals[b] < 128:
+            break
+        b += 1
+    if a < 0 or b == n:
+        return False, 0.0
+    va, vb = vals[a], vals[b]
+    lo = s_of(a) + ds * (128.0 - va) / max(vals[a + 1] - va, 1e-9)
+    hi = s_of(b) - ds * (128.0 - vb) / max(vals[b - 1] - vb, 1e-9)
+    if abs((hi - lo) * sin_t - 2 * r_child) > 0.8 * r_child + 2:
+        return False, 0.0
+    return True, 0.5 * (lo + hi)
+
+
+@numba.njit(**_JIT)
+def child_outline_pairs(mask, bases, s_c, e, reach, r_child, sin_t):
+    """``ends.EndPlacer._fork_from_child_outline``'s scan of its two pairs of lines (``bases`` (4, 2),
+    ``s_c`` (4,), direction ``e`` (2,), the samples ``s_c -/+ reach``): the first pair whose two
+    interval middles are both found. Returns (pair index or -1, m1, m2)."""
+    for i in range(2):
+        ok1, m1 = _interval_middle(mask, bases[2 * i, 0], bases[2 * i, 1], e[0], e[1],
+                                   s_c[2 * i] - reach, s_c[2 * i] + reach, s_c[2 * i], r_child, sin_t)
+        if not ok1:
+            continue
+        ok2, m2 = _interval_middle(mask, bases[2 * i + 1, 0], bases[2 * i + 1, 1], e[0], e[1],
+                                   s_c[2 * i + 1] - reach, s_c[2 * i + 1] + reach, s_c[2 * i + 1], r_child, sin_t)
+        if ok2:
+            return i, m1, m2
+    return -1, 0.0, 0.0
+
+
+@numba.njit(**_JIT)
+def near_points(pts, px, py, lo, hi):
+    """``ends.EndPlacer._near_points``' selection: the points ``pts`` (N, 2) whose distance (``np.hypot``)
+    from (``px``, ``py``) lies in [``lo``, ``hi``], in order, and every point's distance (N,)."""
+    n = len(pts)
+    dist = np.empty(n)
+    keep = np.zeros(n, np.bool_)
+    m = 0
+    for i in range(n):
+        dist[i] = np.hypot(pts[i, 0] - px, pts[i, 1] - py)
+        if dist[i] >= lo and dist[i] <= hi:
+            keep[i] = True
+            m += 1
+    sel = np.empty((m, 2))
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            sel[j, 0], sel[j, 1] = pts[i, 0], pts[i, 1]
+            j += 1
+    return sel, dist
+
+
+@numba.njit(**_JIT)
 def _horner(c, x):
     """``Poly.at``'s sum of coefficients ``c`` (highest power first) at the scaled parameter ``x``."""
     if len(c) == 1:
@@ -855,6 +961,8 @@ def warm_up() -> None:
     runs_find(_readonly(i.copy()), _readonly(i.copy()), _readonly(i.copy()), 4, i, f)
     runs_between(_readonly(f.copy()), i, 4, f, f)
     walk_edges(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
+    child_outline_pairs(np.zeros((4, 4), np.uint8), np.zeros((4, 2)), f, f[:2], 5.0, 1.0, 1.0)
+    near_points(_readonly(np.zeros((4, 2))), 0.0, 0.0, 1.0, 2.0)
     eval_clamped(f[:2], f[:1], 0.0, 1.0, 0.0, 1.0, f[:2], True, np.arange(4.0))
     img, tab = np.zeros(16, np.uint8), np.zeros(256, bool)
     off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)

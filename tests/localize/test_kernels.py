@@ -390,3 +390,63 @@ def test_graph_core_gives_the_numpy_graph():
         assert n_j == n - 1
         np.testing.assert_array_equal(jlab, lab.reshape(-1)[np.flatnonzero(img)])
     assert len(build_graph(Skeleton(np.eye(6, dtype=np.uint8))).seg_yx) == 1 and neighbour_tables()[0][3] == 2
+
+
+def _child_outline_pairs_numpy(mask, bases, s_c, e, r_child, sin_t):
+    """The Python steps the kernel replaced: ``_line_samples`` of the four lines, then
+    ``_interval_middle`` pair by pair."""
+    from appliance.localize.ends import EndPlacer
+    samples = EndPlacer._line_samples(list(zip(bases, s_c.tolist())), e, r_child, sin_t, mask)
+    for i in range(2):
+        m1 = EndPlacer._interval_middle(*samples[2 * i], r_child, sin_t)
+        if m1 is None:
+            continue
+        m2 = EndPlacer._interval_middle(*samples[2 * i + 1], r_child, sin_t)
+        if m2 is not None:
+            return i, m1, m2
+    return -1, 0.0, 0.0
+
+
+def test_child_outline_pairs_is_line_samples_and_interval_middles():
+    """The child's intervals on the fork's four lines: the same pair and the same middles, bit for
+    bit, as sampling the lines by ``cv2.remap`` and scanning them in Python (random soft discs and
+    bars, random lines across them, clear and unclear)."""
+    import cv2
+    rng = np.random.default_rng(5)
+    found = 0
+    for _ in range(60):
+        mask = np.zeros((160, 200), np.uint8)
+        for _ in range(3):
+            p0 = tuple(int(v) for v in rng.integers(0, 200, 2))
+            p1 = tuple(int(v) for v in rng.integers(0, 200, 2))
+            cv2.line(mask, p0, p1, 255, int(rng.integers(3, 25)), cv2.LINE_AA)
+        mask = cv2.GaussianBlur(mask, (5, 5), rng.uniform(0.3, 1.5))
+        for _ in range(20):
+            a = rng.uniform(0, np.pi)
+            e = np.array([np.cos(a), np.sin(a)])
+            n = np.array([-e[1], e[0]])
+            c1 = rng.uniform(20, 180, 2)
+            hs = np.sort(rng.uniform(-30, 30, 4))
+            bases = c1 + hs[:, None] * n
+            s_c = rng.uniform(-60, 60) + hs * rng.normal(0, 0.5)
+            r_child, sin_t = rng.uniform(1.5, 12.0), rng.uniform(0.2, 1.0)
+            reach = (4.7 * r_child + 3) / sin_t + 2
+            got = kernels.child_outline_pairs(mask, bases, s_c, e, reach, r_child, sin_t)
+            want = _child_outline_pairs_numpy(mask, bases, s_c, e, r_child, sin_t)
+            assert (int(got[0]), float(got[1]), float(got[2])) == want
+            found += want[0] >= 0
+    assert found > 50
+
+
+def test_near_points_is_numpys_hypot_selection():
+    """A junction's near points: the same distances (np.hypot) and the same points, in order."""
+    rng = np.random.default_rng(6)
+    for n in (0, 1, 3, 40, 500):
+        pts = rng.uniform(-50, 300, (n, 2)) * rng.choice([1.0, 1e-3, 1e3])
+        pts.setflags(write=False)
+        p = rng.uniform(0, 200, 2)
+        for lo, hi in ((0.0, 1e9), (10.0, 60.0), (30.0, 30.0)):
+            sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), lo, hi)
+            want = np.hypot(*(pts - p).T)
+            np.testing.assert_array_equal(dist, want)
+            np.testing.assert_array_equal(sel, pts[(want >= lo) & (want <= hi)])

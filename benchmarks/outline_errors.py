@@ -175,7 +175,6 @@ def report(rows: list[dict]) -> None:
         if mode == "colour":
             splits += [("share at crossing (steep)", cat["shared"] & steep), ("whole px at crossing (steep)", ~cat["shared"] & steep)]
         for label, sel in splits:
-            n = int(sel.sum())
             line = stats(cat["err_mask"][sel])
             print(f"{mode:7s} {label:28s}{line} |{stats(cat['err_ref'][sel])[7:]}")
         print()

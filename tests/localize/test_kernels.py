@@ -293,7 +293,6 @@ def _unique_pairs_numpy(pairs: np.ndarray) -> np.ndarray:
 
 def _build_graph_numpy(skel):
     """graph.build_graph before kernels.graph_core (numpy and cv2.connectedComponents)."""
-    import cv2
     from appliance.localize import graph as G
     from appliance.localize.skeleton import SparseImage, neighbour_tables
     from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph

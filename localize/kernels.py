@@ -86,6 +86,31 @@ def _segment_sum(a, lo, n):
 
 
 @numba.njit(**_JIT)
+def _partition(p, lo, hi):
+    """Hoare's partition of ``p[lo:hi + 1]`` in place about the median of three: ``(i, j)`` with
+    ``p[lo:j + 1]`` at most the pivot, ``p[i:hi + 1]`` at least it (and equal to it between)."""
+    mid = (lo + hi) // 2
+    if p[mid] < p[lo]:
+        p[mid], p[lo] = p[lo], p[mid]
+    if p[hi] < p[lo]:
+        p[hi], p[lo] = p[lo], p[hi]
+    if p[hi] < p[mid]:
+        p[hi], p[mid] = p[mid], p[hi]
+    pivot = p[mid]
+    i, j = lo, hi
+    while i <= j:
+        while p[i] < pivot:
+            i += 1
+        while pivot < p[j]:
+            j -= 1
+        if i <= j:
+            p[i], p[j] = p[j], p[i]
+            i += 1
+            j -= 1
+    return i, j
+
+
+@numba.njit(**_JIT)
 def _sorted(a):
     """A sorted copy of a 1-D float array (quicksort, insertion sort below 16; NaN not expected).
     Its own few lines rather than ``np.sort``: a tenth of the compile time."""
@@ -98,24 +123,7 @@ def _sorted(a):
         top -= 2
         lo, hi = stack[top], stack[top + 1]
         while hi - lo >= 16:
-            mid = (lo + hi) // 2                # median of three as the pivot
-            if p[mid] < p[lo]:
-                p[mid], p[lo] = p[lo], p[mid]
-            if p[hi] < p[lo]:
-                p[hi], p[lo] = p[lo], p[hi]
-            if p[hi] < p[mid]:
-                p[hi], p[mid] = p[mid], p[hi]
-            pivot = p[mid]
-            i, j = lo, hi
-            while i <= j:
-                while p[i] < pivot:
-                    i += 1
-                while pivot < p[j]:
-                    j -= 1
-                if i <= j:
-                    p[i], p[j] = p[j], p[i]
-                    i += 1
-                    j -= 1
+            i, j = _partition(p, lo, hi)
             if j - lo < hi - i:                 # the smaller part first (the stack stays shallow)
                 stack[top], stack[top + 1] = i, hi
                 hi = j
@@ -139,24 +147,7 @@ def _select(p, k):
     none smaller after it (quickselect, Hoare's partition); returns ``p[k]``."""
     lo, hi = 0, len(p) - 1
     while hi > lo:
-        mid = (lo + hi) // 2                    # median of three as the pivot
-        if p[mid] < p[lo]:
-            p[mid], p[lo] = p[lo], p[mid]
-        if p[hi] < p[lo]:
-            p[hi], p[lo] = p[lo], p[hi]
-        if p[hi] < p[mid]:
-            p[hi], p[mid] = p[mid], p[hi]
-        pivot = p[mid]
-        i, j = lo, hi
-        while i <= j:
-            while p[i] < pivot:
-                i += 1
-            while pivot < p[j]:
-                j -= 1
-            if i <= j:
-                p[i], p[j] = p[j], p[i]
-                i += 1
-                j -= 1
+        i, j = _partition(p, lo, hi)
         if k <= j:                              # (between j and i: all equal to the pivot)
             hi = j
         elif k >= i:

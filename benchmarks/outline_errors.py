@@ -42,19 +42,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 AREA = True            # the truth's outline from the coverage's area (else its linear 0.5 crossing)
 SLANT = [0, 15, 30, 45, 60, 91]
 
-
-def true_crossing(cov: np.ndarray, row: np.ndarray, x: np.ndarray, reach: int = 3) -> np.ndarray:
-    """Where ``cov`` (H, W float, 0-1) crosses 0.5 along each row nearest ``x`` (NaN if not within ``reach`` px)."""
-    xi = np.rint(x).astype(int)
-    cols = np.clip(xi[:, None] + np.arange(-reach, reach + 1), 0, cov.shape[1] - 1)
-    p = cov[row[:, None], cols] - 0.5
-    a, b = p[:, :-1], p[:, 1:]
-    cross = (np.sign(a) * np.sign(b) <= 0) & (a != b)
-    pos = cols[:, :-1] + a / np.where(a != b, a - b, 1)
-    dist = np.where(cross, np.abs(pos - x[:, None]), np.inf)
-    k = np.argmin(dist, 1)
-    i = np.arange(len(k))
-    return np.where(np.isfinite(dist[i, k]), pos[i, k], np.nan)
+from edge_offsets import true_crossing  # noqa: E402  (benchmarks/ on the path above)
 
 
 def true_edge_area(cov: np.ndarray, row: np.ndarray, x: np.ndarray, inward: np.ndarray, out_px: int = 3,

@@ -44,21 +44,24 @@ REPO = Path(__file__).resolve().parents[1]
 BANDS_MM = [(500, 750), (750, 1000), (1000, 1250), (1250, 1500)]
 
 
-def scenes(extra: int) -> list[tuple[str, Path, Path, Path]]:
-    """(name, left, right, truth json) of the fixture scenes and ``extra`` rendered ones."""
+def scenes(extra: int, seeds: range | None = None) -> list[tuple[str, Path, Path, Path]]:
+    """(name, left, right, truth json) of the fixture scenes and ``extra`` rendered ones (seeds 100..);
+    with ``seeds``, of those rendered seeds alone (a hold-out scored on its own)."""
     out = []
     fx = REPO / "fixtures" / "scenes"
-    for t in sorted(fx.glob("truth_*.json")):
-        nn = t.stem.split("_")[1]
-        out.append((f"fixture {nn}", fx / f"left_{nn}.png", fx / f"right_{nn}.png", t))
-    if extra:
+    if seeds is None:
+        for t in sorted(fx.glob("truth_*.json")):
+            nn = t.stem.split("_")[1]
+            out.append((f"fixture {nn}", fx / f"left_{nn}.png", fx / f"right_{nn}.png", t))
+        seeds = range(100, 100 + extra)
+    if len(seeds):
         from appliance.synth.rig import default_rig
         from appliance.synth.scene import make_scene, render
         from appliance.synth.truth import save_truth
 
         cache = REPO / "out" / "localize_scenes"
         cache.mkdir(parents=True, exist_ok=True)
-        for seed in range(100, 100 + extra):
+        for seed in seeds:
             stem = cache / f"truth_{seed}"
             left, right = cache / f"left_{seed}.png", cache / f"right_{seed}.png"
             if not (stem.with_suffix(".json").exists() and left.exists() and right.exists()
@@ -146,9 +149,23 @@ def band_table(pooled: dict) -> str:
     return "\n".join(lines)
 
 
+def _seed_range(text: str) -> range:
+    """``A-B`` (or one seed ``A``) -> range(A, B + 1)."""
+    try:
+        lo, _, hi = text.partition("-")
+        r = range(int(lo), int(hi or lo) + 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not A-B (two whole numbers)") from None
+    if not len(r):
+        raise argparse.ArgumentTypeError(f"{text!r} is empty (A must not exceed B)")
+    return r
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--extra", type=int, default=0, help="render this many more scenes (seeds 100..)")
+    ap.add_argument("--seeds", metavar="A-B", type=_seed_range,
+                    help="score only the rendered scenes of seeds A..B (rendered if not cached; no fixtures, no --extra)")
     ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
     ap.add_argument("--soft-truth", action="store_true",
                     help="exact masks as the renderer's soft coverage of each pixel, not whole pixels (half covered)")
@@ -165,7 +182,7 @@ def main() -> int:
     per_method: dict[str, list] = {}
     times: dict[str, list] = {}
     axes: dict[str, list] = {}
-    for name, lp, rp, tp in scenes(a.extra):
+    for name, lp, rp, tp in scenes(a.extra, a.seeds):
         left, right, truth = cv2.imread(str(lp)), cv2.imread(str(rp)), load_truth(tp)
         for mode in mask_modes:
             exact = truth.exact_masks(soft=a.soft_truth)

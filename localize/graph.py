@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-import cv2
 import numpy as np
 from appliance.localize import kernels
 from appliance.localize.skeleton import (
@@ -105,23 +104,6 @@ def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
         return []
     srt, ends = yx[order], np.cumsum(counts).tolist()       # (slices: np.split's arrays, without its overhead)
     return [srt[a:b] for a, b in zip([0] + ends[:-1], ends)]
-
-
-def _labels(shape: tuple[int, int], yx: np.ndarray) -> tuple[int, np.ndarray]:
-    """8-connected components of a few pixels (N, 2): (count, label 1..count of each pixel)."""
-    img = np.zeros(shape, np.uint8)
-    img[yx[:, 0], yx[:, 1]] = 1
-    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
-    return n - 1, lab[yx[:, 0], yx[:, 1]]
-
-
-def _unique_pairs(pairs: np.ndarray) -> np.ndarray:
-    """Distinct rows of a (N, 2) array of non-negative ints, sorted."""
-    if len(pairs) == 0:
-        return pairs.reshape(0, 2)
-    key = pairs[:, 0].astype(np.int64) << 32 | pairs[:, 1].astype(np.int64)
-    key = np.unique(key)
-    return np.column_stack([key >> 32, key & 0xFFFFFFFF])
 
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:

@@ -270,15 +270,18 @@ def _fit_one(t, y, degree, coef, last):
 
 
 @numba.njit(**_JIT)
+def _group_polys(ng):
+    """Empty per-group polynomials: coef (G, 4) zeros, t0 (G,) zeros, ts (G,) ones, degree (G,) int64 zeros."""
+    return np.zeros((ng, 4)), np.zeros(ng), np.ones(ng), np.zeros(ng, np.int64)
+
+
+@numba.njit(**_JIT)
 def fit_groups(t, y, starts, degree):
     """``curves.fit_groups`` of every group (group k: samples ``starts[k]:starts[k + 1]``).
 
     Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64."""
     ng = len(starts) - 1
-    coef = np.zeros((ng, 4))
-    t0 = np.zeros(ng)
-    ts = np.ones(ng)
-    deg = np.zeros(ng, np.int64)
+    coef, t0, ts, deg = _group_polys(ng)
     for k in range(ng):
         a, b = starts[k], starts[k + 1]
         t0[k], ts[k], deg[k] = _fit_one(t[a:b], y[a:b], degree[k], coef[k], k == ng - 1)
@@ -292,10 +295,7 @@ def robust_fit_groups(t, y, starts, degree, rounds, k_mad):
 
     Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64, inliers bool (N,)."""
     ng = len(starts) - 1
-    coef = np.zeros((ng, 4))
-    t0 = np.zeros(ng)
-    ts = np.ones(ng)
-    deg = np.zeros(ng, np.int64)
+    coef, t0, ts, deg = _group_polys(ng)
     keep = np.ones(len(t), np.bool_)
     trial = np.zeros(4)
     for k in range(ng):
@@ -395,10 +395,7 @@ def consensus_lines(t, d, bounds, live, ij, tol_px):
 
     Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64."""
     ng = len(bounds) - 1
-    coef = np.zeros((ng, 4))
-    t0 = np.zeros(ng)
-    ts = np.ones(ng)
-    deg = np.zeros(ng, np.int64)
+    coef, t0, ts, deg = _group_polys(ng)
     n_hyp = ij.shape[2]
     for m in range(len(live)):
         k = live[m]

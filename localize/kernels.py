@@ -514,22 +514,16 @@ def _interval_middle(mask, bx, by, ex, ey, start, stop, s_c, r_child, sin_t):
     c = min(max(ic, lo_i), hi_i - 1)
     k = -1
     for dd in range(max(c - lo_i, hi_i - 1 - c) + 1):
-        j = c - dd
-        if j >= lo_i:
-            if vals[j] < 0:
-                s = s_of(j)
-                vals[j] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
-            if vals[j] >= 128:
-                k = j
-                break
-        j = c + dd
-        if j < hi_i:
-            if vals[j] < 0:
-                s = s_of(j)
-                vals[j] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
-            if vals[j] >= 128:
-                k = j
-                break
+        for j in (c - dd, c + dd):               # nearest first, the lower side first
+            if lo_i <= j < hi_i:
+                if vals[j] < 0:
+                    s = s_of(j)
+                    vals[j] = bilinear_u8(mask, np.float32(bx + s * ex), np.float32(by + s * ey))
+                if vals[j] >= 128:
+                    k = j
+                    break
+        if k >= 0:
+            break
     if k < 0:
         return False, 0.0
     a = k - 1

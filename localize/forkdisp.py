@@ -25,6 +25,8 @@ from appliance.localize.texture import surface_to_axis
 # own crossings nearest the fork; rows of the span next to its end taken with them
 SIDE_GAP_MIN_PX = 6.0
 SIDE_SPAN_ROWS = 40
+# the two views' row crossings compared at their own slopes (``_carried``)
+SIDE_WIDTH_SLOPE = True
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -69,7 +71,7 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     rows += end
     if rows.min() < 0 or len(rows) < min_rows:
         return None
-    u, d = _carried(c, rows, end)
+    u, d, w_ratio = _carried(c, rows, end)
     il = runs_l.find(rows, u)
     i0 = np.maximum(il, 0)
     w_l = runs_l.span_px.take(i0)
@@ -85,13 +87,14 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if len(k) < min_rows:
         return None
     # the right crossing holding the middle carried from the left one at the fit's disparity, as
-    # wide (a row whose one edge is ragged or cut in one view moves its middle)
+    # wide as the left one seen at the right view's slope (a row whose one edge is ragged or cut in
+    # one view moves its middle)
     c_l, d, w_l = c_l.take(k), d.take(k), w_l.take(k)
     ir = runs_r.find(rows.take(k), c_l - d)
     j0 = np.maximum(ir, 0)
     cd = c_l - runs_r.centre_px.take(j0)
     ok = (ir >= 0) & (np.abs(cd - d) <= tol_d_px)
-    ok &= np.abs(runs_r.span_px.take(j0) - w_l) <= width_tol_px
+    ok &= np.abs(runs_r.span_px.take(j0) - w_ratio * w_l) <= width_tol_px
     k2 = np.flatnonzero(ok)
     if len(k2) < min_rows:
         return None
@@ -208,14 +211,23 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
     return d_out, score
 
 
-def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray]:
+def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray, float]:
     """The curve's centre column and disparity (N,) at ``rows`` along its tangent at the span's ``end``
     (beyond the span: as :meth:`BranchCurve.s_at` / ``d_at`` carry it; on the span's rows next to its
-    end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px)."""
+    end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px), and the
+    ratio of the right view's row crossing width to the left's there.
+
+    A band of width W at slope s (columns per row) crosses a row over W sqrt(1 + s^2); in the right
+    view the centre line is the left one moved by the disparity, so its slope is s - d'(t): a piece
+    turning in depth along an oblique stretch (|s| ~2, d' ~0.15 px per row) is crossed 1-4 px
+    narrower or wider there, on every row alike.
+    """
     lo, _ = c.t_range
     slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[0 if end == lo else 1]
+    slope_s = c.s_poly.deriv().at(end)
     dt = rows - end
-    return c.s_poly.at(end) + c.s_poly.deriv().at(end) * dt, c.d_poly.at(end) + slope_d * dt
+    ratio = math.hypot(1.0, slope_s - slope_d) / math.hypot(1.0, slope_s) if SIDE_WIDTH_SLOPE else 1.0
+    return c.s_poly.at(end) + slope_s * dt, c.d_poly.at(end) + slope_d * dt, ratio
 
 
 def _line_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:

@@ -76,6 +76,33 @@ def test_a_parent_hidden_in_the_right_view_near_the_fork_gives_nothing_from_ther
     assert side_disparity_near(short, runs_l, runs_r, FORK_ROW) is None
 
 
+def oblique(centre, slope: float, width: int = 700, height: int = 300, half_px: float = 8.0) -> np.ndarray:
+    """A straight piece (half width ``half_px`` across it) whose centre column is ``centre(v)``, at
+    ``slope`` columns per row, as coverage 0-255 (its row crossings 2 half_px sqrt(1 + slope^2) wide)."""
+    v = np.arange(height, dtype=float)[:, None]
+    u = np.arange(width, dtype=float)[None, :]
+    cov = np.clip(half_px - np.abs(u - centre(v)) / np.hypot(1.0, slope) + 0.5, 0.0, 1.0)
+    return np.rint(255 * cov).astype(np.uint8)
+
+
+def test_an_oblique_side_turning_in_depth_is_read_at_each_views_slope():
+    # a parent at 1.6 columns per row whose disparity grows 0.15 px per row: in the right view its
+    # slope is 1.75, so every row crosses it ~2 px wider there than in the left view; the rows are
+    # still the parent's alone (compared at each view's slope), and read
+    u_ax = lambda v: 600.0 - 1.6 * v
+    d_ax = lambda v: 40.0 + 0.15 * v
+    left = oblique(u_ax, -1.6)
+    right = oblique(lambda v: u_ax(v) - d_ax(v), -1.75)
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    t = np.arange(200.0, 281.0)
+    c = BranchCurve(0, True, (200.0, 280.0), Poly.fit(t, u_ax(t), 1),
+                    Poly.fit(t, d_ax(t) + 0.01 * (t - 240.0), 1), 8.0, len(t))
+    assert abs(float(c.d_at(np.array([150.0]))[0]) - d_ax(150.0)) >= 0.5      # the fit carried 50 rows
+    near = side_disparity_near(c, runs_l, runs_r, 150.0)
+    assert near is not None and near.n_gap_rows >= 40
+    assert abs(near.d_px - d_ax(150.0)) <= 0.1
+
+
 def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
     # a drawn Y at 30 deg: the child's blob keeps the upper side's fit ~50 rows short of the fork;
     # that side is read from its own rows there, and the fork keeps the parent's disparity

@@ -20,7 +20,7 @@ from appliance.config.schema import MatchConfig
 from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
-from appliance.localize.forkdisp import flat_side_near, side_disparity_near
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near, weigh_sides
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -45,6 +45,11 @@ OUTLINE_MAX_D_PX = 4.0
 # (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
 FLAT_NEAR = True
 FLAT_NEAR_MIN_PX = 0.25
+# a fork whose two steep parent sides differ by more than this (px; less than the clear
+# disagreement's 2 px) takes their mean weighted by how well each side's line is known there
+# (forkdisp.weigh_sides) instead of the plain mean
+SIDES_WEIGHTED = True
+SIDES_WEIGHT_PX = 0.5
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
 # the nearer side); the outline within 1 px of the parent's confirms the fork
@@ -365,6 +370,11 @@ class EndPlacer:
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
         if agree and d_known is not None:
             self.uvd[node][2] = d_known
+        elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and abs(d_par[0] - d_par[1]) > SIDES_WEIGHT_PX \
+                and all(self.curves[s].by_row for s in parents):
+            # the two steep sides disagree beyond their rows' noise (the checks above took their mean):
+            # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
+            self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)
@@ -441,6 +451,15 @@ class EndPlacer:
                 d_best = float(at(cand[0][1]))
                 return d_best if abs(d_best - d) > 0.5 else None
         return None
+
+    def _side_rows(self, s: int, xy: np.ndarray, near=None) -> tuple[float, float]:
+        """How a steep parent side's disparity at the fork ``xy`` (2,) is known: (rows, rows past the
+        nearest) of its own crossings read nearest the fork (``near``: a :class:`forkdisp.SideNear`),
+        or else of its fitted span and how far its curve is carried (:func:`forkdisp.weigh_sides`)."""
+        if near is not None:
+            return float(near.n_rows), float(near.nearest_px)
+        lo, hi = self.curves[s].t_range
+        return hi - lo, self._carried_px(s, xy)
 
     def _reach(self, s: int, xy: np.ndarray) -> float:
         """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,

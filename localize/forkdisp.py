@@ -112,6 +112,23 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
                     float(np.abs(x[keep]).min()), mad, a)
 
 
+def line_carry_var(n_rows: float, gap_rows: float) -> float:
+    """Variance (in units of one row's) of a least-squares line through ``n_rows`` consecutive rows
+    read ``gap_rows`` past the last of them: 1 / n + 12 (g + n / 2)^2 / n^3 (the rows' mean is
+    n / 2 from their end, their spread n^3 / 12)."""
+    n = max(float(n_rows), 2.0)
+    return 1.0 / n + 12.0 * (gap_rows + 0.5 * n) ** 2 / n ** 3
+
+
+def weigh_sides(d_px, rows) -> float:
+    """A fork's disparity from its two parent sides' values ``d_px`` (2,) that disagree beyond their
+    rows' noise: their mean weighted by how well each is known at the fork, the inverse of
+    :func:`line_carry_var` of its (rows, rows carried) in ``rows`` ((n, g) per side: a side fitted
+    on a few rows, or carried far past them, counts the less)."""
+    w0, w1 = (1.0 / line_carry_var(n, g) for n, g in rows)
+    return float((w0 * d_px[0] + w1 * d_px[1]) / (w0 + w1))
+
+
 # a flat parent side's disparity at a fork: its bark texture on patches from the fork this far along it
 FLAT_NEAR_PX = 24.0
 FLAT_STEP_PX = 6.0

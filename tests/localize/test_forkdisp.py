@@ -3,7 +3,7 @@
 import numpy as np
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
-from appliance.localize.forkdisp import flat_side_near, side_disparity_near
+from appliance.localize.forkdisp import flat_side_near, line_carry_var, side_disparity_near, weigh_sides
 
 H, W = 400, 320
 FORK_ROW = 150.0
@@ -185,3 +185,22 @@ def test_a_flat_side_read_is_carried_to_the_fork_along_its_curves_slope():
     near = flat_side_near(c, left, right, 150.0, f_px=1e9)
     assert near is not None
     assert abs(near.d_px - flat_d(150.0)) <= 0.08
+
+
+def test_a_line_carried_past_its_rows_is_known_as_least_squares_says():
+    # the closed form against the least-squares prediction variance x0^T (X^T X)^-1 x0
+    for n, g in ((5, 4), (20, 0), (45, 13), (80, 60)):
+        t = np.arange(n, dtype=float)
+        x = np.stack([np.ones(n), t], 1)
+        x0 = np.array([1.0, n - 1 + g + 0.5])          # (the rows' end at n - 0.5)
+        want = float(x0 @ np.linalg.inv(x.T @ x) @ x0)
+        assert abs(line_carry_var(n, g) - want) <= 0.05 * want
+    assert line_carry_var(5, 4) > 10 * line_carry_var(45, 13)
+
+
+def test_two_disagreeing_sides_count_by_how_well_each_is_known():
+    # a side fitted on 5 rows next to the fork (+1.9 px off) and one read on 45 rows 13 rows away
+    # (-0.35): the fork takes nearly the well-known one; two sides alike give their mean
+    d = weigh_sides([101.9, 99.65], [(5.0, 4.0), (45.0, 13.0)])
+    assert abs(d - 99.65) <= 0.25
+    assert abs(weigh_sides([100.3, 99.7], [(40.0, 10.0), (40.0, 10.0)]) - 100.0) <= 1e-9

@@ -98,6 +98,28 @@ def longest_run(uvd: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return uvd[starts[k]:ends[k] + 1]
 
 
+def _whole_pieces(pieces: list, d_lo: float, d_hi: float, max_gradient: float) -> list[bool]:
+    """Per piece (``uvd`` (N >= 2, 3) float64 each) whether :meth:`Localizer._assemble` keeps all of it:
+    every disparity in [``d_lo``, ``d_hi``] (so > 0) and no step beyond ``max_gradient`` (the test of
+    :func:`plausible_part`); all pieces' samples tested at once. False for a piece to check alone."""
+    if not pieces:
+        return []
+    if any(p.uvd.dtype != np.float64 or p.uvd.ndim != 2 for p in pieces):
+        return [False] * len(pieces)
+    uvd = np.concatenate([p.uvd for p in pieces])
+    ends = np.cumsum([len(p.uvd) for p in pieces])
+    starts = np.r_[0, ends[:-1]]
+    d = uvd[:, 2]
+    fail = ~((d >= d_lo) & (d <= d_hi) & (d > 0))
+    if max_gradient > 0:
+        step = np.diff(uvd, axis=0)
+        ln = np.hypot(step[:, 0], step[:, 1])
+        bad = np.abs(step[:, 2]) > max_gradient * np.maximum(ln, 1.0)
+        bad[ends[:-1] - 1] = False                      # (the steps from one piece to the next)
+        fail[:-1] |= bad
+    return (np.logical_or.reduceat(fail, starts) == 0).tolist()
+
+
 class Localizer:
     """Branch localization for one calibrated rig.
 
@@ -223,8 +245,13 @@ class Localizer:
                                         radius_mm, float(xyz[i, 2] - k * radius_mm)))
         kept = []
         dmin, dmax = self.d_range_px
-        for p in m.pieces:
-            if not np.isfinite(p.radius_px) or len(p.uvd) < 2 or (p.uvd[:, 2] <= 0).any():
+        pieces = [p for p in m.pieces if np.isfinite(p.radius_px) and len(p.uvd) >= 2]
+        whole = _whole_pieces(pieces, 0.95 * dmin, 1.05 * dmax, self.cfg.match.max_disparity_gradient)
+        for p, ok in zip(pieces, whole):
+            if ok:                                      # (the usual case: all of it, checked at once)
+                kept.append((p, p.uvd))
+                continue
+            if (p.uvd[:, 2] <= 0).any():
                 continue
             # as the features: within the working range (5 %)
             uvd = longest_run(p.uvd, (p.uvd[:, 2] >= 0.95 * dmin) & (p.uvd[:, 2] <= 1.05 * dmax))

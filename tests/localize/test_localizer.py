@@ -185,3 +185,31 @@ def test_a_probability_mask_is_kept_soft():
     z = res.branches[0].polyline_mm[1:-1, 2]
     assert np.abs(z - 1000.0).max() < 0.1 * 1000.0 / d
     assert len([f for f in res.features if f.kind == "endpoint"]) == 2
+
+
+def test_whole_pieces_is_the_per_piece_test_of_the_range_and_the_steps():
+    """_assemble's batched test (all pieces' samples at once) keeps a piece whole exactly when the
+    per-piece path (no disparity <= 0, longest_run in range, plausible_part) gives the piece itself."""
+    from types import SimpleNamespace
+
+    from appliance.localize.localizer import _whole_pieces, longest_run, plausible_part
+    rng = np.random.default_rng(11)
+    lo, hi, grad = 80.0, 300.0, 0.5
+    pieces, whole = [], 0
+    for _ in range(600):
+        n = int(rng.integers(2, 30))
+        u = np.cumsum(rng.uniform(-2, 2, n)) + 500
+        v = np.cumsum(rng.uniform(0, 2, n)) + 100
+        d = 150 + np.cumsum(rng.choice([0.0, 0.1, 0.3, 1.5, 3.0], n, p=[0.4, 0.3, 0.2, 0.07, 0.03]))
+        if rng.random() < 0.1:
+            d[rng.integers(n)] = rng.choice([-1.0, 0.0, 50.0, 400.0, np.nan])
+        pieces.append(SimpleNamespace(uvd=np.column_stack([u, v, d])))
+    for g in (grad, 0.0):
+        got = _whole_pieces(pieces, lo, hi, g)
+        for p, ok in zip(pieces, got):
+            d = p.uvd[:, 2]
+            want = not (d <= 0).any() and plausible_part(longest_run(p.uvd, (d >= lo) & (d <= hi)), g) is p.uvd
+            assert ok == want
+            whole += ok
+    assert 200 < whole < 1100                            # both outcomes well represented
+    assert _whole_pieces([], lo, hi, grad) == []

@@ -84,3 +84,42 @@ def test_line_pixels_are_the_distinct_pixels_of_the_line_sorted():
         n = int(np.ceil(np.abs(pb - pa).max())) + 1
         want = np.unique(np.rint(pa + np.linspace(0, 1, n)[:, None] * (pb - pa)).astype(int)[:, ::-1], axis=0)
         assert np.array_equal(px, want) and px.dtype == want.dtype
+
+
+def _covered_many_loop(occluded, segments):
+    """recover._covered_many before it sampled all gaps at once (one np.linspace per gap)."""
+    if occluded is None or not segments:
+        return [1.0] * len(segments)
+    pts, counts = [], []
+    for a, b in segments:
+        n = int(np.hypot(*(b - a))) + 2
+        pts.append(a + np.linspace(0, 1, n)[:, None] * (b - a))
+        counts.append(n)
+    hit = occluded(np.concatenate(pts))
+    ends = np.cumsum(counts).tolist()
+    return [float(np.mean(hit[e - n:e])) for e, n in zip(ends, counts)]
+
+
+def test_covered_many_samples_every_gap_as_one_linspace_each():
+    """The gaps' sample points (asked of the occluder) and their covered shares are those of one
+    np.linspace per gap, bit for bit."""
+    from appliance.localize.recover import _covered_many
+
+    rng = np.random.default_rng(4)
+    asked = []
+
+    def occluded(xy):
+        asked.append(xy.copy())
+        return (np.sin(xy[:, 0] * 0.37) + np.cos(xy[:, 1] * 0.21)) > 0.3
+
+    shares = []
+    for _ in range(400):
+        segs = [(rng.uniform(0, 1280, 2), rng.uniform(0, 1280, 2) if rng.random() < 0.7 else rng.uniform(0, 3, 2))
+                for _ in range(int(rng.integers(1, 6)))]
+        asked.clear()
+        got, want = _covered_many(occluded, segs), _covered_many_loop(occluded, segs)
+        assert got == want and all(type(x) is float for x in got)
+        assert np.array_equal(asked[0], asked[1])
+        shares += got
+    assert len(set(shares)) > 200 and min(shares) < 0.1 and max(shares) > 0.6      # shares of all kinds
+    assert _covered_many(None, segs) == [1.0] * len(segs) and _covered_many(occluded, []) == []

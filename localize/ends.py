@@ -20,6 +20,7 @@ from appliance.config.schema import MatchConfig
 from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
+from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, weigh_sides
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
@@ -41,6 +42,9 @@ END_SHIFT_FLAT_PX = 6.0
 HIDDEN_FORK_MIN_DEG = 20.0
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# a child without a curve within this of the rows (sine; the matcher's 20 deg of flat pieces) shows
+# its depth by its bark texture only: checked there (forkchild.child_texture_agrees)
+FLAT_CHILD_SIN = math.sin(math.radians(20.0))
 # a flat parent side at a fork takes its disparity from its bark texture next to the fork
 # (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
 FLAT_NEAR = True
@@ -362,12 +366,21 @@ class EndPlacer:
         # disparity would differ (the same results, the work skipped otherwise)
         d_known = self._known_disparity(parents, child, child_ok, xy, d, at, side_near) \
             if parents and not from_outline else None
+        out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
+        if parents and not agree and outline is not None and child not in self.curves \
+                and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
+            agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,
+                                         float(((near[child] - xy) @ out).min()), d, rad[child],
+                                         self.sm.f_px, self.sm.offset_px)
         if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
             pts = self.seg_points(child)
             dist = np.hypot(*(pts - p).T)
             agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
+        if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
+            sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
+            agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
         if agree and d_known is not None:
             self.uvd[node][2] = d_known
         elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and abs(d_par[0] - d_par[1]) > SIDES_WEIGHT_PX \

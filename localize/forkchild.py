@@ -1,0 +1,108 @@
+"""A fork's child along the rows, checked by its bark texture.
+
+A fork is reported only if the child is at the parent's depth there (else two branches merely
+cross in the image). A child within a few degrees of the rows cannot show it by its outline: a
+child at another depth is moved along the rows in the right view, that is along itself, and
+leaves the parent's outline at the same place (``EndPlacer._outline_agrees`` refuses to tell);
+its rows' crossings run along it and carry no disparity either. What pins a branch along the rows
+is its bark texture, as for the flat pieces (``texture.surface_disparity``): the child's patches
+next to the fork, clear of the parent, must match at the fork's disparity.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from appliance.localize.texture import patch_depth_fraction, surface_disparity, surface_to_axis
+
+# disparities searched either side of the fork's (px): a crossing branch at another depth finds its
+# own match there, or none that correlates
+SEARCH_PX = 8.0
+MIN_SCORE = 0.6                 # correlation of a patch that counts (as forkdisp.flat_side_near)
+MIN_PATCHES = 3                 # patches that must agree with the fork's disparity ...
+MIN_SHARE = 0.6                 # ... and their share of those that correlate
+STEP_PX = 2.0                   # patches this far apart along the child's line ...
+REACH_PX = 8.0                  # ... over this much of it, from where it is clear of the parent
+
+
+def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray, s0_px: float, d_px: float,
+                         r_child_px: float, f_px: float, offset_px: float = 0.0) -> bool:
+    """Whether a child's bark texture next to its fork matches at the fork's disparity.
+
+    Patches on the child's centre line where it is first clear of the parent, matched along the
+    rows (``texture.surface_disparity``, within ``SEARCH_PX`` of the fork's disparity) and moved
+    back onto the axis, must give the fork's disparity: at least ``MIN_PATCHES`` of them, and
+    ``MIN_SHARE`` of those correlating at ``MIN_SCORE``, within 1 px or 0.6 %. (Not carried to
+    the fork along a line through them: over the 10-40 px from the fork to the first patch
+    clear of the parent, their scatter is multiplied; a child pointing steeply in depth, whose
+    disparity there already differs, is left withheld.)
+
+    Parameters
+    ----------
+    left_gray, right_gray : array-like (H, W)
+        Rectified grey images (sliceable: read over the patches' box only).
+    c_px, e : ndarray (2,)
+        The fork (x, y) and the child's unit direction away from it.
+    s0_px : float
+        Where along ``e`` the child is first seen clear of the parent (px from the fork).
+    d_px : float
+        The fork's disparity (on the axis).
+    r_child_px : float
+        The child's radius (px): patches span rows +-0.6 of it.
+    f_px, offset_px : float
+        Focal length and the rectified principal-point difference (``texture.surface_to_axis``).
+    """
+    s = s0_px + np.arange(0.0, REACH_PX + 1e-9, STEP_PX)
+    pts = np.asarray(c_px, float) + s[:, None] * np.asarray(e, float)
+    hh = max(1, int(0.6 * r_child_px))
+    # the axis' disparity on the surface the patches see (surface_to_axis inverted)
+    d_s = (d_px - offset_px) * (1.0 + patch_depth_fraction(r_child_px, hh) * r_child_px / f_px) + offset_px
+    d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
+                                 (d_s - SEARCH_PX, d_s + SEARCH_PX))
+    # (a best match at the search's end is no peak: the texture matches further out, or nowhere)
+    ok = np.isfinite(d) & (score >= MIN_SCORE) & (np.abs(d - d_s) < SEARCH_PX - 0.5)
+    n_good = int(np.count_nonzero(ok))
+    if n_good < MIN_PATCHES:
+        return False
+    d_ax = surface_to_axis(d[ok], r_child_px, f_px, offset_px)
+    n_ok = int(np.count_nonzero(np.abs(d_ax - d_px) <= max(1.0, 0.006 * abs(d_px))))
+    return n_ok >= MIN_PATCHES and n_ok >= MIN_SHARE * n_good
+
+
+# a branch passing the parent (behind or in front, at about its depth) shows on the parent's far
+# side along the child's line, within this far (px) of the parent's outline (past an apple or a leaf)
+THROUGH_REACH_PX = 80.0
+
+
+def passes_through(mask: np.ndarray, c_px: np.ndarray, e: np.ndarray, s_far_px: float, r_child_px: float) -> bool:
+    """Whether a branch of the child's width runs on along the child's line on the parent's far side.
+
+    A fork's child starts at the parent; a branch crossing the parent in the image goes on past it
+    on the same line. Along ``c_px - s e`` for ``s`` from ``s_far_px`` (the parent's far outline
+    along the line, px from the fork) over ``THROUGH_REACH_PX``, a sample is the branch's where the
+    mask covers the line and leaves both sides clear (``1.5 r + 2`` px off it: a band no wider
+    than the child); ``max(6, 1.5 r)`` such samples in a row pass through.
+
+    Parameters
+    ----------
+    mask : ndarray (H, W) uint8
+        The left view's branch coverage (0-255).
+    c_px, e : ndarray (2,)
+        The fork (x, y) and the child's unit direction away from it.
+    s_far_px : float
+        Where the parent's far outline lies along ``-e`` (px from the fork).
+    r_child_px : float
+        The child's radius (px).
+    """
+    c, e = np.asarray(c_px, float), np.asarray(e, float)
+    n = np.array([-e[1], e[0]])
+    s = np.arange(s_far_px, s_far_px + THROUGH_REACH_PX, 1.0)
+    line = c - s[:, None] * e
+    off = (1.5 * r_child_px + 2.0) * n
+    h, w = mask.shape
+    uv = np.vstack([line, line + off, line - off]).astype(np.float32)
+    val = cv2.remap(mask, uv.reshape(1, -1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                    borderValue=0)[0].reshape(3, -1)
+    band = (val[0] >= 128) & (val[1] < 128) & (val[2] < 128)
+    need = max(6, int(np.ceil(1.5 * r_child_px)))
+    return len(band) >= need and bool((np.convolve(band, np.ones(need, int), "valid") >= need).any())

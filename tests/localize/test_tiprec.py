@@ -1,0 +1,80 @@
+"""Tips found more often (issue 5, recall): a flat stub growing from a limb, a short flat stub whose
+skeleton end lies nearer its far end (localize/tips.py; constructed masks)."""
+
+import cv2
+import numpy as np
+from appliance.config import load_config
+from appliance.localize.edges import find_runs
+from appliance.localize.ends import EndPlacer
+from appliance.localize.graph import ENDPOINT, build_graph
+from appliance.localize.matching import StereoMasks
+from appliance.localize.radius import ridge_radius_map
+from appliance.localize.skeleton import skeletonize
+from appliance.localize.tips import flat_cap_curves
+
+H, W, R = 200, 480, 6.0
+SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
+
+
+def _capsule(mask: np.ndarray, top: tuple, bottom: tuple, r: float) -> None:
+    s = 1 << SHIFT
+    a = tuple(int(round(v * s)) for v in top)
+    b = tuple(int(round(v * s)) for v in bottom)
+    cv2.line(mask, a, b, 255, int(round(2 * r)), cv2.LINE_AA, SHIFT)
+    cv2.circle(mask, a, int(round(r * s)), 255, -1, cv2.LINE_AA, SHIFT)
+
+
+def _placer(left: np.ndarray, right: np.ndarray) -> tuple:
+    grey = np.zeros((H, W), np.uint8)
+    bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
+    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
+    graph = build_graph(skeletonize(bl, "fast", 4))
+    b = EndPlacer(graph, sm, {}, load_config().localize.match)
+    return b, list(range(len(graph.seg_yx))), find_runs(left.T, soft=True)
+
+
+def _flat_stub(mask: np.ndarray, tip: tuple, length: float, r: float = R) -> None:
+    """A flat stub from its tip (the cap's centre, x y) ``length`` px to the right, 3 px lower there."""
+    _capsule(mask, tip, (tip[0] + length, tip[1] + 3.0 * length / 60.0), r)
+
+
+def _tip_of(b: EndPlacer, curves: dict, tip: tuple) -> np.ndarray | None:
+    b.curves.update(curves)
+    ends = [n for n in range(len(b.g.node_kind)) if b.g.node_kind[n] == ENDPOINT
+            and np.hypot(*(b.node_xy[n] - tip)) < 3 * R]
+    for n in ends:
+        b.tip(n)
+        if n in b.uvd and n not in b.hidden:
+            return b.uvd[n]
+    return None
+
+
+def test_flat_stub_growing_from_a_limb_gets_its_caps_disparity():
+    """The stub's last radii behind the cap reach the limb it grows from (in the left view): those
+    columns cross the limb, not the stub, and must not move its centre line."""
+    tip, d_true = (300.4, 80.0), 150.0
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    _flat_stub(left, tip, 60.0)
+    _flat_stub(right, (tip[0] - d_true, tip[1]), 60.0)
+    limb = np.array([[312, 0], [336, 0], [336, H], [312, H]], np.float32)     # in front: further left in the right view
+    cv2.fillPoly(left, [np.rint(limb * 16).astype(np.int32)], 255, cv2.LINE_AA, SHIFT)
+    cv2.fillPoly(right, [np.rint((limb - [260, 0]) * 16).astype(np.int32)], 255, cv2.LINE_AA, SHIFT)
+    b, segs, runs_lt = _placer(left, right)
+    curves = flat_cap_curves(b, segs, runs_lt)
+    uvd = _tip_of(b, curves, tip)
+    assert uvd is not None
+    assert np.hypot(uvd[0] - tip[0], uvd[1] - tip[1]) < 1.5 and abs(uvd[2] - d_true) < 0.3
+
+
+def test_short_flat_stub_walks_out_of_its_own_cap():
+    """A stub a few radii long past an occluder: its skeleton end lies nearer the cut end than the
+    cap's edge is ahead of it; the curve's walks must still leave through the cap."""
+    tip, d_true = (300.4, 80.0), 170.0
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    _flat_stub(left, tip, 26.0, 7.0)
+    _flat_stub(right, (tip[0] - d_true, tip[1]), 40.0, 7.0)            # longer in the right view
+    b, segs, runs_lt = _placer(left, right)
+    curves = flat_cap_curves(b, segs, runs_lt)
+    uvd = _tip_of(b, curves, tip)
+    assert uvd is not None
+    assert np.hypot(uvd[0] - tip[0], uvd[1] - tip[1]) < 1.5 and abs(uvd[2] - d_true) < 0.3

@@ -1,19 +1,22 @@
-"""Tips found more often (issue 5, recall): a flat stub growing from a limb, a short flat stub whose
-skeleton end lies nearer its far end (localize/tips.py; constructed masks)."""
+"""Tips found more often (issue 5, recall): an ambiguous cap told apart by the grey images, a stub's
+cap radius from its width, a flat stub growing from a limb, a short flat stub whose skeleton end
+lies nearer its far end (localize/caps.py, localize/tips.py; constructed masks)."""
 
 import cv2
 import numpy as np
 from appliance.config import load_config
+from appliance.localize.caps import cap_curves, cap_disparity
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, build_graph
 from appliance.localize.matching import StereoMasks
-from appliance.localize.radius import ridge_radius_map
+from appliance.localize.radius import radius_at, ridge_radius_map
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.tips import flat_cap_curves
 
 H, W, R = 200, 480, 6.0
 SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
+UP = np.array([0.0, -1.0])
 
 
 def _capsule(mask: np.ndarray, top: tuple, bottom: tuple, r: float) -> None:
@@ -22,6 +25,53 @@ def _capsule(mask: np.ndarray, top: tuple, bottom: tuple, r: float) -> None:
     b = tuple(int(round(v * s)) for v in bottom)
     cv2.line(mask, a, b, 255, int(round(2 * r)), cv2.LINE_AA, SHIFT)
     cv2.circle(mask, a, int(round(r * s)), 255, -1, cv2.LINE_AA, SHIFT)
+
+
+def _twin_caps(d_true: float, d_twin: float, textured: bool) -> StereoMasks:
+    """A steep stub's cap at ``d_true`` in the right view and the same cap's outline again along
+    the rows at ``d_twin`` (another twig's): the masks alone cannot tell them apart. The grey
+    images: a random texture, the right one the left moved by ``d_true`` (the twin's patch shows
+    other texture), or nothing."""
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    top, bottom = (300.4, 60.0), (306.4, 140.0)
+    for m, dx in ((left, 0.0), (right, d_true), (right, d_twin)):
+        _capsule(m, (top[0] - dx, top[1]), (bottom[0] - dx, bottom[1]), R)
+    if textured:
+        rng = np.random.default_rng(5)
+        g = cv2.GaussianBlur(rng.uniform(0, 255, (H, W + 400)).astype(np.float32), (0, 0), 1.5)
+        gl = np.clip(g[:, :W], 0, 255).astype(np.uint8)
+        shift = int(round(d_true))
+        gr = np.clip(g[:, shift:shift + W], 0, 255).astype(np.uint8)       # right(x) = left(x + d)
+    else:
+        gl = gr = np.zeros((H, W), np.uint8)
+    bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
+    return StereoMasks(left, right, gl, gr, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
+
+
+def test_ambiguous_cap_is_told_apart_by_the_grey_images():
+    for d_true, d_twin in ((150.0, 230.0), (230.0, 150.0)):       # the true fit second or first along the strip
+        d = cap_disparity(_twin_caps(d_true, d_twin, True), np.array([300.4, 64.0]), 9, UP)
+        assert d is not None and abs(d - d_true) < 0.3
+        # without texture the masks alone stay ambiguous
+        assert cap_disparity(_twin_caps(d_true, d_twin, False), np.array([300.4, 64.0]), 9, UP) is None
+
+
+def test_cap_curve_takes_the_stubs_radius_from_its_width():
+    """The radius map at the coarse skeleton's end lies inside the cap (short of the stub's
+    radius); the cap curve's radius is the stub's width across behind the cap."""
+    sm = _twin_caps(171.3, 400.0, False)           # (the twin out of the working range: one cap)
+    bl = cv2.threshold(sm.left_mask, 127, 255, cv2.THRESH_BINARY)[1]
+    graph = build_graph(skeletonize(bl, "fast", 4))
+    curves = cap_curves(graph, sm, find_runs(sm.left_mask, soft=True), find_runs(sm.right_mask, soft=True), {}, 20.0)
+    assert len(curves) == 1
+    (c,) = curves.values()
+    runs = find_runs(sm.left_mask, soft=True)
+    body = 0.5 * runs.span_px[runs.find(np.array([100]), np.array([303.0]))[0]] / np.hypot(1.0, 6.0 / 80.0)
+    end = graph.to_full(graph.node_yx[graph.node_kind == ENDPOINT])
+    r_end = radius_at(sm.radius_map, end[np.argmin(end[:, 1])][None])[0]
+    assert abs(c.radius_px - body) < 0.3                 # the drawn stub's half-width (its antialiased rim)
+    assert r_end < c.radius_px - 0.8                     # the radius map at the skeleton's end: short
+    assert abs(c.d_at(64.0)[0] - 171.3) < 0.3
 
 
 def _placer(left: np.ndarray, right: np.ndarray) -> tuple:

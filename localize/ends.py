@@ -950,6 +950,10 @@ class EndPlacer:
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
             if d_end is None and c.segment in self.cap_segments:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
+            elif d_end is None and r > 2.0:
+                # the run end is this tip's only depth of its own: a centre line inclined to the
+                # rows leaves the cap where the row's own run may end sooner, read it further inside
+                d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r, 0.5 * r)
             if d_end is None or not self._carried_agrees(c, node, d_end):
                 self.hidden.add(int(node))
                 return None
@@ -1132,7 +1136,8 @@ class EndPlacer:
             return False
         return bool((m[y0:y1, x0:x1] >= 128).any())
 
-    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0) -> float | None:
+    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0,
+                       inside_px: float = 1.0) -> float | None:
         """Disparity of the end of a flat piece: the end of its row run in both views.
 
         The round cap's silhouette ends one image radius beyond the cap centre in both views,
@@ -1140,14 +1145,15 @@ class EndPlacer:
         disparity range are candidates; the one nearest ``d_prior`` wins. With the radius ``r``
         (px), the median over the rows within half a radius of the axis (at least 3 within 1 px
         of the axis row's): on 28 rendered scenes the median error of such tips drops by a third
-        to a half (docs/localize-subpixel.md).
+        to a half (docs/localize-subpixel.md). The row's left run is the one ``inside_px`` back
+        along the row from ``uv_edge``.
         """
         sm = self.sm
         row = int(np.rint(uv_edge[1]))
         if not 0 <= row < sm.left_mask.shape[0]:
             return None
         runs_l, runs_r = self.runs_l, self.runs_r
-        i = runs_l.find(np.array([row]), np.array([uv_edge[0] - np.sign(out[0])]))[0]
+        i = runs_l.find(np.array([row]), np.array([uv_edge[0] - np.sign(out[0]) * inside_px]))[0]
         if i < 0:
             return None
         j = np.arange(*np.searchsorted(runs_r.row, [row, row + 1]))    # the right runs of that row

@@ -128,3 +128,20 @@ def test_short_flat_stub_walks_out_of_its_own_cap():
     uvd = _tip_of(b, curves, tip)
     assert uvd is not None
     assert np.hypot(uvd[0] - tip[0], uvd[1] - tip[1]) < 1.5 and abs(uvd[2] - d_true) < 0.3
+
+
+def test_flat_tips_run_end_read_further_inside_where_the_line_leaves_the_cap_off_its_row():
+    """A flat piece's fitted line inclined to the rows leaves the cap near its top: 1 px back along
+    that row is off the mask (no run end, the tip would be hidden); half a radius back the row's
+    run is the cap's and its end gives the disparity."""
+    tip, d_true = (300.4, 80.0), 150.0
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    _flat_stub(left, tip, 60.0)
+    _flat_stub(right, (tip[0] - d_true, tip[1]), 60.0)
+    b, _, _ = _placer(left, right)
+    b.runs_l, b.runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    out = np.array([-0.8, -0.6])
+    uv_edge = np.array(tip) + (R + 2.0) * out          # (the drawn rim lies ~0.7 px out; the walk's edge past it)
+    assert b._end_disparity(uv_edge, out, d_true + 0.5, R) is None
+    d = b._end_disparity(uv_edge, out, d_true + 0.5, R, 0.5 * R)
+    assert d is not None and abs(d - d_true) < 0.3

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 from appliance.config import load_config
 from appliance.localize.caps import cap_curves, cap_disparity
+from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, build_graph
@@ -145,3 +146,43 @@ def test_flat_tips_run_end_read_further_inside_where_the_line_leaves_the_cap_off
     assert b._end_disparity(uv_edge, out, d_true + 0.5, R) is None
     d = b._end_disparity(uv_edge, out, d_true + 0.5, R, 0.5 * R)
     assert d is not None and abs(d - d_true) < 0.3
+
+
+def _steep_end(cut: bool, offset_r: float):
+    """A steep stub (tip up) and a fitted line ``offset_r`` radii off its middle; ``cut``: its end
+    cut by an occluder's edge 60 deg from the rows instead of a round cap. The placer, the line's curve, its end."""
+    tip = (300.4, 60.0)
+    left = np.zeros((H, W), np.uint8)
+    _capsule(left, tip, (300.4, 140.0), R)
+    if cut:
+        edge = np.array([[250, -20], [350, -20], [350, -11.6], [250, 161.6]], np.float32)   # above the edge: gone
+        cv2.fillPoly(left, [np.rint(edge * 16).astype(np.int32)], 0, cv2.LINE_AA, SHIFT)
+    b, _, _ = _placer(left, left)
+    end = [n for n in range(len(b.g.node_kind)) if b.g.node_kind[n] == ENDPOINT]
+    node = min(end, key=lambda n: b.node_xy[n][1])
+    c = BranchCurve(0, True, (75.0, 130.0), Poly.constant(300.4 + offset_r * R), Poly.constant(150.0), R, 50,
+                    (0.0, 0.0))
+    return b, c, node
+
+
+def _split(b, c, node, sides=None):
+    t_edge, sign = b._walk_out(c, node)
+    speed = float(np.hypot(*(c.uv_at(t_edge + sign)[0] - c.uv_at(t_edge)[0])))
+    t_a, t_b = sides if sides is not None else b._walk_sides(c, node, 0.4 * R)
+    return abs(t_a - t_b) * speed / R, t_edge, sign
+
+
+def test_oblique_test_reads_a_round_cap_about_its_middle_not_an_off_line():
+    b, c, node = _steep_end(False, 0.55)
+    split, t_edge, sign = _split(b, c, node)
+    assert split > b.cfg.oblique_end_ratio                      # about the off line: looks oblique
+    uv_edge = c.uv_at(t_edge)[0]
+    out = np.array([0.0, -1.0])
+    sides = b._sides_about_middle(c, node, uv_edge, out, R, sign, split, b._walk_sides(c, node, 0.4 * R))
+    assert _split(b, c, node, sides)[0] <= b.cfg.oblique_end_ratio   # about the middle: round
+    # an occluder's oblique edge ends the sides further apart than any offset line explains
+    b, c, node = _steep_end(True, 0.55)
+    split, t_edge, sign = _split(b, c, node)
+    first = b._walk_sides(c, node, 0.4 * R)
+    assert split > 1.1
+    assert b._sides_about_middle(c, node, c.uv_at(t_edge)[0], out, R, sign, split, first) == first

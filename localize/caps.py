@@ -27,6 +27,11 @@ MAX_FIT_ERROR = 0.15
 MIN_FIT_MARGIN = 0.15
 # the far fits (by squared difference) whose differing area is compared with the best's
 FAR_CANDIDATES = 4
+# an ambiguous cap (other fits within the margin) stands at the fit the grey images prefer: their
+# normalised cross-correlation of the square patch there at least this ...
+GREY_MIN_NCC = 0.7
+# ... and at least this much above every other of those fits
+GREY_MIN_LEAD = 0.15
 
 
 def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray,
@@ -34,8 +39,8 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     """Disparity (px) at which the left mask's square patch around ``centre_xy`` (x, y) fits the
     right mask best along the same rows, within the working range; None when it fits nowhere
     well (:data:`MAX_FIT_ERROR`), or about as well at another place (``min_margin``, by default
-    :data:`MIN_FIT_MARGIN`).
-    Sub-pixel by a parabola through the best fit and its neighbours.
+    :data:`MIN_FIT_MARGIN`) unless the grey images tell those fits apart (:func:`_grey_choice`:
+    then the fit they prefer). Sub-pixel by a parabola through the fit and its neighbours.
 
     Only the patch's half towards ``out`` (unit (x, y), from the piece to its end) counts: the
     cap and the background beyond it, alike in both views at a tip, while the piece behind it
@@ -66,14 +71,40 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     cand = cand[np.argsort(err[cand], kind="stable")[:FAR_CANDIDATES]] if len(cand) else cand
     area = _area_err(strip, patch, half, np.r_[k, cand])
     best = float(area[0])
-    if best > MAX_FIT_ERROR or (len(cand) and float(area[1:].min()) < best + min_margin):
+    if best > MAX_FIT_ERROR:
         return None
+    rivals = cand[area[1:] < best + min_margin] if len(cand) else cand
+    if len(rivals):
+        k = _grey_choice(sm, (y0, y1, x0, x1), s0, np.r_[k, rivals], half_px)
+        if k is None:
+            return None
     off = 0.0
     if 0 < k < len(err) - 1:
         a, b, c = (float(v) for v in err[k - 1:k + 2])
         den = a - 2 * b + c
         off = 0.5 * (a - c) / den if den > 0 else 0.0
     return float(x0 - (s0 + k + off))
+
+
+def _grey_choice(sm: StereoMasks, box: tuple, s0: int, offsets: np.ndarray, half_px: int) -> int | None:
+    """Which of the cap's mask fits ``offsets`` (strip offsets whose fits are about as good, the
+    best first) the grey images tell apart, or None: a small cap's outline is repeated along the
+    rows by other caps and branch sides, its shading and the background around it are not. The
+    left grey square patch ``box`` (y0, y1, x0, x1) is correlated (normalised, mean removed)
+    along the right grey strip from column ``s0``: the fit chosen must score
+    :data:`GREY_MIN_NCC` and beat every other more than ``half_px`` from it by
+    :data:`GREY_MIN_LEAD`. A patch without texture tells nothing (None)."""
+    y0, y1, x0, x1 = box
+    tmpl = np.asarray(sm.left_gray[y0:y1, x0:x1], np.float32)
+    if float(tmpl.std()) < 2.0:
+        return None
+    a, z = int(offsets.min()), int(offsets.max()) + (x1 - x0)
+    strip = np.asarray(sm.right_gray[y0:y1, s0 + a:s0 + z], np.float32)
+    ncc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0][offsets - a]
+    i = int(np.argmax(ncc))
+    far = np.abs(offsets - offsets[i]) > half_px
+    lead = ncc[i] - ncc[far].max() if far.any() else 0.0
+    return int(offsets[i]) if ncc[i] >= GREY_MIN_NCC and lead >= GREY_MIN_LEAD else None
 
 
 def _area_err(strip: np.ndarray, patch: np.ndarray, half: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -145,6 +176,23 @@ def cap_curves(graph: SkeletonGraph, sm: StereoMasks, runs_l: Runs, runs_r: Runs
         max_w = 1.5 * (2 * r / max(np.sin(np.radians(angle)), 0.2) + 1) + 2
         if not _rows_agree(runs_l, runs_r, rows[np.abs(rows - end_xy[1]) <= r], u_poly, d, max_w):
             continue
-        out[s] = BranchCurve(s, True, (float(t.min()), float(t.max())), u_poly, Poly.constant(d), r, len(near),
-                             (0.0, 0.0))
+        out[s] = BranchCurve(s, True, (float(t.min()), float(t.max())), u_poly, Poly.constant(d),
+                             _width_radius(runs_l, u_poly, end_xy, out_dir, r), len(near), (0.0, 0.0))
     return out
+
+
+def _width_radius(runs_l: Runs, u_poly: Poly, end_xy: np.ndarray, out_dir: np.ndarray, r: float) -> float:
+    """The stub's radius from its width across (px): the median of its left rows' crossings 1-3
+    radii behind the skeleton end ``end_xy`` (away from ``out_dir``), each ``2 rho sqrt(1 + u'^2)``
+    wide on the line ``u_poly``. The radius map at a skeleton end ``r`` lies inside the round cap,
+    short of the branch's radius (a cap curve's tip is placed and its cap rows read with this
+    radius); so the reading replaces ``r`` only where it is larger, up to twice ``r`` (a wider
+    reading is something else crossing those rows), and where at least 3 rows are read."""
+    back = -1.0 if out_dir[1] > 0 else 1.0
+    rows = np.rint(end_xy[1] + back * np.arange(r, 3 * r + 1.0)).astype(int)
+    il = runs_l.find(rows, u_poly(rows))
+    if (il >= 0).sum() < 3:
+        return r
+    slope = float(u_poly.deriv().at(float(end_xy[1])))
+    rho = float(np.median(runs_l.span_px[il[il >= 0]])) * 0.5 / np.sqrt(1.0 + slope * slope)
+    return rho if r <= rho <= 2.0 * r else r

@@ -125,7 +125,10 @@ def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
     # end lies inside the cap; the cap's own columns are shorter)
     cols = t_edge - sign * np.arange(r0 + 2.0, r0 + 2.0 + max(3 * r0, 10.0))
     it = runs_lt.find(np.rint(cols).astype(int), v_poly(cols))
-    ok = it >= 0
+    # a column crosses a piece within max_horizontal_deg of the rows over at most 2 r / cos: one
+    # much longer is something the stub touches (the limb it grows from or crosses), not its width
+    max_span = 1.5 * (2 * r0 / np.cos(np.radians(b.cfg.max_horizontal_deg)) + 1) + 2
+    ok = (it >= 0) & (runs_lt.span_px[np.maximum(it, 0)] <= max_span)
     if ok.sum() < 3:
         return None
     cols = np.rint(cols[ok])
@@ -135,8 +138,11 @@ def _flat_cap_curve(b, s: int, node: int, runs_lt: Runs) -> BranchCurve | None:
     if r < 1.0:
         return None
     # the span: from the end back past the skeleton's last points (the end's walk starts at the
-    # span's end nearer the node)
-    lo, hi = (min(float(cols.min()), lo), t_edge) if sign > 0 else (t_edge, max(float(cols.max()), hi))
+    # span's end nearer the node: on a short stub the span reaches back at least as far behind the
+    # node as the cap's edge lies ahead of it, else the walks would leave from the far end)
+    t_node = float(end_xy[0])
+    lo, hi = ((min(float(cols.min()), lo, 2 * t_node - t_edge - 1.0), t_edge) if sign > 0 else
+              (t_edge, max(float(cols.max()), hi, 2 * t_node - t_edge + 1.0)))
     c = BranchCurve(s, False, (lo, hi), v_poly, Poly.constant(0.0), r, int(ok.sum()), (0.0, 0.0))
     t_edge, sign = b._walk_out(c, node)
     uv_edge = c.uv_at(t_edge)[0]

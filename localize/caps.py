@@ -32,6 +32,9 @@ FAR_CANDIDATES = 4
 GREY_MIN_NCC = 0.7
 # ... and at least this much above every other of those fits
 GREY_MIN_LEAD = 0.15
+# a stub's width read behind its cap whose crossings spread more than this share of their median
+# is not the stub's alone (the stub runs into the limb it grows from): the radius map's stands
+WIDTH_SPREAD = 0.3
 
 
 def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.ndarray,
@@ -187,12 +190,16 @@ def _width_radius(runs_l: Runs, u_poly: Poly, end_xy: np.ndarray, out_dir: np.nd
     wide on the line ``u_poly``. The radius map at a skeleton end ``r`` lies inside the round cap,
     short of the branch's radius (a cap curve's tip is placed and its cap rows read with this
     radius); so the reading replaces ``r`` only where it is larger, up to twice ``r`` (a wider
-    reading is something else crossing those rows), and where at least 3 rows are read."""
+    reading is something else crossing those rows), where at least 3 rows are read and their widths
+    agree (:data:`WIDTH_SPREAD`)."""
     back = -1.0 if out_dir[1] > 0 else 1.0
     rows = np.rint(end_xy[1] + back * np.arange(r, 3 * r + 1.0)).astype(int)
     il = runs_l.find(rows, u_poly(rows))
     if (il >= 0).sum() < 3:
         return r
+    span = runs_l.span_px[il[il >= 0]]
+    if float(span.max() - span.min()) > WIDTH_SPREAD * float(np.median(span)):
+        return r
     slope = float(u_poly.deriv().at(float(end_xy[1])))
-    rho = float(np.median(runs_l.span_px[il[il >= 0]])) * 0.5 / np.sqrt(1.0 + slope * slope)
+    rho = float(np.median(span)) * 0.5 / np.sqrt(1.0 + slope * slope)
     return rho if r <= rho <= 2.0 * r else r

@@ -186,3 +186,17 @@ def test_oblique_test_reads_a_round_cap_about_its_middle_not_an_off_line():
     first = b._walk_sides(c, node, 0.4 * R)
     assert split > 1.1
     assert b._sides_about_middle(c, node, c.uv_at(t_edge)[0], out, R, sign, split, first) == first
+
+
+def test_stub_width_is_not_read_where_the_stub_runs_into_its_limb():
+    """Rows behind a stub's cap that cross the limb it grows from (twice as wide and more) are
+    not the stub's width: the radius map's value stands; the stub alone gives its own width."""
+    from appliance.localize.caps import _width_radius
+    mask = np.zeros((H, W), np.uint8)
+    _capsule(mask, (300.0, 60.0), (300.0, 140.0), 8.0)                 # the stub, radius 8 px
+    line = Poly(np.array([300.0]))                                      # its centre line u(v)
+    runs = find_runs(mask, soft=True)
+    body = 0.5 * runs.span_px[runs.find(np.array([100]), np.array([300.0]))[0]]   # (its antialiased rim)
+    assert abs(_width_radius(runs, line, np.array([300.0, 66.0]), UP, 6.0) - body) < 0.05
+    mask[80:140, 270:330] = 255                                         # a limb 60 px wide from row 80
+    assert _width_radius(find_runs(mask, soft=True), line, np.array([300.0, 66.0]), UP, 6.0) == 6.0

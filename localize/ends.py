@@ -21,7 +21,7 @@ from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
-from appliance.localize.forkdisp import flat_side_near, side_disparity_near, weigh_sides
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -49,6 +49,8 @@ FLAT_CHILD_SIN = math.sin(math.radians(20.0))
 # (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
 FLAT_NEAR = True
 FLAT_NEAR_MIN_PX = 0.25
+# ... with the parent's radius at the fork between its two sides' (a tapering branch: EndPlacer._radius_at_fork)
+FLAT_TAPER = True
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
 # (forkdisp.weigh_sides) instead of the plain mean
@@ -298,7 +300,8 @@ class EndPlacer:
                 v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
-                                   self.sm.f_px, self.sm.offset_px)
+                                   self.sm.f_px, self.sm.offset_px,
+                                   radius_px=self._radius_at_fork(parents, xy) if FLAT_TAPER else None)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
                 if v is not None:
                     flat_read.add(s)
@@ -351,6 +354,11 @@ class EndPlacer:
                 # (picking the nearer side alone was worse: the outline's place is noisy)
                 if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
                     d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
+            elif FLAT_TAPER and len(d_par) == 2 and all(s in flat_read for s in parents):
+                # the two sides' textures next to the fork agree: two measurements of the parent there,
+                # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
+                # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
+                seen_right = abs(d_out - d) <= 3.0
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
@@ -394,6 +402,18 @@ class EndPlacer:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _radius_at_fork(self, parents: list, xy: np.ndarray) -> float | None:
+        """The parent's radius (px) at the fork ``xy`` (2,) from its two sides' (each its span's mean,
+        taken at the span's middle): a branch tapers along its length, so the distal side's radius is
+        smaller than at the fork and the proximal one's larger; linear between the two middles by their
+        distances in the image. None with fewer than two fitted sides (the side's own stands)."""
+        if len(parents) != 2:
+            return None
+        (ra, da), (rb, db) = ((self.curves[s].radius_px,
+                               float(np.hypot(*(self.curves[s].uv_at(np.array([0.5 * sum(self.curves[s].t_range)]))[0]
+                                                - xy)))) for s in parents)
+        return taper_radius(ra, da, rb, db)
 
     def recheck_outline_forks(self) -> None:
         """Forks on a flat parent whose disparity the right outline of a child without a curve

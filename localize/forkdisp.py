@@ -18,7 +18,7 @@ import numpy as np
 
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
-from appliance.localize.texture import surface_to_axis
+from appliance.localize.texture import patch_depth_fraction, surface_to_axis
 
 
 # a parent side's fit carried at least this far (px of its parameter) to the fork is read again from its
@@ -139,7 +139,8 @@ FLAT_ALONG = True
 
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
                    offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
-                   min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3) -> SideNear | None:
+                   min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3,
+                   radius_px: float | None = None) -> SideNear | None:
     """A flat parent side's disparity at a fork from its bark texture next to the fork.
 
     A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
@@ -162,6 +163,11 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
         The fork's column on the side's curve.
     f_px, offset_px : float
         Focal length and the principal-point difference (``texture.surface_to_axis``).
+    radius_px : float, optional
+        The parent's radius at the fork (the surface-to-axis step and the search's centre; the patches
+        keep the side's height, as the flat fit's); by default
+        the side's own (its span's, which for a tapering branch is the radius tens of px away: the
+        distal side thinner than at the fork, its texture's axis read too near, the proximal one too far).
 
     Returns
     -------
@@ -176,14 +182,16 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     t = t_fork + sg * dt
     uv = c.uv_at(t)
     d_c = float(c.d_at(t_fork)[0])
-    scale = 1.0 + c.radius_px / f_px
+    r = c.radius_px if radius_px is None else float(radius_px)
+    scale = 1.0 + r / f_px
     d_s = (d_c - offset_px) * scale + offset_px          # the curve's value on the surface
-    d_surf, score = _patch_disparity(left_gray, right_gray, uv, max(1, int(0.6 * c.radius_px)), 12,
+    hh = max(1, int(0.6 * c.radius_px))                 # (the flat fit's patches: the side's own radius)
+    d_surf, score = _patch_disparity(left_gray, right_gray, uv, hh, 12,
                                      int(math.floor(d_s - 3.0)), int(math.ceil(d_s + 3.0)))
     ok = np.isfinite(d_surf) & (score >= min_score)
     if np.count_nonzero(ok) < min_patches:
         return None
-    d_ax = surface_to_axis(d_surf[ok], c.radius_px, f_px, offset_px)
+    d_ax = surface_to_axis(d_surf[ok], r, f_px, offset_px, patch_depth_fraction(r, hh))
     if FLAT_ALONG:      # each patch's value carried to the fork along the curve's own slope
         d_ax = d_ax - (c.d_at(t[ok]) - d_c)
     keep = np.abs(d_ax - d_c) <= tol_d_px
@@ -193,6 +201,13 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     m = float(median(d_ax))
     mad = 1.4826 * float(median(np.abs(d_ax - m)))
     return SideNear(m, len(d_ax), 0, int(max(lo - t_fork, t_fork - hi, 0.0)), float(x.min()), mad, 0.0)
+
+
+def taper_radius(r_a_px: float, dist_a_px: float, r_b_px: float, dist_b_px: float) -> float:
+    """A tapering branch's radius (px) at a point between two stretches of it of radii ``r_a_px`` and
+    ``r_b_px`` (each their mean, so their middle's) ``dist_a_px`` and ``dist_b_px`` away: linear along
+    the branch (a branch's radius falls evenly from its base to its tip)."""
+    return (r_a_px * dist_b_px + r_b_px * dist_a_px) / max(dist_a_px + dist_b_px, 1e-9)
 
 
 def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: int, hw: int, lo: int,

@@ -3,7 +3,8 @@
 import numpy as np
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
-from appliance.localize.forkdisp import flat_side_near, line_carry_var, side_disparity_near, weigh_sides
+from appliance.localize.forkdisp import flat_side_near, line_carry_var, side_disparity_near, taper_radius, weigh_sides
+from appliance.localize.texture import patch_depth_fraction
 
 H, W = 400, 320
 FORK_ROW = 150.0
@@ -185,6 +186,28 @@ def test_a_flat_side_read_is_carried_to_the_fork_along_its_curves_slope():
     near = flat_side_near(c, left, right, 150.0, f_px=1e9)
     assert near is not None
     assert abs(near.d_px - flat_d(150.0)) <= 0.08
+
+
+def test_a_flat_side_is_moved_back_onto_the_axis_by_the_parents_radius_at_the_fork():
+    # a tapering parent: the side's own radius (8 px, its span's) is less than the parent's at the fork
+    # (12 px); the patches see the surface 0.94 of the fork's radius in front of the axis
+    f_px, r_fork, axis_d = 200.0, 12.0, 20.0
+    surf_d = axis_d * (1.0 + patch_depth_fraction(r_fork, 4) * r_fork / f_px)      # (rows +-int(0.6 * 8))
+    left, right = textured_pair(lambda u: np.full_like(u, surf_d))
+    t = np.arange(200.0, 301.0)
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1), Poly.constant(axis_d),
+                    8.0, len(t))
+    at_fork = flat_side_near(c, left, right, 150.0, f_px=f_px, radius_px=r_fork)
+    own = flat_side_near(c, left, right, 150.0, f_px=f_px)
+    assert at_fork is not None and own is not None
+    assert abs(at_fork.d_px - axis_d) <= 0.08
+    assert own.d_px - axis_d >= 0.3            # the side's own thinner radius: the axis read too near
+
+
+def test_a_tapering_branchs_radius_is_linear_between_its_stretches():
+    assert taper_radius(16.0, 30.0, 12.0, 10.0) == 13.0
+    assert taper_radius(16.0, 0.0, 12.0, 50.0) == 16.0
+    assert taper_radius(10.0, 20.0, 10.0, 80.0) == 10.0
 
 
 def test_a_line_carried_past_its_rows_is_known_as_least_squares_says():

@@ -955,3 +955,130 @@ def warm_up() -> None:
     graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
+    _warm_match()
+
+
+# --- match stage (speedm)
+
+
+@numba.njit(**_JIT)
+def _patch_sums(img, y0, nh, x0, nw):
+    """Sum, sum of squares, minimum and maximum of the patch ``img[y0:y0 + nh, x0:x0 + nw]`` (float64:
+    exact for uint8 images)."""
+    s, s2, lo, hi = 0.0, 0.0, np.inf, -np.inf
+    for r in range(nh):
+        for j in range(nw):
+            v = float(img[y0 + r, x0 + j])
+            s += v
+            s2 += v * v
+            lo = min(lo, v)
+            hi = max(hi, v)
+    return s, s2, lo, hi
+
+
+@numba.njit(**_JIT)
+def _is_flat(s, s2, lo, hi, m, min_std):
+    """``texture._flat`` from a patch's sums (``m`` pixels): the range settles it where it can, else the
+    standard deviation (exact for uint8 patches; numpy's rounded one could differ only at exactly
+    ``min_std``)."""
+    r = hi - lo
+    if r < 2 * min_std:
+        return True
+    if r * r > 2.02 * m * min_std * min_std:
+        return False
+    return m * s2 - s * s < min_std * min_std * m * m
+
+
+@numba.njit(**_JIT)
+def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs2, out):
+    """``cv2.matchTemplate(strip, tmpl, TM_CCOEFF_NORMED)[0]`` into ``out[:n_pos]`` for the uint8 template
+    ``left[y0:y0 + nh, lx0:lx0 + nw]`` (sums ``st``, ``st2``) and the strip ``right[y0:y0 + nh, rx0:rx0 +
+    n_pos + nw - 1]``. Every sum is exact (integers: the products in int32, < 2^31 for patches up to
+    181 x 181 px), so the score is the correctly computed one; OpenCV's float32 correlation (by DFT)
+    is off by up to ~5e-4. A window without variance scores 0 (as OpenCV). ``acc`` (int32), ``buf``
+    (int32), ``cs``, ``cs2`` (float): scratch of >= n_pos + nw."""
+    m = float(nh * nw)
+    sw = n_pos + nw - 1
+    for p in range(n_pos):
+        acc[p] = 0
+    for x in range(sw):
+        cs[x] = 0.0
+        cs2[x] = 0.0
+    for r in range(nh):
+        lrow = left[y0 + r]
+        rrow = right[y0 + r]
+        for x in range(sw):
+            v = np.int32(rrow[rx0 + x])
+            buf[x] = v
+            cs[x] += v
+            cs2[x] += v * v
+        for j in range(nw):             # (contiguous int32 rows: vectorised over the positions)
+            t = np.int32(lrow[lx0 + j])
+            b = buf[j:j + n_pos]
+            for p in range(n_pos):
+                acc[p] += t * b[p]
+    vt = m * st2 - st * st
+    s1, s2 = 0.0, 0.0
+    for x in range(nw - 1):
+        s1 += cs[x]
+        s2 += cs2[x]
+    for p in range(n_pos):
+        s1 += cs[p + nw - 1]
+        s2 += cs2[p + nw - 1]
+        if p > 0:
+            s1 -= cs[p - 1]
+            s2 -= cs2[p - 1]
+        vs = m * s2 - s1 * s1
+        if vs <= 0.0 or vt <= 0.0:
+            out[p] = 0.0
+        else:
+            c = (m * float(acc[p]) - st * s1) / np.sqrt(vt * vs)
+            out[p] = min(max(c, -1.0), 1.0)
+
+
+@numba.njit(**_JIT)
+def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
+    """``texture._search``'s one-by-one loop: for each patch ``i`` (centre ``(tx[i], ty[i])`` in ``left``,
+    half height ``hh[i]``, half width ``hw``) not flat (``texture._flat`` with ``min_std``), its
+    TM_CCOEFF_NORMED scores along the strip ``right[ty - hh:ty + hh + 1, sx0[i]:sx1[i]]`` (at least 3
+    positions), the best position and the parabola's offset through it and its neighbours.
+
+    Returns ok (N,) bool (False: flat, or a strip too short), k (N,) int64, off (N,), score (N,)."""
+    n = len(ty)
+    nw = 2 * hw + 1
+    big = 0
+    for i in range(n):
+        big = max(big, sx1[i] - sx0[i])
+    ok = np.zeros(n, np.bool_)
+    ks = np.zeros(n, np.int64)
+    offs = np.zeros(n)
+    best = np.full(n, -1.0)
+    acc, buf = np.empty(big + 1, np.int32), np.empty(big + 1, np.int32)
+    cs, cs2, c = np.empty(big + 1), np.empty(big + 1), np.empty(big + 1)
+    for i in range(n):
+        nh = 2 * hh[i] + 1
+        y0, lx0 = ty[i] - hh[i], tx[i] - hw
+        st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
+        if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+            continue
+        n_pos = sx1[i] - sx0[i] - nw + 1
+        if n_pos < 3:
+            continue
+        _ncc_row(left, right, y0, nh, lx0, nw, sx0[i], n_pos, st, st2, acc, buf, cs, cs2, c)
+        k = 0
+        for p in range(1, n_pos):
+            if c[p] > c[k]:
+                k = p
+        off = 0.0
+        if 0 < k < n_pos - 1:
+            denom = c[k - 1] - 2 * c[k] + c[k + 1]
+            if denom < 0:
+                off = 0.5 * (c[k - 1] - c[k + 1]) / denom
+        ok[i], ks[i], offs[i], best[i] = True, k, off, c[k]
+    return ok, ks, offs, best
+
+
+def _warm_match() -> None:
+    """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
+    img, i = np.zeros((8, 16), np.uint8), np.ones(1, np.int64)
+    ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)

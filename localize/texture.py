@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 
 
 def _flat(patch: np.ndarray, min_std: float) -> bool:
@@ -93,14 +94,25 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     # same scores as matchTemplate's TM_CCOEFF_NORMED, in float64); the rest one by one
     whole = inside & (uv[:, 0] - hi - hw >= 0) & (uv[:, 0] - lo + hw + 1 <= w)
     batch = None
-    if whole.sum() >= 2 and hi - lo <= 32:
+    compiled = lbox.dtype == np.uint8 and rbox.dtype == np.uint8      # (all patches by kernels.ncc_peaks)
+    if not compiled and whole.sum() >= 2 and hi - lo <= 32:
         hh0 = int(np.bincount(hhs[whole]).argmax())
         idx = np.flatnonzero(whole & (hhs == hh0))
         if len(idx) >= 2:
             batch = ((hh0, hw, hi - lo + 1), lbox, rbox, uv[idx], lo, hi, (by0, lx0, rx0), idx, d_out, score)
             inside = inside.copy()
             inside[idx] = False
-    for i in np.flatnonzero(inside).tolist():
+    todo = np.flatnonzero(inside)
+    if len(todo) and compiled:                   # one compiled loop (the scores exact: kernels.ncc_peaks)
+        ui, vi = uv[todo, 0], uv[todo, 1]
+        xs = np.maximum(ui - hi - hw, 0)
+        ok, k, off, best = kernels.ncc_peaks(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]),
+                                             vi - by0, ui - lx0, hhs[todo], hw, xs - rx0,
+                                             np.minimum(ui - lo + hw + 1, w) - rx0, 1.0)
+        d_out[todo[ok]] = ui[ok] - (xs[ok] + k[ok] + off[ok] + hw)
+        score[todo[ok]] = best[ok]
+        todo = todo[:0]
+    for i in todo.tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]
         if _flat(tmpl, 1.0):

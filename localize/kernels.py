@@ -1078,7 +1078,27 @@ def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
     return ok, ks, offs, best
 
 
+@numba.njit(**_JIT)
+def ncc_scores(strip, tmpl):
+    """``cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]`` of a uint8 template and a strip of its
+    height (float64, exact sums: :func:`_ncc_row`; a constant template scores 1 everywhere, as OpenCV)."""
+    nh, nw = tmpl.shape
+    n_pos = strip.shape[1] - nw + 1
+    out = np.empty(max(n_pos, 0))
+    if n_pos <= 0:
+        return out
+    st, st2, lo, hi = _patch_sums(tmpl, 0, nh, 0, nw)
+    if lo == hi:
+        out[:] = 1.0
+        return out
+    big = strip.shape[1] + 1
+    _ncc_row(tmpl, strip, 0, nh, 0, nw, 0, n_pos, st, st2, np.empty(big, np.int32), np.empty(big, np.int32),
+             np.empty(big), np.empty(big), out)
+    return out
+
+
 def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i = np.zeros((8, 16), np.uint8), np.ones(1, np.int64)
     ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
+    ncc_scores(img, img[:, :3])

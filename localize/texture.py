@@ -319,7 +319,10 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         strip = right[v - hh:v + hh + 1, x0:u - 1 + hh + 1]
         if strip.shape[1] <= tmpl.shape[1]:
             continue
-        c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:      # (exact scores: kernels.ncc_scores)
+            c = kernels.ncc_scores(np.require(strip, None, ["C", "W"]), np.require(tmpl, None, ["C", "W"]))
+        else:
+            c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         d = u - (x0 + np.arange(len(c)) + hh)          # disparity of each position
         front = d > d_branch_px[i] + margin_px
         behind = ~front

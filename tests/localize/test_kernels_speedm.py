@@ -64,3 +64,21 @@ def test_ncc_peaks_is_opencvs_search():
         assert np.abs(off[ok][same] - ref[2][ok][same]).max(initial=0) < 0.02
         n_peaks += int(ok.sum())
     assert n_peaks > 500
+
+
+def test_ncc_scores_is_matchtemplate():
+    rng = np.random.default_rng(6)
+    for _ in range(60):
+        nh, nw = rng.integers(1, 20, 2)
+        strip = cv2.GaussianBlur(rng.integers(0, 256, (nh, int(rng.integers(1, 300)))).astype(np.uint8), (0, 0), 1.5)
+        strip[:, 20:40] = 50                                        # windows without variance
+        tmpl = strip[:, 5:5 + nw].copy() if strip.shape[1] >= 5 + nw else rng.integers(0, 256, (nh, nw)).astype(np.uint8)
+        if rng.random() < 0.1:
+            tmpl[:] = 7                                             # a constant template: 1 everywhere
+        got = kernels.ncc_scores(strip, tmpl)
+        if strip.shape[1] < nw:
+            assert got.shape == (0,)
+            continue
+        ref = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+        assert got.shape == ref.shape
+        assert np.abs(got - ref).max() < 1e-3                      # OpenCV's float32 (DFT) rounding

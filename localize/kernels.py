@@ -1097,8 +1097,33 @@ def ncc_scores(strip, tmpl):
     return out
 
 
+@numba.njit(**_JIT)
+def masked_sqdiff(strip, patch, weight):
+    """``cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=weight)[0]`` of a uint8 patch (h, w) with 0/1
+    weights (h, w) along a uint8 strip of its height: each position's sum of the weighted squared
+    differences, exact (integers), where OpenCV's float32 correlations (by DFT) carry rounding of
+    ~1e-6 of the terms' sums."""
+    nh, nw = patch.shape
+    n_pos = strip.shape[1] - nw + 1
+    out = np.zeros(max(n_pos, 0))
+    acc = np.zeros(max(n_pos, 0), np.int64)
+    for r in range(nh):
+        srow = strip[r]
+        for j in range(nw):
+            if weight[r, j] == 0:
+                continue
+            t = np.int64(patch[r, j])
+            for p in range(n_pos):
+                e = np.int64(srow[j + p]) - t
+                acc[p] += e * e
+    for p in range(n_pos):
+        out[p] = float(acc[p])
+    return out
+
+
 def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i = np.zeros((8, 16), np.uint8), np.ones(1, np.int64)
     ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
     ncc_scores(img, img[:, :3])
+    masked_sqdiff(img, img[:, :3], img[:, :3])

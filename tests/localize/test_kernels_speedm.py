@@ -82,3 +82,21 @@ def test_ncc_scores_is_matchtemplate():
         ref = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         assert got.shape == ref.shape
         assert np.abs(got - ref).max() < 1e-3                      # OpenCV's float32 (DFT) rounding
+
+
+def test_masked_sqdiff_is_matchtemplates():
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        nh, nw = rng.integers(3, 30, 2)
+        strip = cv2.GaussianBlur((rng.random((nh, int(rng.integers(nw, 300)))) < 0.5).astype(np.uint8) * 255,
+                                 (0, 0), 1.0)
+        patch = strip[:, :nw].copy() if rng.random() < 0.5 else rng.integers(0, 256, (nh, nw)).astype(np.uint8)
+        half = (rng.random((nh, nw)) < 0.6).astype(np.uint8)
+        got = kernels.masked_sqdiff(strip, patch, half)
+        ref = cv2.matchTemplate(strip.astype(np.float32), patch.astype(np.float32), cv2.TM_SQDIFF,
+                                mask=half.astype(np.float32))[0]
+        n = float(half.sum()) * 255.0 ** 2
+        assert got.shape == ref.shape
+        assert np.abs(got - ref).max() / n < 1e-4                  # OpenCV's float32 rounding
+        # exact: the sums of squared integer differences
+        assert got[0] == float(((strip[:, :nw].astype(np.int64) - patch) ** 2 * half).sum())

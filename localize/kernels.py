@@ -1121,9 +1121,54 @@ def masked_sqdiff(strip, patch, weight):
     return out
 
 
+@numba.njit(**_JIT)
+def refine_steps(p, x_px, xi, log_tab, min_step, min_share, max_shift_px):
+    """``subpixel.refine_boundaries`` after its gather: each boundary ``x_px`` (K,) (pixel ``xi`` (K,) int64)
+    moved to the grey step along its row from the 7 pixels ``p`` (K, 7) float32 (whole grey levels
+    0-255) centred on ``xi``, with numpy's float32 / float64 steps in the same order (the same values).
+    ``log_tab`` (256,) float32: numpy's float32 ``log`` of ``max(v, 1e-3)`` for the steps' values ``v``
+    (whole levels: index ``max(v, 0)``), so the logs are numpy's own."""
+    n = len(x_px)
+    out = np.empty(n)
+    f0, half, neg = np.float32(0.0), np.float32(0.5), np.float32(-1e-6)
+    two = np.float32(2.0)
+    lim = np.float32(0.5 * min_share)
+    for i in range(n):
+        out[i] = x_px[i]
+        raw = p[i, 5] + p[i, 6] - p[i, 0] - p[i, 1]
+        sg = np.float32(1.0) if raw > f0 else np.float32(-1.0) if raw < f0 else f0
+        d = np.float32(x_px[i] - xi[i])
+        best, k = -np.inf, 0
+        for j in range(1, 5):
+            v = (p[i, j + 1] - p[i, j]) * sg
+            if (j == 1 and d > f0) or (j == 4 and d < f0):
+                continue
+            if v > best:
+                best, k = v, j
+        if k == 0:                      # (every candidate -inf: numpy's argmax takes the first)
+            k = 2 if d > f0 else 1
+        a = (p[i, k] - p[i, k - 1]) * sg
+        b = (p[i, k + 1] - p[i, k]) * sg
+        c = (p[i, k + 2] - p[i, k + 1]) * sg
+        if not (b >= np.float32(min_step) and b >= lim * abs(raw) and b > a and b >= c):
+            continue
+        if a > f0 and c > f0:
+            la = log_tab[int(a)] if a >= np.float32(1.0) else log_tab[0]
+            lb = log_tab[int(b)] if b >= np.float32(1.0) else log_tab[0]
+            lc = log_tab[int(c)] if c >= np.float32(1.0) else log_tab[0]
+            frac = half * (la - lc) / min(la - two * lb + lc, neg)
+        else:
+            frac = half * (a - c) / min(a - two * b + c, neg)
+        shift = (float(k) - 2.5 - float(d)) + float(frac)
+        if abs(shift) <= max_shift_px:
+            out[i] = x_px[i] + shift
+    return out
+
+
 def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
-    img, i = np.zeros((8, 16), np.uint8), np.ones(1, np.int64)
+    img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
     ncc_scores(img, img[:, :3])
     masked_sqdiff(img, img[:, :3], img[:, :3])
+    refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)

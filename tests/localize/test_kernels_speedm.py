@@ -100,3 +100,28 @@ def test_masked_sqdiff_is_matchtemplates():
         assert np.abs(got - ref).max() / n < 1e-4                  # OpenCV's float32 rounding
         # exact: the sums of squared integer differences
         assert got[0] == float(((strip[:, :nw].astype(np.int64) - patch) ** 2 * half).sum())
+
+
+def test_refine_steps_is_refine_boundaries_numpy_steps():
+    from appliance.localize.subpixel import refine_boundaries
+    rng = np.random.default_rng(8)
+    moved = 0
+    for _ in range(30):
+        h, w = 40, 200
+        img = np.zeros((h, w), np.float32)
+        for _ in range(8):                                         # blurred bars at sub-pixel positions
+            x0, x1 = sorted(rng.uniform(0, w, 2))
+            img[:, int(x0):int(x1)] += rng.uniform(-120, 120)
+        img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.5, 2.0)) + 120 + rng.normal(0, rng.uniform(0, 8), img.shape)
+        gray = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        gray[:, 50:60] = 0                                         # steps into black / flat
+        k = 400
+        row = rng.integers(0, h, k)
+        x = rng.uniform(-3, w + 3, k)
+        x[:20] = np.rint(x[:20])                                   # on whole pixels (d == 0)
+        for kw in ({}, {"min_step": 5.0, "min_share": 0.1, "max_shift_px": 2.0}):
+            got = refine_boundaries(gray, row, x, **kw)            # (uint8: kernels.refine_steps)
+            ref = refine_boundaries(gray.astype(np.float32), row, x, **kw)     # (float32: the numpy steps)
+            assert got.dtype == ref.dtype and np.array_equal(got, ref)
+            moved += int((got != x).sum())
+    assert moved > 2000

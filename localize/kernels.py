@@ -1165,6 +1165,42 @@ def refine_steps(p, x_px, xi, log_tab, min_step, min_share, max_shift_px):
     return out
 
 
+@numba.njit(**_JIT)
+def line_vote(cand_t, cand_d, slopes, tm, tol_px):
+    """``single_edge.edge_consensus``' vote: for each slope ``slopes[s]`` the offsets ``cand_d - slopes[s] *
+    (cand_t - tm)`` of the lines through the candidates (C,), in bins of ``tol_px`` from the lowest
+    offset ``lo`` over all slopes; the best window of two neighbouring bins (row-major first maximum of
+    the (S, nb - 1) window counts, as numpy's argmax). The same values as the numpy steps (the offsets
+    recomputed in the same two roundings instead of stored). Returns (lo, k_s, k_b)."""
+    n_s, n_c = len(slopes), len(cand_t)
+    dt = np.empty(n_c)
+    for c in range(n_c):
+        dt[c] = cand_t[c] - tm
+    lo = np.inf
+    for s in range(n_s):
+        for c in range(n_c):
+            lo = min(lo, cand_d[c] - slopes[s] * dt[c])
+    top = 0
+    bins = np.empty((n_s, n_c), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            b = np.int64(((cand_d[c] - slopes[s] * dt[c]) - lo) / tol_px)
+            bins[s, c] = b
+            top = max(top, b)
+    nb = top + 2
+    votes = np.zeros((n_s, nb), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            votes[s, bins[s, c]] += 1
+    best, k_s, k_b = -1, 0, 0
+    for s in range(n_s):
+        for b in range(nb - 1):
+            v = votes[s, b] + votes[s, b + 1]
+            if v > best:
+                best, k_s, k_b = v, s, b
+    return lo, k_s, k_b
+
+
 def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
@@ -1172,3 +1208,4 @@ def _warm_match() -> None:
     ncc_scores(img, img[:, :3])
     masked_sqdiff(img, img[:, :3], img[:, :3])
     refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
+    line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)

@@ -125,3 +125,36 @@ def test_refine_steps_is_refine_boundaries_numpy_steps():
             assert got.dtype == ref.dtype and np.array_equal(got, ref)
             moved += int((got != x).sum())
     assert moved > 2000
+
+
+def _vote_by_numpy(cand_t, cand_d, slopes, tm, tol_px):
+    """single_edge.edge_consensus' former vote (numpy)."""
+    d0 = slopes[:, None] * (cand_t - tm)
+    np.subtract(cand_d, d0, out=d0)
+    lo = float(d0.min())
+    d0 -= lo
+    d0 /= tol_px
+    bins = d0.astype(np.intp)
+    nb = int(bins.max()) + 2
+    bins += np.arange(len(slopes))[:, None] * nb
+    votes = np.bincount(bins.ravel(), minlength=len(slopes) * nb).reshape(len(slopes), nb)
+    window = votes[:, :-1] + votes[:, 1:]
+    k_s, k_b = np.unravel_index(int(window.argmax()), window.shape)
+    return lo, int(k_s), int(k_b)
+
+
+def test_line_vote_is_the_numpy_vote():
+    rng = np.random.default_rng(9)
+    slopes = np.linspace(-0.25, 0.25, 21)
+    for _ in range(300):
+        n = int(rng.integers(1, 400))
+        t = np.sort(rng.integers(0, 900, n)).astype(float)
+        d = rng.uniform(100, 300, n)
+        if rng.random() < 0.7:                                     # a line through some of them
+            on = rng.random(n) < rng.uniform(0.2, 0.9)
+            d[on] = 180 + rng.uniform(-0.2, 0.2) * (t[on] - t.mean()) + rng.normal(0, 0.3, on.sum())
+        if rng.random() < 0.2:
+            d = np.round(d)                                        # ties between bins and windows
+        tm = float(t.mean())
+        tol = float(rng.choice([1.0, 0.5, 1.5]))
+        assert kernels.line_vote(t, d, slopes, tm, tol) == _vote_by_numpy(t, d, slopes, tm, tol)

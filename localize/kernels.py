@@ -1205,7 +1205,8 @@ def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
-    ncc_scores(img, img[:, :3])
-    masked_sqdiff(img, img[:, :3], img[:, :3])
+    part = np.zeros((8, 3), np.uint8)                   # (C-contiguous, writable: as the callers pass them)
+    ncc_scores(img, part)
+    masked_sqdiff(img, part, part.copy())
     refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
     line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)

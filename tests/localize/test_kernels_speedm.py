@@ -158,3 +158,25 @@ def test_line_vote_is_the_numpy_vote():
         tm = float(t.mean())
         tol = float(rng.choice([1.0, 0.5, 1.5]))
         assert kernels.line_vote(t, d, slopes, tm, tol) == _vote_by_numpy(t, d, slopes, tm, tol)
+
+
+def test_warm_up_compiles_the_signatures_these_kernels_get():
+    """After a Localizer is built, localizing (colour and exact masks, scenes with caps and flat pieces)
+    compiles none of these kernels again (warm_up passes the same array layouts as the callers)."""
+    from pathlib import Path
+
+    from appliance.calibrate.model import load_calibration
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+    from appliance.synth.truth import load_truth
+
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
+    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
+    mine = [kernels.ncc_peaks, kernels.ncc_scores, kernels.masked_sqdiff, kernels.refine_steps, kernels.line_vote]
+    before = [len(f.signatures) for f in mine]
+    for n in ("01", "03"):
+        left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_{n}.png")) for s in ("left", "right"))
+        truth = load_truth(fixtures / "scenes" / f"truth_{n}.json")
+        loc.localize(left, right)
+        loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
+    assert [len(f.signatures) for f in mine] == before and all(before)

@@ -1079,6 +1079,39 @@ def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
 
 
 @numba.njit(**_JIT)
+def ncc_search(lbox, rbox, uv, hh, hw, lo, hi, h, w, by0, lx0, rx0, d_out, score):
+    """``texture._search`` of uint8 images in one call: the patches centred on ``uv`` (N, 2) int (half
+    heights ``hh`` (N,), half width ``hw``) that lie inside the image (H ``h``, W ``w``) searched over
+    disparities ``lo``..``hi`` along their strips (:func:`ncc_peaks`) in the boxes ``lbox`` / ``rbox`` read
+    at rows from ``by0`` and columns from ``lx0`` / ``rx0``; each found patch's disparity and score
+    written into ``d_out``, ``score`` (N,) (the same values as the Python steps: ``u - (xs + k + off +
+    hw)``)."""
+    n = len(uv)
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        u, v, r = uv[i, 0], uv[i, 1], hh[i]
+        if v - r >= 0 and v + r + 1 <= h and u - hw >= 0 and u + hw + 1 <= w and u - lo + hw + 1 > 0:
+            idx[m] = i
+            m += 1
+    ty, tx, hs = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    sx0, sx1 = np.empty(m, np.int64), np.empty(m, np.int64)
+    for j in range(m):
+        i = idx[j]
+        u = uv[i, 0]
+        ty[j], tx[j], hs[j] = uv[i, 1] - by0, u - lx0, hh[i]
+        sx0[j] = max(u - hi - hw, 0) - rx0
+        sx1[j] = min(u - lo + hw + 1, w) - rx0
+    ok, ks, offs, best = ncc_peaks(lbox, rbox, ty, tx, hs, hw, sx0, sx1, 1.0)
+    for j in range(m):
+        if ok[j]:
+            i = idx[j]
+            xs = max(uv[i, 0] - hi - hw, 0)
+            d_out[i] = uv[i, 0] - ((xs + ks[j]) + offs[j] + hw)
+            score[i] = best[j]
+
+
+@numba.njit(**_JIT)
 def ncc_scores(strip, tmpl):
     """``cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]`` of a uint8 template and a strip of its
     height (float64, exact sums: :func:`_ncc_row`; a constant template scores 1 everywhere, as OpenCV)."""
@@ -1205,6 +1238,7 @@ def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
+    ncc_search(img, img, np.zeros((1, 2), np.int64), i, 1, 0, 2, 8, 16, 0, 0, 0, f.copy(), f.copy())
     part = np.zeros((8, 3), np.uint8)                   # (C-contiguous, writable: as the callers pass them)
     ncc_scores(img, part)
     masked_sqdiff(img, part, part.copy())

@@ -88,14 +88,17 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     if by1 <= by0 or lx1 <= lx0 or rx1 <= rx0:
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
+    if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:      # every patch in one compiled call (exact scores)
+        kernels.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv, hhs, hw, lo,
+                           hi, h, w, by0, lx0, rx0, d_out, score)
+        return d_out, score, None
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)
     # a short search (<= 33 positions), patches of one height whose strips are whole: all at once (the
     # same scores as matchTemplate's TM_CCOEFF_NORMED, in float64); the rest one by one
     whole = inside & (uv[:, 0] - hi - hw >= 0) & (uv[:, 0] - lo + hw + 1 <= w)
     batch = None
-    compiled = lbox.dtype == np.uint8 and rbox.dtype == np.uint8      # (all patches by kernels.ncc_peaks)
-    if not compiled and whole.sum() >= 2 and hi - lo <= 32:
+    if whole.sum() >= 2 and hi - lo <= 32:
         hh0 = int(np.bincount(hhs[whole]).argmax())
         idx = np.flatnonzero(whole & (hhs == hh0))
         if len(idx) >= 2:
@@ -103,15 +106,6 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
             inside = inside.copy()
             inside[idx] = False
     todo = np.flatnonzero(inside)
-    if len(todo) and compiled:                   # one compiled loop (the scores exact: kernels.ncc_peaks)
-        ui, vi = uv[todo, 0], uv[todo, 1]
-        xs = np.maximum(ui - hi - hw, 0)
-        ok, k, off, best = kernels.ncc_peaks(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]),
-                                             vi - by0, ui - lx0, hhs[todo], hw, xs - rx0,
-                                             np.minimum(ui - lo + hw + 1, w) - rx0, 1.0)
-        d_out[todo[ok]] = ui[ok] - (xs[ok] + k[ok] + off[ok] + hw)
-        score[todo[ok]] = best[ok]
-        todo = todo[:0]
     for i in todo.tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]

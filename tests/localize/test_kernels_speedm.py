@@ -72,7 +72,8 @@ def test_ncc_scores_is_matchtemplate():
         nh, nw = rng.integers(1, 20, 2)
         strip = cv2.GaussianBlur(rng.integers(0, 256, (nh, int(rng.integers(1, 300)))).astype(np.uint8), (0, 0), 1.5)
         strip[:, 20:40] = 50                                        # windows without variance
-        tmpl = strip[:, 5:5 + nw].copy() if strip.shape[1] >= 5 + nw else rng.integers(0, 256, (nh, nw)).astype(np.uint8)
+        tmpl = strip[:, 5:5 + nw].copy() if strip.shape[1] >= 5 + nw else \
+            rng.integers(0, 256, (nh, nw)).astype(np.uint8)
         if rng.random() < 0.1:
             tmpl[:] = 7                                             # a constant template: 1 everywhere
         got = kernels.ncc_scores(strip, tmpl)
@@ -172,7 +173,8 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels.ncc_peaks, kernels.ncc_scores, kernels.masked_sqdiff, kernels.refine_steps, kernels.line_vote]
+    mine = [kernels.ncc_search, kernels.ncc_peaks, kernels.ncc_scores, kernels.masked_sqdiff, kernels.refine_steps,
+            kernels.line_vote]
     before = [len(f.signatures) for f in mine]
     for n in ("01", "03"):
         left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_{n}.png")) for s in ("left", "right"))

@@ -1234,6 +1234,68 @@ def line_vote(cand_t, cand_d, slopes, tm, tol_px):
     return lo, k_s, k_b
 
 
+@numba.njit(**_JIT)
+def centre_line(t, s, half):
+    """``single_edge.centre_guess``'s values where the positions ``t`` (N,) are whole or half pixels
+    (its bincount path): each position's mean ``s`` (sums in input order, as ``np.bincount``'s), then
+    ``np.interp`` (numpy's rules: clamped ends, exact at the sample points, ``slope * (x - x_j) + y_j``)
+    at the whole positions ``ceil(first - half)`` .. ``floor(last + half)``. Returns (ok, ts, values);
+    ``ok`` False (other positions, or too sparse: the caller's numpy path) with empty arrays."""
+    n = len(t)
+    empty = np.zeros(0)
+    if n == 0:
+        return False, empty, empty
+    k0, k1 = np.int64(0), np.int64(0)
+    for i in range(n):
+        t2 = t[i] * 2.0
+        k = np.int64(t2)
+        if k != t2:
+            return False, empty, empty
+        if i == 0 or k < k0:
+            k0 = k
+        if i == 0 or k > k1:
+            k1 = k
+    if not k1 - k0 < 8 * n + 4096:
+        return False, empty, empty
+    count = np.zeros(k1 - k0 + 1, np.int64)
+    total = np.zeros(k1 - k0 + 1)
+    for i in range(n):
+        k = np.int64(t[i] * 2.0) - k0
+        count[k] += 1
+        total[k] += s[i]
+    m = 0
+    for k in range(len(count)):
+        if count[k]:
+            m += 1
+    xp, yp = np.empty(m), np.empty(m)
+    j = 0
+    for k in range(len(count)):
+        if count[k]:
+            xp[j] = (k + k0) / 2.0
+            yp[j] = total[k] / count[k]
+            j += 1
+    lo, hi = np.ceil(xp[0] - half), np.floor(xp[m - 1] + half) + 1
+    nt = max(np.int64(np.ceil(hi - lo)), 0)
+    ts, out = np.empty(nt), np.empty(nt)
+    j = 0
+    for i in range(nt):
+        x = lo + i
+        ts[i] = x
+        if x <= xp[0]:
+            out[i] = yp[0]              # (left of the first sample, or on it)
+        elif x >= xp[m - 1]:
+            out[i] = yp[m - 1]
+        else:
+            while xp[j + 1] <= x:       # (x rises: xp[j] <= x < xp[j + 1])
+                j += 1
+            if xp[j] == x:
+                out[i] = yp[j]
+            else:
+                slope = (yp[j + 1] - yp[j]) / (xp[j + 1] - xp[j])
+                out[i] = slope * (x - xp[j]) + yp[j]
+    return True, ts, out
+
+
 def _warm_match() -> None:
     """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
@@ -1244,3 +1306,4 @@ def _warm_match() -> None:
     masked_sqdiff(img, part, part.copy())
     refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
     line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)
+    centre_line(np.zeros(2), np.zeros(2), 0.5)

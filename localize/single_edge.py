@@ -35,6 +35,10 @@ from appliance.localize.radius import radius_at
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
+    ok, ts, xs = kernels.centre_line(np.ascontiguousarray(t, float), np.ascontiguousarray(s, float),
+                                     (scale - 1) / 2)
+    if ok:                              # (whole or half pixels: the values below, compiled)
+        return ts, xs
     t2 = t * 2.0
     k = t2.astype(np.int64)
     k0 = int(k.min()) if len(k) else 0

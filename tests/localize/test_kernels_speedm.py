@@ -174,7 +174,7 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels.ncc_search, kernels.ncc_peaks, kernels.ncc_scores, kernels.masked_sqdiff, kernels.refine_steps,
-            kernels.line_vote]
+            kernels.line_vote, kernels.centre_line]
     before = [len(f.signatures) for f in mine]
     for n in ("01", "03"):
         left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_{n}.png")) for s in ("left", "right"))
@@ -182,3 +182,44 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
         loc.localize(left, right)
         loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
     assert [len(f.signatures) for f in mine] == before and all(before)
+
+
+def _centre_guess_by_numpy(pts, axis, scale):
+    """single_edge.centre_guess' numpy steps (bincount means, np.interp)."""
+    t, s = pts[:, axis], pts[:, 1 - axis]
+    k = (t * 2.0).astype(np.int64)
+    k0 = int(k.min())
+    k -= k0
+    count = np.bincount(k)
+    nz = np.flatnonzero(count)
+    uniq = (nz + k0) / 2.0
+    s_mean = np.bincount(k, s)[nz] / count[nz]
+    half = (scale - 1) / 2
+    ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
+    return ts, np.interp(ts, uniq, s_mean)
+
+
+def test_centre_line_is_centre_guess_numpy_steps():
+    from appliance.localize.single_edge import centre_guess
+    rng = np.random.default_rng(10)
+    for trial in range(500):
+        n = int(rng.integers(1, 300))
+        scale = int(rng.choice([1, 2, 4]))
+        t = np.sort(rng.integers(0, 900, n)) / (2.0 if trial % 2 else 1.0)      # whole or half pixels
+        s = np.cumsum(rng.normal(0, 1.5, n)) + rng.uniform(0, 1000)
+        if trial % 7 == 0:
+            s = np.round(s)
+        pts = np.column_stack([s, t]) if trial % 3 else np.column_stack([t, s])
+        axis = 1 if trial % 3 else 0
+        ok, ts, xs = kernels.centre_line(np.ascontiguousarray(pts[:, axis]), np.ascontiguousarray(pts[:, 1 - axis]),
+                                         (scale - 1) / 2)
+        assert ok
+        ref = _centre_guess_by_numpy(pts, axis, scale)
+        assert np.array_equal(ts, ref[0]) and np.array_equal(xs, ref[1])
+        got = centre_guess(pts, axis, scale)
+        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    # other positions (not whole or half pixels), or sparse ones: the numpy path
+    assert not kernels.centre_line(np.array([0.25, 3.0]), np.zeros(2), 0.0)[0]
+    assert not kernels.centre_line(np.array([0.0, 1e6]), np.zeros(2), 0.0)[0]
+    ts, xs = centre_guess(np.array([[0.0, 0.25], [2.0, 3.0]]), 1, 1)
+    assert np.array_equal(ts, [1.0, 2.0, 3.0])

@@ -993,12 +993,14 @@ def _is_flat(s, s2, lo, hi, m, min_std):
 def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs2, out):
     """``cv2.matchTemplate(strip, tmpl, TM_CCOEFF_NORMED)[0]`` into ``out[:n_pos]`` for the uint8 template
     ``left[y0:y0 + nh, lx0:lx0 + nw]`` (sums ``st``, ``st2``) and the strip ``right[y0:y0 + nh, rx0:rx0 +
-    n_pos + nw - 1]``. Every sum is exact (integers: the products in int32, < 2^31 for patches up to
-    181 x 181 px), so the score is the correctly computed one; OpenCV's float32 correlation (by DFT)
-    is off by up to ~5e-4. A window without variance scores 0 (as OpenCV). ``acc`` (int32), ``buf``
-    (int32), ``cs``, ``cs2`` (float): scratch of >= n_pos + nw."""
+    n_pos + nw - 1]``. Every sum is exact (integers: the products summed in int32 for patches up to
+    32 761 px (< 2^31), in float64 above), so the score is the correctly computed one; OpenCV's float32
+    correlation (by DFT) is off by up to ~5e-4. A window without variance scores 0 (as OpenCV). ``acc``
+    (int32), ``buf`` (int32), ``cs``, ``cs2`` (float): scratch of >= n_pos + nw."""
     m = float(nh * nw)
     sw = n_pos + nw - 1
+    wide = nh * nw > 32761             # (int32 sums could overflow: float64, exact below 2^53)
+    accf = np.zeros(n_pos if wide else 0)
     for p in range(n_pos):
         acc[p] = 0
     for x in range(sw):
@@ -1015,8 +1017,12 @@ def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs
         for j in range(nw):             # (contiguous int32 rows: vectorised over the positions)
             t = np.int32(lrow[lx0 + j])
             b = buf[j:j + n_pos]
-            for p in range(n_pos):
-                acc[p] += t * b[p]
+            if wide:
+                for p in range(n_pos):
+                    accf[p] += t * b[p]
+            else:
+                for p in range(n_pos):
+                    acc[p] += t * b[p]
     vt = m * st2 - st * st
     s1, s2 = 0.0, 0.0
     for x in range(nw - 1):
@@ -1032,7 +1038,7 @@ def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs
         if vs <= 0.0 or vt <= 0.0:
             out[p] = 0.0
         else:
-            c = (m * float(acc[p]) - st * s1) / np.sqrt(vt * vs)
+            c = (m * (accf[p] if wide else float(acc[p])) - st * s1) / np.sqrt(vt * vs)
             out[p] = min(max(c, -1.0), 1.0)
 
 

@@ -223,3 +223,13 @@ def test_centre_line_is_centre_guess_numpy_steps():
     assert not kernels.centre_line(np.array([0.0, 1e6]), np.zeros(2), 0.0)[0]
     ts, xs = centre_guess(np.array([[0.0, 0.25], [2.0, 3.0]]), 1, 1)
     assert np.array_equal(ts, [1.0, 2.0, 3.0])
+
+
+def test_ncc_scores_of_big_patches_do_not_overflow():
+    rng = np.random.default_rng(11)
+    strip = np.full((190, 260), 255, np.uint8)
+    strip[:, ::2] = rng.integers(200, 256, (190, 130)).astype(np.uint8)
+    tmpl = strip[:, 30:220].copy()                                # 190 x 190 px: int32 sums would overflow
+    got = kernels.ncc_scores(strip, tmpl)
+    ref = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+    assert got[30] == 1.0 and np.abs(got - ref).max() < 1e-3

@@ -89,8 +89,8 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:      # every patch in one compiled call (exact scores)
-        kernels.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv, hhs, hw, lo,
-                           hi, h, w, by0, lx0, rx0, d_out, score)
+        kernels.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv,
+                           np.ascontiguousarray(hhs), hw, lo, hi, h, w, by0, lx0, rx0, d_out, score)
         return d_out, score, None
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, Poly, angle_deg
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
@@ -64,7 +65,11 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     if s1 - s0 < x1 - x0 + 2:
         return None
     strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
-    err = cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=half)[0] / n
+    if sm.right_mask.dtype == np.uint8 and sm.left_mask.dtype == np.uint8:     # (exact sums: kernels.masked_sqdiff)
+        err = kernels.masked_sqdiff(np.ascontiguousarray(sm.right_mask[y0:y1, s0:s1]),
+                                    np.ascontiguousarray(sm.left_mask[y0:y1, x0:x1]), half.astype(np.uint8)) / n
+    else:
+        err = cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=half)[0] / n
     k = int(np.argmin(err))
     far = np.abs(np.arange(len(err)) - k) > half_px
     # the tests read the share of the half's area that differs: sum |a - b| (the squared differences'

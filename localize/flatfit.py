@@ -8,6 +8,7 @@ is withheld (no curve) rather than reported at a wrong depth.
 from __future__ import annotations
 
 import numpy as np
+from appliance.localize.curves import median
 
 MIN_LINE_INLIERS = 7        # a texture line needs at least this many inlier patches ...
 MIN_LINE_SHARE = 0.15       # ... and this share of the piece's patches (6 px apart)
@@ -60,7 +61,7 @@ def scatter_ok(residual_px: np.ndarray, degree: int) -> bool:
     r = np.asarray(residual_px, float)
     if len(r) == 0:
         return True
-    mad = float(np.median(np.abs(r - np.median(r))))
+    mad = float(median(np.abs(r - median(r))))          # (np.median's values, bit for bit)
     if degree >= 1:
         return len(r) > FEW_LINE_PATCHES or mad <= MAX_LINE_MAD_PX
     return len(r) > FEW_PATCHES or mad <= MAX_FEW_MAD_PX

@@ -955,3 +955,361 @@ def warm_up() -> None:
     graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
+    _warm_match()
+
+
+# --- match stage (speedm)
+
+
+@numba.njit(**_JIT)
+def _patch_sums(img, y0, nh, x0, nw):
+    """Sum, sum of squares, minimum and maximum of the patch ``img[y0:y0 + nh, x0:x0 + nw]`` (float64:
+    exact for uint8 images)."""
+    s, s2, lo, hi = 0.0, 0.0, np.inf, -np.inf
+    for r in range(nh):
+        for j in range(nw):
+            v = float(img[y0 + r, x0 + j])
+            s += v
+            s2 += v * v
+            lo = min(lo, v)
+            hi = max(hi, v)
+    return s, s2, lo, hi
+
+
+@numba.njit(**_JIT)
+def _is_flat(s, s2, lo, hi, m, min_std):
+    """``texture._flat`` from a patch's sums (``m`` pixels): the range settles it where it can, else the
+    standard deviation (exact for uint8 patches; numpy's rounded one could differ only at exactly
+    ``min_std``)."""
+    r = hi - lo
+    if r < 2 * min_std:
+        return True
+    if r * r > 2.02 * m * min_std * min_std:
+        return False
+    return m * s2 - s * s < min_std * min_std * m * m
+
+
+@numba.njit(**_JIT)
+def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs2, out):
+    """``cv2.matchTemplate(strip, tmpl, TM_CCOEFF_NORMED)[0]`` into ``out[:n_pos]`` for the uint8 template
+    ``left[y0:y0 + nh, lx0:lx0 + nw]`` (sums ``st``, ``st2``) and the strip ``right[y0:y0 + nh, rx0:rx0 +
+    n_pos + nw - 1]``. Every sum is exact (integers: the products summed in int32 for patches up to
+    32 761 px (< 2^31), in float64 above), so the score is the correctly computed one; OpenCV's float32
+    correlation (by DFT) is off by up to ~5e-4. A window without variance scores 0 (as OpenCV). ``acc``
+    (int32), ``buf`` (int32), ``cs``, ``cs2`` (float): scratch of >= n_pos + nw."""
+    m = float(nh * nw)
+    sw = n_pos + nw - 1
+    wide = nh * nw > 32761             # (int32 sums could overflow: float64, exact below 2^53)
+    accf = np.zeros(n_pos if wide else 0)
+    for p in range(n_pos):
+        acc[p] = 0
+    for x in range(sw):
+        cs[x] = 0.0
+        cs2[x] = 0.0
+    for r in range(nh):
+        lrow = left[y0 + r]
+        rrow = right[y0 + r]
+        for x in range(sw):
+            v = np.int32(rrow[rx0 + x])
+            buf[x] = v
+            cs[x] += v
+            cs2[x] += v * v
+        for j in range(nw):             # (contiguous int32 rows: vectorised over the positions)
+            t = np.int32(lrow[lx0 + j])
+            b = buf[j:j + n_pos]
+            if wide:
+                for p in range(n_pos):
+                    accf[p] += t * b[p]
+            else:
+                for p in range(n_pos):
+                    acc[p] += t * b[p]
+    vt = m * st2 - st * st
+    s1, s2 = 0.0, 0.0
+    for x in range(nw - 1):
+        s1 += cs[x]
+        s2 += cs2[x]
+    for p in range(n_pos):
+        s1 += cs[p + nw - 1]
+        s2 += cs2[p + nw - 1]
+        if p > 0:
+            s1 -= cs[p - 1]
+            s2 -= cs2[p - 1]
+        vs = m * s2 - s1 * s1
+        if vs <= 0.0 or vt <= 0.0:
+            out[p] = 0.0
+        else:
+            c = (m * (accf[p] if wide else float(acc[p])) - st * s1) / np.sqrt(vt * vs)
+            out[p] = min(max(c, -1.0), 1.0)
+
+
+@numba.njit(**_JIT)
+def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
+    """``texture._search``'s one-by-one loop: for each patch ``i`` (centre ``(tx[i], ty[i])`` in ``left``,
+    half height ``hh[i]``, half width ``hw``) not flat (``texture._flat`` with ``min_std``), its
+    TM_CCOEFF_NORMED scores along the strip ``right[ty - hh:ty + hh + 1, sx0[i]:sx1[i]]`` (at least 3
+    positions), the best position and the parabola's offset through it and its neighbours.
+
+    Returns ok (N,) bool (False: flat, or a strip too short), k (N,) int64, off (N,), score (N,)."""
+    n = len(ty)
+    nw = 2 * hw + 1
+    big = 0
+    for i in range(n):
+        big = max(big, sx1[i] - sx0[i])
+    ok = np.zeros(n, np.bool_)
+    ks = np.zeros(n, np.int64)
+    offs = np.zeros(n)
+    best = np.full(n, -1.0)
+    acc, buf = np.empty(big + 1, np.int32), np.empty(big + 1, np.int32)
+    cs, cs2, c = np.empty(big + 1), np.empty(big + 1), np.empty(big + 1)
+    for i in range(n):
+        nh = 2 * hh[i] + 1
+        y0, lx0 = ty[i] - hh[i], tx[i] - hw
+        st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
+        if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+            continue
+        n_pos = sx1[i] - sx0[i] - nw + 1
+        if n_pos < 3:
+            continue
+        _ncc_row(left, right, y0, nh, lx0, nw, sx0[i], n_pos, st, st2, acc, buf, cs, cs2, c)
+        k = 0
+        for p in range(1, n_pos):
+            if c[p] > c[k]:
+                k = p
+        off = 0.0
+        if 0 < k < n_pos - 1:
+            denom = c[k - 1] - 2 * c[k] + c[k + 1]
+            if denom < 0:
+                off = 0.5 * (c[k - 1] - c[k + 1]) / denom
+        ok[i], ks[i], offs[i], best[i] = True, k, off, c[k]
+    return ok, ks, offs, best
+
+
+@numba.njit(**_JIT)
+def ncc_search(lbox, rbox, uv, hh, hw, lo, hi, h, w, by0, lx0, rx0, d_out, score):
+    """``texture._search`` of uint8 images in one call: the patches centred on ``uv`` (N, 2) int (half
+    heights ``hh`` (N,), half width ``hw``) that lie inside the image (H ``h``, W ``w``) searched over
+    disparities ``lo``..``hi`` along their strips (:func:`ncc_peaks`) in the boxes ``lbox`` / ``rbox`` read
+    at rows from ``by0`` and columns from ``lx0`` / ``rx0``; each found patch's disparity and score
+    written into ``d_out``, ``score`` (N,) (the same values as the Python steps: ``u - (xs + k + off +
+    hw)``)."""
+    n = len(uv)
+    idx = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        u, v, r = uv[i, 0], uv[i, 1], hh[i]
+        if v - r >= 0 and v + r + 1 <= h and u - hw >= 0 and u + hw + 1 <= w and u - lo + hw + 1 > 0:
+            idx[m] = i
+            m += 1
+    ty, tx, hs = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    sx0, sx1 = np.empty(m, np.int64), np.empty(m, np.int64)
+    for j in range(m):
+        i = idx[j]
+        u = uv[i, 0]
+        ty[j], tx[j], hs[j] = uv[i, 1] - by0, u - lx0, hh[i]
+        sx0[j] = max(u - hi - hw, 0) - rx0
+        sx1[j] = min(u - lo + hw + 1, w) - rx0
+    ok, ks, offs, best = ncc_peaks(lbox, rbox, ty, tx, hs, hw, sx0, sx1, 1.0)
+    for j in range(m):
+        if ok[j]:
+            i = idx[j]
+            xs = max(uv[i, 0] - hi - hw, 0)
+            d_out[i] = uv[i, 0] - ((xs + ks[j]) + offs[j] + hw)
+            score[i] = best[j]
+
+
+@numba.njit(**_JIT)
+def ncc_scores(strip, tmpl):
+    """``cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]`` of a uint8 template and a strip of its
+    height (float64, exact sums: :func:`_ncc_row`; a constant template scores 1 everywhere, as OpenCV)."""
+    nh, nw = tmpl.shape
+    n_pos = strip.shape[1] - nw + 1
+    out = np.empty(max(n_pos, 0))
+    if n_pos <= 0:
+        return out
+    st, st2, lo, hi = _patch_sums(tmpl, 0, nh, 0, nw)
+    if lo == hi:
+        out[:] = 1.0
+        return out
+    big = strip.shape[1] + 1
+    _ncc_row(tmpl, strip, 0, nh, 0, nw, 0, n_pos, st, st2, np.empty(big, np.int32), np.empty(big, np.int32),
+             np.empty(big), np.empty(big), out)
+    return out
+
+
+@numba.njit(**_JIT)
+def masked_sqdiff(strip, patch, weight):
+    """``cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=weight)[0]`` of a uint8 patch (h, w) with 0/1
+    weights (h, w) along a uint8 strip of its height: each position's sum of the weighted squared
+    differences, exact (integers), where OpenCV's float32 correlations (by DFT) carry rounding of
+    ~1e-6 of the terms' sums."""
+    nh, nw = patch.shape
+    n_pos = strip.shape[1] - nw + 1
+    out = np.zeros(max(n_pos, 0))
+    acc = np.zeros(max(n_pos, 0), np.int64)
+    for r in range(nh):
+        srow = strip[r]
+        for j in range(nw):
+            if weight[r, j] == 0:
+                continue
+            t = np.int64(patch[r, j])
+            for p in range(n_pos):
+                e = np.int64(srow[j + p]) - t
+                acc[p] += e * e
+    for p in range(n_pos):
+        out[p] = float(acc[p])
+    return out
+
+
+@numba.njit(**_JIT)
+def refine_steps(p, x_px, xi, log_tab, min_step, min_share, max_shift_px):
+    """``subpixel.refine_boundaries`` after its gather: each boundary ``x_px`` (K,) (pixel ``xi`` (K,) int64)
+    moved to the grey step along its row from the 7 pixels ``p`` (K, 7) float32 (whole grey levels
+    0-255) centred on ``xi``, with numpy's float32 / float64 steps in the same order (the same values).
+    ``log_tab`` (256,) float32: numpy's float32 ``log`` of ``max(v, 1e-3)`` for the steps' values ``v``
+    (whole levels: index ``max(v, 0)``), so the logs are numpy's own."""
+    n = len(x_px)
+    out = np.empty(n)
+    f0, half, neg = np.float32(0.0), np.float32(0.5), np.float32(-1e-6)
+    two = np.float32(2.0)
+    lim = np.float32(0.5 * min_share)
+    for i in range(n):
+        out[i] = x_px[i]
+        raw = p[i, 5] + p[i, 6] - p[i, 0] - p[i, 1]
+        sg = np.float32(1.0) if raw > f0 else np.float32(-1.0) if raw < f0 else f0
+        d = np.float32(x_px[i] - xi[i])
+        best, k = -np.inf, 0
+        for j in range(1, 5):
+            v = (p[i, j + 1] - p[i, j]) * sg
+            if (j == 1 and d > f0) or (j == 4 and d < f0):
+                continue
+            if v > best:
+                best, k = v, j
+        if k == 0:                      # (every candidate -inf: numpy's argmax takes the first)
+            k = 2 if d > f0 else 1
+        a = (p[i, k] - p[i, k - 1]) * sg
+        b = (p[i, k + 1] - p[i, k]) * sg
+        c = (p[i, k + 2] - p[i, k + 1]) * sg
+        if not (b >= np.float32(min_step) and b >= lim * abs(raw) and b > a and b >= c):
+            continue
+        if a > f0 and c > f0:
+            la = log_tab[int(a)] if a >= np.float32(1.0) else log_tab[0]
+            lb = log_tab[int(b)] if b >= np.float32(1.0) else log_tab[0]
+            lc = log_tab[int(c)] if c >= np.float32(1.0) else log_tab[0]
+            frac = half * (la - lc) / min(la - two * lb + lc, neg)
+        else:
+            frac = half * (a - c) / min(a - two * b + c, neg)
+        shift = (float(k) - 2.5 - float(d)) + float(frac)
+        if abs(shift) <= max_shift_px:
+            out[i] = x_px[i] + shift
+    return out
+
+
+@numba.njit(**_JIT)
+def line_vote(cand_t, cand_d, slopes, tm, tol_px):
+    """``single_edge.edge_consensus``' vote: for each slope ``slopes[s]`` the offsets ``cand_d - slopes[s] *
+    (cand_t - tm)`` of the lines through the candidates (C,), in bins of ``tol_px`` from the lowest
+    offset ``lo`` over all slopes; the best window of two neighbouring bins (row-major first maximum of
+    the (S, nb - 1) window counts, as numpy's argmax). The same values as the numpy steps (the offsets
+    recomputed in the same two roundings instead of stored). Returns (lo, k_s, k_b)."""
+    n_s, n_c = len(slopes), len(cand_t)
+    dt = np.empty(n_c)
+    for c in range(n_c):
+        dt[c] = cand_t[c] - tm
+    lo = np.inf
+    for s in range(n_s):
+        for c in range(n_c):
+            lo = min(lo, cand_d[c] - slopes[s] * dt[c])
+    top = 0
+    bins = np.empty((n_s, n_c), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            b = np.int64(((cand_d[c] - slopes[s] * dt[c]) - lo) / tol_px)
+            bins[s, c] = b
+            top = max(top, b)
+    nb = top + 2
+    votes = np.zeros((n_s, nb), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            votes[s, bins[s, c]] += 1
+    best, k_s, k_b = -1, 0, 0
+    for s in range(n_s):
+        for b in range(nb - 1):
+            v = votes[s, b] + votes[s, b + 1]
+            if v > best:
+                best, k_s, k_b = v, s, b
+    return lo, k_s, k_b
+
+
+@numba.njit(**_JIT)
+def centre_line(t, s, half):
+    """``single_edge.centre_guess``'s values where the positions ``t`` (N,) are whole or half pixels
+    (its bincount path): each position's mean ``s`` (sums in input order, as ``np.bincount``'s), then
+    ``np.interp`` (numpy's rules: clamped ends, exact at the sample points, ``slope * (x - x_j) + y_j``)
+    at the whole positions ``ceil(first - half)`` .. ``floor(last + half)``. Returns (ok, ts, values);
+    ``ok`` False (other positions, or too sparse: the caller's numpy path) with empty arrays."""
+    n = len(t)
+    empty = np.zeros(0)
+    if n == 0:
+        return False, empty, empty
+    k0, k1 = np.int64(0), np.int64(0)
+    for i in range(n):
+        t2 = t[i] * 2.0
+        k = np.int64(t2)
+        if k != t2:
+            return False, empty, empty
+        if i == 0 or k < k0:
+            k0 = k
+        if i == 0 or k > k1:
+            k1 = k
+    if not k1 - k0 < 8 * n + 4096:
+        return False, empty, empty
+    count = np.zeros(k1 - k0 + 1, np.int64)
+    total = np.zeros(k1 - k0 + 1)
+    for i in range(n):
+        k = np.int64(t[i] * 2.0) - k0
+        count[k] += 1
+        total[k] += s[i]
+    m = 0
+    for k in range(len(count)):
+        if count[k]:
+            m += 1
+    xp, yp = np.empty(m), np.empty(m)
+    j = 0
+    for k in range(len(count)):
+        if count[k]:
+            xp[j] = (k + k0) / 2.0
+            yp[j] = total[k] / count[k]
+            j += 1
+    lo, hi = np.ceil(xp[0] - half), np.floor(xp[m - 1] + half) + 1
+    nt = max(np.int64(np.ceil(hi - lo)), 0)
+    ts, out = np.empty(nt), np.empty(nt)
+    j = 0
+    for i in range(nt):
+        x = lo + i
+        ts[i] = x
+        if x <= xp[0]:
+            out[i] = yp[0]              # (left of the first sample, or on it)
+        elif x >= xp[m - 1]:
+            out[i] = yp[m - 1]
+        else:
+            while xp[j + 1] <= x:       # (x rises: xp[j] <= x < xp[j + 1])
+                j += 1
+            if xp[j] == x:
+                out[i] = yp[j]
+            else:
+                slope = (yp[j + 1] - yp[j]) / (xp[j + 1] - xp[j])
+                out[i] = slope * (x - xp[j]) + yp[j]
+    return True, ts, out
+
+
+def _warm_match() -> None:
+    """:func:`warm_up`'s part for the match stage's kernels above (the argument types callers pass)."""
+    img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
+    ncc_peaks(img, img, 4 * i, 4 * i, i, 1, 0 * i, 16 * i, 1.0)
+    ncc_search(img, img, np.zeros((1, 2), np.int64), i, 1, 0, 2, 8, 16, 0, 0, 0, f.copy(), f.copy())
+    part = np.zeros((8, 3), np.uint8)                   # (C-contiguous, writable: as the callers pass them)
+    ncc_scores(img, part)
+    masked_sqdiff(img, part, part.copy())
+    refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
+    line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)
+    centre_line(np.zeros(2), np.zeros(2), 0.5)

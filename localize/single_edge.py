@@ -12,6 +12,7 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
+from appliance.localize import kernels
 from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
@@ -34,6 +35,10 @@ from appliance.localize.radius import radius_at
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
+    ok, ts, xs = kernels.centre_line(np.ascontiguousarray(t, float), np.ascontiguousarray(s, float),
+                                     (scale - 1) / 2)
+    if ok:                              # (whole or half pixels: the values below, compiled)
+        return ts, xs
     t2 = t * 2.0
     k = t2.astype(np.int64)
     k0 = int(k.min()) if len(k) else 0
@@ -381,17 +386,7 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
         # vote: for each slope within the plausible range, the offsets of the line through each
         # candidate, in bins of ``tol_px``; the best window of two bins wins
         tm = float(cand_t.mean())
-        d0 = slopes[:, None] * (cand_t - tm)                                               # (S, C)
-        np.subtract(cand_d, d0, out=d0)             # (in place: the same values, fewer full-size arrays)
-        lo = float(d0.min())
-        d0 -= lo
-        d0 /= tol_px
-        bins = d0.astype(np.intp)
-        nb = int(bins.max()) + 2
-        bins += np.arange(len(slopes))[:, None] * nb
-        votes = np.bincount(bins.ravel(), minlength=len(slopes) * nb).reshape(len(slopes), nb)
-        window = votes[:, :-1] + votes[:, 1:]
-        k_s, k_b = np.unravel_index(int(window.argmax()), window.shape)
+        lo, k_s, k_b = kernels.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))     # (S, C) offsets' bins
         line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
         sel = np.abs(cand_d - line) <= 1.5 * tol_px
         if np.count_nonzero(np.bincount(cand_q[sel])) < max(12, min_share * len(ri)):    # (rows with a candidate)

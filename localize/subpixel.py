@@ -14,6 +14,7 @@ import dataclasses
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
@@ -58,6 +59,11 @@ def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
     return out.reshape(-1)[:n].reshape(col.shape).astype(np.float32)
 
 
+# numpy's float32 log of max(v, 1e-3) for whole grey steps v = 0..255 (refine_boundaries' logs, by look-up)
+_LOG_STEPS = np.log(np.maximum(np.arange(256, dtype=np.float32), 1e-3))
+_LOG_STEPS.flags.writeable = False
+
+
 def refine_boundaries(gray, row: np.ndarray, x_px: np.ndarray, min_step: float = 12.0, min_share: float = 0.25,
                       max_shift_px: float = 1.5) -> np.ndarray:
     """Boundaries moved to the grey image's intensity step along their row.
@@ -88,6 +94,8 @@ def refine_boundaries(gray, row: np.ndarray, x_px: np.ndarray, min_step: float =
         return x_px.copy()
     xi = np.rint(x_px).astype(np.int64)
     p = gather(gray, np.asarray(row, np.int64), xi[:, None] + np.arange(-3, 4))    # (K, 7) float32
+    if gray.dtype == np.uint8:          # whole grey levels: the steps below in one compiled loop (the same values)
+        return kernels.refine_steps(p, x_px, xi, _LOG_STEPS, float(min_step), float(min_share), float(max_shift_px))
     raw = p[:, 5] + p[:, 6] - p[:, 0] - p[:, 1]            # twice the plateaus' difference, right - left
     step = np.diff(p, axis=1)
     step *= np.sign(raw)[:, None]                          # (K, 6): > 0 along the plateaus' step

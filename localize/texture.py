@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from appliance.localize import kernels
 
 
 def _flat(patch: np.ndarray, min_std: float) -> bool:
@@ -87,6 +88,10 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     if by1 <= by0 or lx1 <= lx0 or rx1 <= rx0:
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
+    if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:      # every patch in one compiled call (exact scores)
+        kernels.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv,
+                           np.ascontiguousarray(hhs), hw, lo, hi, h, w, by0, lx0, rx0, d_out, score)
+        return d_out, score, None
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
         & (uv[:, 0] - lo + hw + 1 > 0)
     # a short search (<= 33 positions), patches of one height whose strips are whole: all at once (the
@@ -100,7 +105,8 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
             batch = ((hh0, hw, hi - lo + 1), lbox, rbox, uv[idx], lo, hi, (by0, lx0, rx0), idx, d_out, score)
             inside = inside.copy()
             inside[idx] = False
-    for i in np.flatnonzero(inside).tolist():
+    todo = np.flatnonzero(inside)
+    for i in todo.tolist():
         u, v, hh = int(uv[i, 0]), int(uv[i, 1]), int(hhs[i])
         tmpl = lbox[v - hh - by0:v + hh + 1 - by0, u - hw - lx0:u + hw + 1 - lx0]
         if _flat(tmpl, 1.0):
@@ -307,7 +313,10 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         strip = right[v - hh:v + hh + 1, x0:u - 1 + hh + 1]
         if strip.shape[1] <= tmpl.shape[1]:
             continue
-        c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:      # (exact scores: kernels.ncc_scores)
+            c = kernels.ncc_scores(np.require(strip, None, ["C", "W"]), np.require(tmpl, None, ["C", "W"]))
+        else:
+            c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         d = u - (x0 + np.arange(len(c)) + hh)          # disparity of each position
         front = d > d_branch_px[i] + margin_px
         behind = ~front

@@ -955,3 +955,45 @@ def warm_up() -> None:
     graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
+
+
+# --- segment (segtips)
+@numba.njit(**_JIT)
+def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
+    """Which components hold a disc: ``out[c]`` is True when some set pixel of the ``factor`` x
+    ``factor`` blocks (``gy``, ``gx``) (K,) of component ``comp`` (K,) (0..``n_comp`` - 1) has every
+    pixel at the offsets (``dy``, ``dx``) (M,) set too (non-zero, inside ``mask`` (H, W) uint8).
+    A component's test stops at its first such pixel, a pixel's at its first unset offset."""
+    h, w = mask.shape
+    out = np.zeros(n_comp, np.bool_)
+    for k in range(len(gy)):
+        c = comp[k]
+        if out[c]:
+            continue
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if mask[y, x] == 0:
+                    continue
+                ok = True
+                for m in range(len(dy)):
+                    yy, xx = y + dy[m], x + dx[m]
+                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+                        ok = False
+                        break
+                if ok:
+                    out[c] = True
+                    break
+            if out[c]:
+                break
+    return out
+
+
+_warm_up_before_segtips = warm_up
+
+
+def warm_up() -> None:  # noqa: F811 (extends the one above: appended kernels only at this file's end)
+    """:func:`warm_up` above, and :func:`blocks_hold_disc`."""
+    _warm_up_before_segtips()
+    i = np.zeros(1, np.int64)
+    blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, i, i)

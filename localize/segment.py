@@ -160,30 +160,37 @@ def occluder_at(bgr: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.nd
 
 
 def clean_mask(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
-    """Opening, closing and removal of components smaller than ``min_area_px``; uint8 0/255."""
+    """Opening, closing and removal of components smaller than ``min_area_px`` unless they hold a disc
+    of radius ``keep_radius_px`` (:func:`drop_small`); uint8 0/255."""
     m = mask
     if cfg.open_px > 1:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _kernel(cfg.open_px))
     if cfg.close_px > 1:
         m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, _kernel(cfg.close_px))
     if cfg.min_area_px > 0:
-        m = drop_small(m, cfg.min_area_px)
+        m = drop_small(m, cfg.min_area_px, keep_radius_px=cfg.keep_radius_px)
     return m
 
 
-def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndarray:
-    """Remove connected components smaller than ``min_area_px`` (uint8 0/255).
+def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radius_px: float = 0.0) -> np.ndarray:
+    """Remove connected components smaller than ``min_area_px`` (uint8 0/255), except those holding
+    a disc of radius ``keep_radius_px`` (0: none kept).
 
     Components are found on a ``factor`` times smaller copy (any branch pixel keeps a
     small pixel), ten times faster than at full size; areas are counted at full size
     (exact pixel counts of the blocks).
+    A short piece of a twig (radius 4-8 px, 15-50 px long between a leaf and its tip: 100-400 px)
+    is small but wide; specks of bark colour that survive the opening are not: on the 60 scenes'
+    views no dropped component holding a disc of radius 3.5 px lay off the exact masks, 133 on
+    them did (half the branch pixels dropped). The disc is tested at full size on the small
+    components' pixels only (:func:`kernels.blocks_hold_disc`: ~10 us per image).
     Only the small components are cleared (``mask`` itself is returned when none is).
     """
     h, w = mask.shape
     hs, ws = -(-h // factor), -(-w // factor)
     if (hs * factor, ws * factor) != (h, w):                  # whole blocks only: pad, then crop
         pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
-        out = drop_small(pad, min_area_px, factor)
+        out = drop_small(pad, min_area_px, factor, keep_radius_px)
         return mask if out is pad else out[:h, :w]
     cover = block_mean(mask, factor)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
@@ -196,9 +203,33 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4) -> np.ndar
     small[0] = False
     if not small.any():
         return mask
+    if keep_radius_px > 0:                                    # wide pieces (twigs) stay
+        sel = small[lab] & (area[lab] >= np.pi * keep_radius_px ** 2)
+        if sel.any():
+            ids, comp = np.unique(lab[sel], return_inverse=True)
+            gy, gx = np.divmod(idx[sel], ws)
+            dy, dx = _disc_offsets(float(keep_radius_px))
+            small[ids[kernels.blocks_hold_disc(mask, gy, gx, comp.astype(np.int64), len(ids), factor, dy, dx)]] = False
+            if not small.any():
+                return mask
     out = mask.copy()
     gy, gx = np.divmod(idx[small[lab]], ws)
     out.reshape(hs, factor, ws, factor)[gy, :, gx, :] = 0
+    return out
+
+
+@lru_cache(maxsize=8)
+def _disc_offsets(radius_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets (dy, dx) (M,) int64 of the pixels nearer than ``radius_px`` to a pixel (itself excluded),
+    nearest first (an unset one is then found early), read-only."""
+    r = int(np.ceil(radius_px))
+    dy, dx = np.mgrid[-r:r + 1, -r:r + 1]
+    d2 = (dy * dy + dx * dx).ravel()
+    keep = (d2 > 0) & (d2 < radius_px ** 2)
+    order = np.argsort(d2[keep], kind="stable")
+    out = dy.ravel()[keep][order].astype(np.int64), dx.ravel()[keep][order].astype(np.int64)
+    for a in out:
+        a.setflags(write=False)
     return out
 
 

@@ -989,11 +989,41 @@ def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
     return out
 
 
+@numba.njit(**_JIT)
+def blocks_disc_colour(mask, bgr, gy, gx, comp, n_comp, factor, dy, dx):
+    """:func:`blocks_hold_disc`'s test over every set pixel of the blocks: per component the number of
+    pixels whose disc offsets are all set (``count`` (n_comp,) int64) and the sum of their BGR colours
+    in ``bgr`` (H, W, 3) uint8 (``sums`` (n_comp, 3) float64): the colour of its inside, free of the
+    outline's mixed pixels."""
+    h, w = mask.shape
+    count = np.zeros(n_comp, np.int64)
+    sums = np.zeros((n_comp, 3), np.float64)
+    for k in range(len(gy)):
+        c = comp[k]
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if mask[y, x] == 0:
+                    continue
+                ok = True
+                for m in range(len(dy)):
+                    yy, xx = y + dy[m], x + dx[m]
+                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+                        ok = False
+                        break
+                if ok:
+                    count[c] += 1
+                    for ch in range(3):
+                        sums[c, ch] += bgr[y, x, ch]
+    return count, sums
+
+
 _warm_up_before_segtips = warm_up
 
 
 def warm_up() -> None:  # noqa: F811 (extends the one above: appended kernels only at this file's end)
-    """:func:`warm_up` above, and :func:`blocks_hold_disc`."""
+    """:func:`warm_up` above, and :func:`blocks_hold_disc`, :func:`blocks_disc_colour`."""
     _warm_up_before_segtips()
     i = np.zeros(1, np.int64)
     blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, i, i)
+    blocks_disc_colour(np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8), i, i, i, 1, 4, i, i)

@@ -206,3 +206,25 @@ def test_colour_recogniser_keeps_a_twig_tip_beyond_a_leaf():
     mask, _ = segment_color(img, cfg)
     assert (mask[77:84, 112:120] >= 128).all()                   # the piece beyond the leaf, with its end
     assert not (mask[:, 125:] >= 128).any() and not (mask[70:91, 85:105] >= 128).any()
+
+
+def test_drop_small_keeps_wide_pieces_only_of_the_bark_chromaticity():
+    m = np.zeros((200, 240), np.uint8)
+    cv2.line(m, (10, 150), (230, 150), 255, 21)                 # a limb: the large component
+    cv2.line(m, (40, 40), (56, 56), 255, 10)                   # a twig's piece, ~330 px
+    img = np.full((200, 240, 3), (60, 110, 70), np.uint8)      # green-brown background (BGR)
+    bark = (40, 60, 90)
+    img[m > 0] = bark
+    kept = drop_small(m, 400, keep_radius_px=3.5, bgr=img, keep_chroma_deg=3.0)
+    assert np.array_equal(kept, m)                             # the piece has the limb's bark: kept
+    shade = img.copy()
+    shade[:100] //= 2                                          # in shadow: darker, same chromaticity
+    assert np.array_equal(drop_small(m, 400, keep_radius_px=3.5, bgr=shade, keep_chroma_deg=3.0), m)
+    olive = img.copy()
+    olive[:100][m[:100] > 0] = (40, 75, 90)                    # a blob of another colour (~9 deg off)
+    out = drop_small(m, 400, keep_radius_px=3.5, bgr=olive, keep_chroma_deg=3.0)
+    assert not out[:100].any() and np.array_equal(out[100:], m[100:])
+    assert np.array_equal(drop_small(m, 400, keep_radius_px=3.5, bgr=olive, keep_chroma_deg=0.0), m)
+    alone = m.copy()
+    alone[100:] = 0                                            # no large component: no bark to compare with
+    assert not drop_small(alone, 400, keep_radius_px=3.5, bgr=img, keep_chroma_deg=3.0).any()

@@ -159,10 +159,12 @@ def occluder_at(bgr: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.nd
     return out
 
 
-def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = None) -> np.ndarray:
+def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = None,
+               small: np.ndarray | None = None) -> np.ndarray:
     """Opening, closing and removal of components smaller than ``min_area_px`` unless they hold a disc
     of radius ``keep_radius_px`` and (with the BGR image ``bgr``) have the bark's chromaticity within
-    ``keep_chroma_deg`` (:func:`drop_small`); uint8 0/255."""
+    ``keep_chroma_deg`` (:func:`drop_small`; ``small``: :func:`sample_nearest` (``bgr``, 4) when taken);
+    uint8 0/255."""
     m = mask
     if cfg.open_px > 1:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _kernel(cfg.open_px))
@@ -170,12 +172,13 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = No
         m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, _kernel(cfg.close_px))
     if cfg.min_area_px > 0:
         m = drop_small(m, cfg.min_area_px, keep_radius_px=cfg.keep_radius_px, bgr=bgr,
-                       keep_chroma_deg=cfg.keep_chroma_deg)
+                       keep_chroma_deg=cfg.keep_chroma_deg, small_bgr=small)
     return m
 
 
 def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radius_px: float = 0.0,
-               bgr: np.ndarray | None = None, keep_chroma_deg: float = 0.0) -> np.ndarray:
+               bgr: np.ndarray | None = None, keep_chroma_deg: float = 0.0,
+               small_bgr: np.ndarray | None = None) -> np.ndarray:
     """Remove connected components smaller than ``min_area_px`` (uint8 0/255), except those holding
     a disc of radius ``keep_radius_px`` (0: none kept) whose inside (the pixels at the discs' centres)
     has, in the BGR image ``bgr`` (H, W, 3), the chromaticity of the large components' bark within
@@ -192,7 +195,8 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     :func:`kernels.blocks_disc_colour`: ~0.1 ms per pair). The chromaticity (one plant's bark: the
     unmixing's model, :func:`unmix_edges`) keeps out wide blobs of out-of-focus background that
     pass the colour thresholds (real images: bokeh of brown foliage); the rendered scenes' twig
-    pieces lie within 1.5 deg of it, their few wide false pieces 9-10 deg off.
+    pieces lie within 1.5 deg of it. ``small_bgr``: :func:`sample_nearest` (``bgr``, ``factor``) when
+    already taken.
     Only the small components are cleared (``mask`` itself is returned when none is).
     """
     h, w = mask.shape
@@ -201,7 +205,7 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
         pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
         bpad = None if bgr is None else cv2.copyMakeBorder(bgr, 0, hs * factor - h, 0, ws * factor - w,
                                                            cv2.BORDER_CONSTANT, value=0)
-        out = drop_small(pad, min_area_px, factor, keep_radius_px, bpad, keep_chroma_deg)
+        out = drop_small(pad, min_area_px, factor, keep_radius_px, bpad, keep_chroma_deg)   # (small_bgr: ragged)
         return mask if out is pad else out[:h, :w]
     cover = block_mean(mask, factor)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
@@ -225,8 +229,11 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
                 keep = kernels.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
             else:
                 count, sums = kernels.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
-                keep = (count > 0) & _near_chroma(sums, _bark_chroma(bgr, cover, labels, small, factor),
-                                                  keep_chroma_deg)
+                keep = count > 0
+                if keep.any():
+                    chi = _bark_chroma(bgr if small_bgr is None else small_bgr, cover, idx[small[lab]], factor,
+                                       sampled=small_bgr is not None)
+                    keep &= _near_chroma(sums, chi, keep_chroma_deg)
             small[ids[keep]] = False
             if not small.any():
                 return mask
@@ -236,17 +243,22 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     return out
 
 
-def _bark_chroma(bgr: np.ndarray, cover: np.ndarray, labels: np.ndarray, small: np.ndarray,
-                 factor: int) -> np.ndarray | None:
+def _bark_chroma(bgr: np.ndarray, cover: np.ndarray, small_blocks: np.ndarray, factor: int,
+                 sampled: bool = False) -> np.ndarray | None:
     """Unit BGR vector (3,) of the large components' bark: the mean of the first pixels of their whole
-    ``factor`` x ``factor`` blocks (``cover`` 255) whose 8 neighbour blocks are whole too (the outline's
-    mixed pixels left out; all whole blocks where none is); None without any."""
-    full = ((cover == 255) & ~small[labels]).astype(np.uint8)
+    ``factor`` x ``factor`` blocks (``cover`` 255; ``small_blocks``, flat indices of the small components'
+    blocks, left out) whose 8 neighbour blocks are whole too (the outline's
+    mixed pixels left out; all whole blocks where none is); None without any. ``sampled``: ``bgr`` is
+    already :func:`sample_nearest` (image, ``factor``)."""
+    full = cv2.compare(cover, 255, cv2.CMP_EQ)
+    full.reshape(-1)[small_blocks] = 0
     inner = cv2.erode(full, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
     use = inner if cv2.countNonZero(inner) else full
     if not cv2.countNonZero(use):
         return None
-    c = np.array(cv2.mean(bgr[::factor, ::factor][:use.shape[0], :use.shape[1]], mask=use)[:3])
+    first = bgr if sampled else sample_nearest(bgr, factor)
+    hs, ws = min(first.shape[0], use.shape[0]), min(first.shape[1], use.shape[1])
+    c = np.array(cv2.mean(first[:hs, :ws], mask=np.ascontiguousarray(use[:hs, :ws]))[:3])
     n = float(np.linalg.norm(c))
     return c / n if n > 0 else None
 
@@ -349,7 +361,7 @@ def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     asks about, :func:`occluder_at`)."""
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
     raw = bark_mask(bgr, cfg, small=small)
-    mask = clean_mask(raw, cfg, bgr)
+    mask = clean_mask(raw, cfg, bgr, small)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
                            scratch=None if raw is mask else raw, small=small)

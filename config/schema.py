@@ -59,6 +59,8 @@ class SegmentConfig:
     open_px: int = rng(min=0)
     close_px: int = rng(min=0)
     min_area_px: int = rng(min=0)
+    keep_radius_px: float = rng(min=0)
+    keep_chroma_deg: float = rng(min=0, max=90)
     edge_window_px: int = rng(min=0)
     edge_band_px: int = rng(min=1)
 

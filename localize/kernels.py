@@ -956,6 +956,7 @@ def warm_up() -> None:
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
     _warm_match()
+    _warm_segment()
 
 
 # --- match stage (speedm)
@@ -1313,3 +1314,71 @@ def _warm_match() -> None:
     refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
     line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)
     centre_line(np.zeros(2), np.zeros(2), 0.5)
+
+
+# --- segment (segtips)
+@numba.njit(**_JIT)
+def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
+    """Which components hold a disc: ``out[c]`` is True when some set pixel of the ``factor`` x
+    ``factor`` blocks (``gy``, ``gx``) (K,) of component ``comp`` (K,) (0..``n_comp`` - 1) has every
+    pixel at the offsets (``dy``, ``dx``) (M,) set too (non-zero, inside ``mask`` (H, W) uint8).
+    A component's test stops at its first such pixel, a pixel's at its first unset offset."""
+    h, w = mask.shape
+    out = np.zeros(n_comp, np.bool_)
+    for k in range(len(gy)):
+        c = comp[k]
+        if out[c]:
+            continue
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if mask[y, x] == 0:
+                    continue
+                ok = True
+                for m in range(len(dy)):
+                    yy, xx = y + dy[m], x + dx[m]
+                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+                        ok = False
+                        break
+                if ok:
+                    out[c] = True
+                    break
+            if out[c]:
+                break
+    return out
+
+
+@numba.njit(**_JIT)
+def blocks_disc_colour(mask, bgr, gy, gx, comp, n_comp, factor, dy, dx):
+    """:func:`blocks_hold_disc`'s test over every set pixel of the blocks: per component the number of
+    pixels whose disc offsets are all set (``count`` (n_comp,) int64) and the sum of their BGR colours
+    in ``bgr`` (H, W, 3) uint8 (``sums`` (n_comp, 3) float64): the colour of its inside, free of the
+    outline's mixed pixels."""
+    h, w = mask.shape
+    count = np.zeros(n_comp, np.int64)
+    sums = np.zeros((n_comp, 3), np.float64)
+    for k in range(len(gy)):
+        c = comp[k]
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if mask[y, x] == 0:
+                    continue
+                ok = True
+                for m in range(len(dy)):
+                    yy, xx = y + dy[m], x + dx[m]
+                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+                        ok = False
+                        break
+                if ok:
+                    count[c] += 1
+                    for ch in range(3):
+                        sums[c, ch] += bgr[y, x, ch]
+    return count, sums
+
+
+def _warm_segment() -> None:
+    """:func:`warm_up`'s part for :func:`blocks_hold_disc` and :func:`blocks_disc_colour`."""
+    i = np.zeros(1, np.int64)
+    blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, i, i)
+    blocks_disc_colour(np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8), i, i, i, 1, 4, i, i)

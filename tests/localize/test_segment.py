@@ -175,3 +175,56 @@ def test_a_probability_mask_is_coverage_rounded_half_up_and_clipped():
             want = np.clip(np.nan_to_num(p) * 255.0 + 0.5, 0, 255).astype(np.uint8)
         got = as_mask(p, p.shape, "m")
         assert np.array_equal(got, want) and got[0, 1] == 255 and got[0, 3] == 0
+
+
+@pytest.mark.parametrize("size", [(240, 320), (243, 317)])
+def test_drop_small_keeps_short_wide_twig_pieces_and_drops_thin_specks(size):
+    h, w = size
+    m = np.zeros(size, np.uint8)
+    cv2.line(m, (40, 40), (56, 56), 255, 10)                   # a twig's piece beyond a leaf: r 5 px, ~330 px
+    cv2.line(m, (160, 30), (220, 30), 255, 3)                  # a thin streak: ~320 px, 5 px wide
+    cv2.circle(m, (100, 150), 3, 255, -1)                      # a speck: r 3 px
+    m[h - 8:, w - 8:] = 255                                    # a wide piece in the padded corner block
+    assert cv2.countNonZero(m[20:90, 20:90]) < 400
+    out = drop_small(m, 400, keep_radius_px=3.5)
+    twig = np.zeros_like(m)
+    twig[20:90, 20:90] = m[20:90, 20:90]
+    twig[h - 8:, w - 8:] = 255
+    assert np.array_equal(out, twig)                           # the pieces kept whole, streak and speck gone
+    assert not drop_small(m, 400)[20:90, 20:90].any()          # keep_radius_px 0: dropped as before
+    assert not drop_small(m, 400, keep_radius_px=8.0)[20:90, 20:90].any()   # wider than the piece: dropped
+
+
+def test_colour_recogniser_keeps_a_twig_tip_beyond_a_leaf():
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_color
+
+    cfg = load_config().localize.segment
+    img = np.full((160, 200, 3), (235, 206, 135), np.uint8)     # sky (BGR)
+    cv2.line(img, (0, 80), (116, 80), (40, 60, 90), 11)          # a twig, r ~5.5 px ...
+    cv2.circle(img, (95, 80), 14, (40, 170, 60), -1)             # ... cut by a leaf: 15 px of it beyond
+    mask, _ = segment_color(img, cfg)
+    assert (mask[77:84, 112:120] >= 128).all()                   # the piece beyond the leaf, with its end
+    assert not (mask[:, 125:] >= 128).any() and not (mask[70:91, 85:105] >= 128).any()
+
+
+def test_drop_small_keeps_wide_pieces_only_of_the_bark_chromaticity():
+    m = np.zeros((200, 240), np.uint8)
+    cv2.line(m, (10, 150), (230, 150), 255, 21)                 # a limb: the large component
+    cv2.line(m, (40, 40), (56, 56), 255, 10)                   # a twig's piece, ~330 px
+    img = np.full((200, 240, 3), (60, 110, 70), np.uint8)      # green-brown background (BGR)
+    bark = (40, 60, 90)
+    img[m > 0] = bark
+    kept = drop_small(m, 400, keep_radius_px=3.5, bgr=img, keep_chroma_deg=3.0)
+    assert np.array_equal(kept, m)                             # the piece has the limb's bark: kept
+    shade = img.copy()
+    shade[:100] //= 2                                          # in shadow: darker, same chromaticity
+    assert np.array_equal(drop_small(m, 400, keep_radius_px=3.5, bgr=shade, keep_chroma_deg=3.0), m)
+    olive = img.copy()
+    olive[:100][m[:100] > 0] = (40, 75, 90)                    # a blob of another colour (~9 deg off)
+    out = drop_small(m, 400, keep_radius_px=3.5, bgr=olive, keep_chroma_deg=3.0)
+    assert not out[:100].any() and np.array_equal(out[100:], m[100:])
+    assert np.array_equal(drop_small(m, 400, keep_radius_px=3.5, bgr=olive, keep_chroma_deg=0.0), m)
+    alone = m.copy()
+    alone[100:] = 0                                            # no large component: no bark to compare with
+    assert not drop_small(alone, 400, keep_radius_px=3.5, bgr=img, keep_chroma_deg=3.0).any()

@@ -9,8 +9,10 @@ width is the parent's own lie on its axis (its two edges are parallel).
 
 from __future__ import annotations
 
-import cv2
+import numba
 import numpy as np
+
+from appliance.localize import kernels
 
 # cross-sections per side, and their spacing (parent radii, at least this many px)
 SECTIONS = 4
@@ -40,54 +42,82 @@ def _tls(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return c, np.array([np.cos(ang), np.sin(ang)])
 
 
-def _sample(mask: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """``mask`` (H, W) uint8 at points ``uv`` (N, 2) (x, y), bilinear; 0 outside the image."""
-    m = uv.astype(np.float32).reshape(1, -1, 2)
-    return cv2.remap(mask, m, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0]
+@numba.njit(**kernels._JIT)
+def _sections(mask, base, e, n, s, r, half):
+    """:func:`section_middles`' scans, compiled: per section k (``s`` (K,)), from its sample nearest
+    ``t = 0`` that is on (within ``MIDDLE_MAX_R`` r + 1) outwards to the first off sample each side
+    (``t`` in -half..half, the mask read lazily by :func:`kernels.bilinear_u8`, cv2.remap's values).
+    Returns per section (K, 3): found (1/0), middle t, width (px)."""
+    K = len(s)
+    T = 2 * half + 1
+    out = np.zeros((K, 3))
+    lim = MIDDLE_MAX_R * r + 1.0
+    for k in range(K):
+        bx, by = base[0] + s[k] * e[0], base[1] + s[k] * e[1]
+        vals = np.full(T, -1.0)
+        c = -1
+        for dd in range(half + 1):
+            if dd > lim:
+                break
+            for j in (half - dd, half + dd):
+                if vals[j] < 0:
+                    t = float(j - half)
+                    vals[j] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+                if vals[j] >= 128.0:
+                    c = j
+                    break
+            if c >= 0:
+                break
+        if c < 0:
+            continue
+        a = c - 1
+        while a >= 0:
+            if vals[a] < 0:
+                t = float(a - half)
+                vals[a] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+            if vals[a] < 128.0:
+                break
+            a -= 1
+        b = c + 1
+        while b < T:
+            if vals[b] < 0:
+                t = float(b - half)
+                vals[b] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+            if vals[b] < 128.0:
+                break
+            b += 1
+        if a < 0 or b >= T:                     # the section runs off its window
+            continue
+        va, vb = vals[a], vals[b]
+        lo = (a - half) + (128.0 - va) / max(vals[a + 1] - va, 1e-9)
+        hi = (b - half) - (128.0 - vb) / max(vals[b - 1] - vb, 1e-9)
+        out[k, 0], out[k, 1], out[k, 2] = 1.0, 0.5 * (lo + hi), hi - lo
+    return out
 
 
 def section_middles(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.ndarray, s: np.ndarray,
-                    r_px: np.ndarray) -> np.ndarray:
+                    r: float) -> np.ndarray:
     """Middles (M, 2) of the parent's cross-sections at ``base + s_k e`` (``s`` (K,), px) along ``n``.
 
-    Each section is read on ``t`` in +-(2.5 r + 4) px, 1 px apart; its run of coverage >= 128
-    through (or nearest within ``MIDDLE_MAX_R`` r of) ``t = 0``, ends interpolated at 128, is kept
-    when its width is the parent's ``2 r_px[k]`` within ``WIDTH_TOL`` (and ``WIDTH_TOL_PX``) and the
-    sections' median width within ``SAME_WIDTH`` (and ``SAME_WIDTH_PX``).
+    Each section is read on ``t`` in +-(2.5 r + 4) px, 1 px apart (bilinear); its run of coverage
+    >= 128 through (or nearest within ``MIDDLE_MAX_R`` r + 1 px of) ``t = 0``, ends interpolated at
+    128, is kept when its width is the parent's ``2 r`` (px) within ``WIDTH_TOL`` (and
+    ``WIDTH_TOL_PX``), its middle within ``MIDDLE_MAX_R`` r + 1 px of ``t = 0``, and its width within
+    ``SAME_WIDTH`` (and ``SAME_WIDTH_PX``) of the kept sections' median width.
     """
     if len(s) == 0:
         return np.zeros((0, 2))
-    half = int(np.ceil(2.5 * float(np.max(r_px)) + 4.0))
-    t = np.arange(-half, half + 1, dtype=float)
-    pts = base + s[:, None, None] * e + t[None, :, None] * n          # (K, T, 2)
-    val = _sample(mask, pts.reshape(-1, 2)).reshape(len(s), len(t)).astype(float)
-    on = val >= 128.0
-    out = []
-    for k in range(len(s)):
-        r = float(r_px[k])
-        near = np.flatnonzero(on[k] & (np.abs(t) <= MIDDLE_MAX_R * r + 1.0))
-        if len(near) == 0:
-            continue
-        c = int(near[np.argmin(np.abs(t[near]))])
-        off_lo = np.flatnonzero(~on[k, :c])
-        off_hi = np.flatnonzero(~on[k, c:])
-        if len(off_lo) == 0 or len(off_hi) == 0:           # the section runs off its window
-            continue
-        a, b = int(off_lo[-1]), c + int(off_hi[0])           # the last off before, the first off after
-        va, vb = val[k, a], val[k, b]
-        lo = t[a] + (128.0 - va) / max(val[k, a + 1] - va, 1e-9)
-        hi = t[b] - (128.0 - vb) / max(val[k, b - 1] - vb, 1e-9)
-        if abs((hi - lo) - 2.0 * r) > WIDTH_TOL * 2.0 * r + WIDTH_TOL_PX:
-            continue
-        mid = 0.5 * (lo + hi)
-        if abs(mid) > MIDDLE_MAX_R * r + 1.0:
-            continue
-        out.append((*(base + s[k] * e + mid * n), hi - lo))
-    out = np.array(out).reshape(-1, 3)
-    if len(out):       # the parent's own width is the sections' usual one: a wider or narrower one is merged
-        w = float(np.median(out[:, 2]))
-        out = out[np.abs(out[:, 2] - w) <= SAME_WIDTH * w + SAME_WIDTH_PX]
-    return out[:, :2]
+    half = int(np.ceil(2.5 * r + 4.0))
+    f = _sections(np.ascontiguousarray(mask), np.asarray(base, float), np.asarray(e, float),
+                  np.asarray(n, float), np.asarray(s, float), float(r), half)
+    ok = (f[:, 0] > 0) & (np.abs(f[:, 2] - 2.0 * r) <= WIDTH_TOL * 2.0 * r + WIDTH_TOL_PX) \
+        & (np.abs(f[:, 1]) <= MIDDLE_MAX_R * r + 1.0)
+    f, s = f[ok], s[ok]
+    if len(f):       # the parent's own width is the sections' usual one: a wider or narrower one is merged
+        w = float(np.median(f[:, 2]))
+        keep = np.abs(f[:, 2] - w) <= SAME_WIDTH * w + SAME_WIDTH_PX
+        f, s = f[keep], s[keep]
+    return base + s[:, None] * e + f[:, 1:2] * n
 
 
 def parent_axis(mask: np.ndarray, xy: np.ndarray, e1: np.ndarray, out: np.ndarray, r_behind: float,
@@ -117,7 +147,7 @@ def parent_axis(mask: np.ndarray, xy: np.ndarray, e1: np.ndarray, out: np.ndarra
     k = step * np.arange(SECTIONS)
     s = np.concatenate([-(max(0.0, (r_child - r * cos_a) / sin_a) + 0.5 * r + 3.0 + k),
                         (r * cos_a + r_child) / sin_a + 0.5 * r + 3.0 + k])
-    mids = section_middles(mask, np.asarray(xy, float), e, n, s, np.full(len(s), r))
+    mids = section_middles(mask, np.asarray(xy, float), e, n, s, r)
     if len(mids) < 3:
         return None
     c, ea = _tls(mids)

@@ -13,6 +13,7 @@ import numba
 import numpy as np
 
 from appliance.localize import kernels
+from appliance.localize.curves import median
 
 # cross-sections per side, and their spacing (parent radii, at least this many px)
 SECTIONS = 4
@@ -35,9 +36,9 @@ MAX_TURN_SIN = 0.10
 
 def _tls(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Total-least-squares line through points (N, 2): centroid and unit direction."""
-    c = pts.mean(0)
+    c = pts.sum(0) / len(pts)                 # (the mean, without np.mean's checks)
     q = pts - c
-    sxx, syy, sxy = float(q[:, 0] @ q[:, 0]), float(q[:, 1] @ q[:, 1]), float(q[:, 0] @ q[:, 1])
+    sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
     ang = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
     return c, np.array([np.cos(ang), np.sin(ang)])
 
@@ -114,7 +115,7 @@ def section_middles(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.nda
         & (np.abs(f[:, 1]) <= MIDDLE_MAX_R * r + 1.0)
     f, s = f[ok], s[ok]
     if len(f):       # the parent's own width is the sections' usual one: a wider or narrower one is merged
-        w = float(np.median(f[:, 2]))
+        w = float(median(f[:, 2]))          # (np.median's value)
         keep = np.abs(f[:, 2] - w) <= SAME_WIDTH * w + SAME_WIDTH_PX
         f, s = f[keep], s[keep]
     return base + s[:, None] * e + f[:, 1:2] * n

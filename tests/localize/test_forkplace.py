@@ -55,8 +55,8 @@ def test_a_fork_on_a_thick_parent_is_placed_at_the_axes_meeting_point(r_par, r_c
 
 
 def test_a_parent_axis_needs_sections_of_the_parents_own_width():
-    # a parent merged all along with something as wide (a blob over the fork's whole stretch): no
-    # section has the parent's width, no axis is made
+    # sections of another width than the parent's (here the parent's radius read 1.75 times too
+    # large, as next to a crotch): none counts, no axis is made
     mask, f, e_par, e_ch = _y_mask(20.0, 10.0, 40.0)
     assert parent_axis(mask, f, e_par, e_ch, 35.0, 35.0, 10.0) is None
 

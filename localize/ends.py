@@ -22,6 +22,7 @@ from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
+from appliance.localize.forkplace import parent_axis
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -82,6 +83,10 @@ CHILD_DEPTH_PX = 6.0
 # one (something touching the cap, 3 px nearer: test_a_tip_touched_on_one_side...)
 CAP_SPLIT_PX = (4.0, 8.0)
 CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
+# a fork placed from the child's outline is placed again against the parent's axis from its own
+# cross-sections clear of the crotch (forkplace.parent_axis)
+PARENT_FROM_SECTIONS = True
+SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two agree within their noise)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -271,6 +276,15 @@ class EndPlacer:
             if xy is not None:
                 outline = (cl, el)
                 break
+        if outline is not None and PARENT_FROM_SECTIONS:
+            # the parent's line near the crotch is pulled towards the child: its axis again from its
+            # own cross-sections clear of the crotch on both sides, and the child's outline against it
+            ax = parent_axis(self.sm.left_mask, xy, outline[1], e2 if np.dot(c2 - xy, e2) >= 0 else -e2,
+                             rad[behind], rad[pb if behind == pa else pa], rad[child])
+            xy2 = None if ax is None else self._fork_from_child_outline(
+                ax[0], ax[1], c2, e2, ax[0] + np.dot(p - ax[0], ax[1]) * ax[1], r_par, rad[child])
+            if xy2 is not None and np.hypot(*(xy2 - xy)) > SECTIONS_MIN_MOVE_PX:     # (within it: noise)
+                xy, outline = xy2, ax
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further

@@ -1318,11 +1318,23 @@ def _warm_match() -> None:
 
 # --- segment (segtips)
 @numba.njit(**_JIT)
+def _holds_disc(mask, y, x, dy, dx):
+    """Whether every pixel at the offsets (``dy``, ``dx``) (M,) from (``y``, ``x``) is set in ``mask``
+    (H, W) uint8 (inside it and non-zero); stops at the first unset one."""
+    h, w = mask.shape
+    for m in range(len(dy)):
+        yy, xx = y + dy[m], x + dx[m]
+        if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+            return False
+    return True
+
+
+@numba.njit(**_JIT)
 def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
     """Which components hold a disc: ``out[c]`` is True when some set pixel of the ``factor`` x
     ``factor`` blocks (``gy``, ``gx``) (K,) of component ``comp`` (K,) (0..``n_comp`` - 1) has every
-    pixel at the offsets (``dy``, ``dx``) (M,) set too (non-zero, inside ``mask`` (H, W) uint8).
-    A component's test stops at its first such pixel, a pixel's at its first unset offset."""
+    pixel at the offsets (``dy``, ``dx``) (M,) set too (:func:`_holds_disc`, inside ``mask`` (H, W)
+    uint8). A component's test stops at its first such pixel."""
     h, w = mask.shape
     out = np.zeros(n_comp, np.bool_)
     for k in range(len(gy)):
@@ -1332,19 +1344,8 @@ def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
         y0, x0 = gy[k] * factor, gx[k] * factor
         for y in range(y0, min(y0 + factor, h)):
             for x in range(x0, min(x0 + factor, w)):
-                if mask[y, x] == 0:
-                    continue
-                ok = True
-                for m in range(len(dy)):
-                    yy, xx = y + dy[m], x + dx[m]
-                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
-                        ok = False
-                        break
-                if ok:
+                if not out[c] and mask[y, x] != 0 and _holds_disc(mask, y, x, dy, dx):
                     out[c] = True
-                    break
-            if out[c]:
-                break
     return out
 
 
@@ -1362,15 +1363,7 @@ def blocks_disc_colour(mask, bgr, gy, gx, comp, n_comp, factor, dy, dx):
         y0, x0 = gy[k] * factor, gx[k] * factor
         for y in range(y0, min(y0 + factor, h)):
             for x in range(x0, min(x0 + factor, w)):
-                if mask[y, x] == 0:
-                    continue
-                ok = True
-                for m in range(len(dy)):
-                    yy, xx = y + dy[m], x + dx[m]
-                    if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
-                        ok = False
-                        break
-                if ok:
+                if mask[y, x] != 0 and _holds_disc(mask, y, x, dy, dx):
                     count[c] += 1
                     for ch in range(3):
                         sums[c, ch] += bgr[y, x, ch]

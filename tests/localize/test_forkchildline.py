@@ -36,7 +36,7 @@ def test_a_straight_child_meets_the_parent_at_its_fork(r_par, r_child, angle_deg
 @pytest.mark.parametrize("r_par, r_child, angle_deg, turn", [(20.0, 8.0, 35.0, 0.25), (20.0, 8.0, 45.0, -0.25)])
 def test_a_child_turning_near_the_parent_is_placed_off_by_its_turn(r_par, r_child, angle_deg, turn):
     # the child turns 10 deg over its first 40 px, most of it inside the parent's silhouette and the
-    # crotch: the outline middles (R + 3 px out and further) see only its straight part, so the fork
+    # crotch: the outline middles (R + 3 px out and further) see mostly its straight part, so the fork
     # lands 3-6 px along the parent, ahead when it turns away from the parent, behind when towards
     mask, f, e_par, e_ch, c2 = _bent_y(r_par, r_child, angle_deg, turn)
     xy = EndPlacer._fork_from_child_outline(None, f, e_par, c2, e_ch, f, r_par, r_child, mask)

@@ -1377,6 +1377,7 @@ def _warm_match2() -> None:
     m = np.zeros(8, np.uint8)
     for soft in (True, False):
         mask_runs(m, m.view(np.uint64), 4, 127, soft)
+    last_on(np.zeros((4, 4), np.uint8), np.zeros((1, 2)), np.zeros((1, 2)), np.arange(2.0), np.full(1, 2, np.int64))
 
 
 @numba.njit(**_JIT)
@@ -1476,3 +1477,34 @@ def mask_runs(flat, words, w, above, soft):
             if x1[i] < w - 1:
                 right[i] = _soft_edge(flat, base + x1[i] + 1, base + x1[i], x1[i] + 1, x1[i])
     return rows[:n].copy(), x0[:n].copy(), x1[:n].copy(), left, right
+
+
+@numba.njit(**_JIT)
+def last_on(mask, starts, directions, s, n_s):
+    """``tips._last_on``: where each line ``starts[k] + s directions[k]`` (float64 (K, 2); ``s`` (S,)
+    float64, evenly spaced, whole or half values) last has ``mask`` (uint8) at or above 128, interpolated
+    between samples (K,); NaN where the line starts off the mask or does not leave it within its first
+    ``n_s[k]`` samples. The same values: the sample points in float32 (product, then sum), the reads
+    :func:`bilinear_u8` (cv2.remap's), the crossing's fraction in float32 and its position in float64;
+    each line read only up to its first sample off the mask."""
+    n_lines = len(starts)
+    out = np.empty(n_lines)
+    step = s[1] - s[0]
+    half, tiny = np.float32(127.5), np.float32(1e-6)
+    for k in range(n_lines):
+        sx, sy = np.float32(starts[k, 0]), np.float32(starts[k, 1])
+        dx, dy = np.float32(directions[k, 0]), np.float32(directions[k, 1])
+        first_off, prev, cur = -1, np.float32(0.0), np.float32(0.0)
+        for j in range(n_s[k]):
+            sj = np.float32(s[j])
+            v = bilinear_u8(mask, sx + dx * sj, sy + dy * sj)
+            if v < 128:
+                first_off, cur = j, v
+                break
+            prev = v
+        if first_off <= 0:
+            out[k] = np.nan
+        else:
+            frac = (prev - half) / max(prev - cur, tiny)
+            out[k] = s[first_off - 1] + float(frac) * step
+    return out

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize import curves, edges, kernels
+from appliance.localize import curves, edges, kernels, tips
 
 
 def _runs_by_numpy(mask, soft):
@@ -67,6 +67,33 @@ def test_end_slopes_groups_is_the_numpy_steps_bit_for_bit():
     assert np.allclose(curves.end_slopes_groups(t, 2 * t + 1, np.zeros(100, int), 1), 2.0)
 
 
+def test_last_on_is_the_remap_of_all_lines():
+    """Lines from inside and outside blurred discs, in all directions, with and without their own sample
+    counts: the same crossings (NaN included) as one cv2.remap of every line, bit for bit."""
+    rng = np.random.default_rng(2)
+    n_lines = n_found = 0
+    for trial in range(200):
+        h, w = int(rng.integers(20, 80)), int(rng.integers(20, 80))
+        m = np.zeros((h, w), np.uint8)
+        centres = rng.integers(0, (w, h), (3, 2))
+        for x, y in centres:
+            cv2.circle(m, (int(x), int(y)), int(rng.integers(3, 20)), 255, -1)
+        m = cv2.GaussianBlur(m, (5, 5), 1.0)
+        k = int(rng.integers(1, 12))
+        starts = rng.uniform(-2, max(h, w) + 2, (k, 2))
+        starts[: k // 2] = centres[rng.integers(0, 3, k // 2)] + rng.normal(0, 1, (k // 2, 2))
+        ang = rng.uniform(0, 2 * np.pi, k)
+        dirs = np.column_stack([np.cos(ang), np.sin(ang)])
+        s = np.arange(0.0, rng.uniform(1.5, 40), 0.5)
+        n_s = rng.integers(1, len(s) + 1, k) if trial % 2 else None
+        got = tips._last_on(m, starts, dirs, s, n_s)
+        want = tips._last_on_np(m, starts, dirs, s, n_s)
+        assert got.dtype == want.dtype and np.array_equal(got, want, equal_nan=True)
+        n_lines += k
+        n_found += int(np.isfinite(got).sum())
+    assert n_found > 0.2 * n_lines                 # many lines do cross the outline
+
+
 def test_warm_up_compiles_the_signatures_these_kernels_get():
     """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
     from pathlib import Path
@@ -78,7 +105,7 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels.end_slopes_groups, kernels.mask_runs]
+    mine = [kernels.end_slopes_groups, kernels.mask_runs, kernels.last_on]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")

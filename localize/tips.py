@@ -193,7 +193,10 @@ def front_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
     strip = np.ascontiguousarray(right[v - hh:v + hh + 1, x0:u + hh])
     if strip.shape[1] <= tmpl.shape[1] or float(tmpl.std()) < 2.0:
         return None
-    c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+    if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (kernels.ncc_scores): OpenCV's
+        c = kernels.ncc_scores(strip, tmpl)                       # float32 scores up to ~5e-4
+    else:
+        c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
     d = u - (x0 + np.arange(len(c)) + hh)
     front = d > d_branch_px + margin_px
     if not front.any():

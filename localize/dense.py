@@ -215,8 +215,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         sel = alive[gq]
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
         res = np.abs(cd - model(gq, t[q]))
-        order = np.lexsort((res, q))
-        first = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
+        first = kernels.nearest_per_query(q, res)       # (q non-decreasing: lexsort's picks, the same)
         chosen = first[res[first] <= tol]
         alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
         chosen = chosen[alive[gq[chosen]]]

@@ -1377,6 +1377,7 @@ def _warm_match2() -> None:
     m = np.zeros(8, np.uint8)
     for soft in (True, False):
         mask_runs(m, m.view(np.uint64), 4, 127, soft)
+    nearest_per_query(np.zeros(2, np.int64), np.zeros(2))
     last_on(np.zeros((4, 4), np.uint8), np.zeros((1, 2)), np.zeros((1, 2)), np.arange(2.0), np.full(1, 2, np.int64))
 
 
@@ -1508,3 +1509,26 @@ def last_on(mask, starts, directions, s, n_s):
             frac = (prev - half) / max(prev - cur, tiny)
             out[k] = s[first_off - 1] + float(frac) * step
     return out
+
+
+@numba.njit(**_JIT)
+def nearest_per_query(q, res):
+    """``dense.fit_steep_many``'s pick of each query's candidate nearest the model: for ``q`` (N,)
+    non-decreasing query ids, the index of each run of equal ids' smallest ``res`` (N,) (the first of
+    equal ones; NaN above all), in order: ``order = np.lexsort((res, q))`` taken at each id's first
+    place, the same indices."""
+    n = len(q)
+    out = np.empty(n, np.int64)
+    m = 0
+    i = 0
+    while i < n:
+        best = i
+        j = i + 1
+        while j < n and q[j] == q[i]:
+            if res[j] < res[best] or (np.isnan(res[best]) and not np.isnan(res[j])):
+                best = j
+            j += 1
+        out[m] = best
+        m += 1
+        i = j
+    return out[:m].copy()

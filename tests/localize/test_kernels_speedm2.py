@@ -94,6 +94,20 @@ def test_last_on_is_the_remap_of_all_lines():
     assert n_found > 0.2 * n_lines                 # many lines do cross the outline
 
 
+def test_nearest_per_query_is_lexsorts_pick():
+    """Sorted query ids with ties and NaN residuals: the same picks as lexsort at each id's first place."""
+    rng = np.random.default_rng(3)
+    for trial in range(1000):
+        n = int(rng.integers(1, 60))
+        q = np.sort(rng.integers(0, max(n // 2, 1), n)).astype(np.int64)
+        res = np.round(rng.uniform(0, 3, n), 1)            # (ties)
+        if trial % 4 == 0:
+            res[rng.random(n) < 0.3] = np.nan
+        order = np.lexsort((res, q))
+        want = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
+        assert np.array_equal(kernels.nearest_per_query(q, res), want)
+
+
 def test_warm_up_compiles_the_signatures_these_kernels_get():
     """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
     from pathlib import Path
@@ -105,7 +119,8 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels.end_slopes_groups, kernels.mask_runs, kernels.last_on]
+    mine = [kernels.end_slopes_groups, kernels.mask_runs, kernels.last_on,
+            kernels.nearest_per_query]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")

@@ -126,15 +126,12 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     first = np.cumsum(n) - n
     rows = lo[g] + (np.arange(n.sum()) - first[g])
     xc = np.interp(np.minimum(np.maximum(rows, lo_u[g]), hi_u[g]) + g * off, uniq, s_mean)
-    near = np.zeros(len(rows), bool)
-    for k in range(2):                                # a junction at either end
-        nodes = graph.seg_nodes[np.asarray(segs, int), k]
-        junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
-        nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0)])
-        r = radius_at(radius_map, nxy)
-        d = np.column_stack([xc, rows]) - nxy[g]
-        near |= junction[g] & (np.hypot(d[:, 0], d[:, 1]) < (1.6 * r + graph.scale + 1)[g])
-    keep = ~near
+    nodes = graph.seg_nodes[np.asarray(segs, int)]                     # (G, 2): a junction at either end
+    junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0).reshape(-1)])   # (2G, 2)
+    thr = (1.6 * radius_at(radius_map, nxy) + graph.scale + 1).reshape(-1, 2)
+    keep = ~kernels.near_junctions(xc, rows, g.astype(np.int64), np.ascontiguousarray(junction),   # (compiled:
+                                   np.ascontiguousarray(nxy.reshape(-1, 2, 2), float), thr)       # the same tests)
     return rows[keep], xc[keep], g[keep]
 
 

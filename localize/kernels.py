@@ -1378,6 +1378,8 @@ def _warm_match2() -> None:
     for soft in (True, False):
         mask_runs(m, m.view(np.uint64), 4, 127, soft)
     nearest_per_query(np.zeros(2, np.int64), np.zeros(2))
+    near_junctions(np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.zeros((1, 2), np.bool_), np.zeros((1, 2, 2)),
+                   np.zeros((1, 2)))
     last_on(np.zeros((4, 4), np.uint8), np.zeros((1, 2)), np.zeros((1, 2)), np.arange(2.0), np.full(1, 2, np.int64))
 
 
@@ -1532,3 +1534,18 @@ def nearest_per_query(q, res):
         m += 1
         i = j
     return out[:m].copy()
+
+
+@numba.njit(**_JIT)
+def near_junctions(xc, rows, g, junction, nxy, thr):
+    """``dense._row_centres``' test of each sample (``xc``, ``rows`` (N,) float64 of piece ``g`` (N,)):
+    within ``thr[g, k]`` (np.hypot of the differences, the same values) of its piece's end ``k``'s node
+    ``nxy[g, k]`` (x, y) where ``junction[g, k]``. Returns (N,) bool."""
+    n = len(xc)
+    near = np.zeros(n, np.bool_)
+    for i in range(n):
+        p = g[i]
+        for k in range(2):
+            if junction[p, k] and np.hypot(xc[i] - nxy[p, k, 0], rows[i] - nxy[p, k, 1]) < thr[p, k]:
+                near[i] = True
+    return near

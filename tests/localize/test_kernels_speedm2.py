@@ -108,6 +108,24 @@ def test_nearest_per_query_is_lexsorts_pick():
         assert np.array_equal(kernels.nearest_per_query(q, res), want)
 
 
+def test_near_junctions_is_the_numpy_test():
+    """Samples near pieces' end nodes (junction or not, thresholds per end): the same as the former numpy
+    steps (the differences to each end's node, np.hypot, the threshold per piece)."""
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        n_pieces, n = int(rng.integers(1, 8)), int(rng.integers(1, 200))
+        g = np.sort(rng.integers(0, n_pieces, n)).astype(np.int64)
+        xc, rows = rng.uniform(0, 100, n), np.round(rng.uniform(0, 100, n))
+        junction = rng.random((n_pieces, 2)) < 0.6
+        nxy = rng.uniform(0, 100, (n_pieces, 2, 2))
+        thr = rng.uniform(1, 40, (n_pieces, 2))
+        want = np.zeros(n, bool)
+        for k in range(2):
+            d = np.column_stack([xc, rows]) - nxy[:, k][g]
+            want |= junction[:, k][g] & (np.hypot(d[:, 0], d[:, 1]) < thr[:, k][g])
+        assert np.array_equal(kernels.near_junctions(xc, rows, g, junction, nxy, thr), want)
+
+
 def test_warm_up_compiles_the_signatures_these_kernels_get():
     """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
     from pathlib import Path
@@ -120,7 +138,7 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels.end_slopes_groups, kernels.mask_runs, kernels.last_on,
-            kernels.nearest_per_query]
+            kernels.nearest_per_query, kernels.near_junctions]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")

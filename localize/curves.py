@@ -395,6 +395,14 @@ def end_slopes_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     Groups without samples get 0."""
     t, y = np.asarray(t, float), np.asarray(y, float)
     g = np.asarray(g, np.intp)
+    if len(t) and t.ndim == 1:          # compiled: the same steps, bit for bit
+        return kernels.end_slopes_groups(np.ascontiguousarray(t), np.ascontiguousarray(y), np.ascontiguousarray(g),
+                                         int(n_groups), float(reach))
+    return _end_slopes_groups_np(t, y, g, n_groups, reach)
+
+
+def _end_slopes_groups_np(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, reach: float) -> np.ndarray:
+    """:func:`end_slopes_groups` in numpy (the reference of :func:`kernels.end_slopes_groups`)."""
     out = np.zeros((n_groups, 2))
     if not len(t):
         return out

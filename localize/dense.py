@@ -126,15 +126,12 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     first = np.cumsum(n) - n
     rows = lo[g] + (np.arange(n.sum()) - first[g])
     xc = np.interp(np.minimum(np.maximum(rows, lo_u[g]), hi_u[g]) + g * off, uniq, s_mean)
-    near = np.zeros(len(rows), bool)
-    for k in range(2):                                # a junction at either end
-        nodes = graph.seg_nodes[np.asarray(segs, int), k]
-        junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
-        nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0)])
-        r = radius_at(radius_map, nxy)
-        d = np.column_stack([xc, rows]) - nxy[g]
-        near |= junction[g] & (np.hypot(d[:, 0], d[:, 1]) < (1.6 * r + graph.scale + 1)[g])
-    keep = ~near
+    nodes = graph.seg_nodes[np.asarray(segs, int)]                     # (G, 2): a junction at either end
+    junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0).reshape(-1)])   # (2G, 2)
+    thr = (1.6 * radius_at(radius_map, nxy) + graph.scale + 1).reshape(-1, 2)
+    keep = ~kernels.near_junctions(xc, rows, g.astype(np.int64), np.ascontiguousarray(junction),   # (compiled:
+                                   np.ascontiguousarray(nxy.reshape(-1, 2, 2), float), thr)       # the same tests)
     return rows[keep], xc[keep], g[keep]
 
 
@@ -215,8 +212,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         sel = alive[gq]
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
         res = np.abs(cd - model(gq, t[q]))
-        order = np.lexsort((res, q))
-        first = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
+        first = kernels.nearest_per_query(q, res)       # (q non-decreasing: lexsort's picks, the same)
         chosen = first[res[first] <= tol]
         alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
         chosen = chosen[alive[gq[chosen]]]

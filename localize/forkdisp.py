@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.texture import patch_depth_fraction, surface_to_axis
@@ -232,7 +233,10 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
         if hi_v - lo_v < 2.0:                    # no texture (texture._flat's bound)
             continue
         strip = rbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0 + hi - lo]
-        cc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
+        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (OpenCV's float32: up to ~5e-4)
+            cc = kernels.ncc_scores(np.ascontiguousarray(strip), np.ascontiguousarray(tmpl))
+        else:
+            cc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         k = int(cc.argmax())
         off = 0.0
         if 0 < k < len(cc) - 1:

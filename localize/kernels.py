@@ -464,11 +464,10 @@ def bilinear_u8(img, x, y):
 def walk_edges(mask, uv, bounds):
     """``ends.walk_edges``: per walk (points ``uv[bounds[i]:bounds[i + 1]]``) the fractional index
     of the half-coverage crossing after its last point on ``mask`` (bilinear, :func:`bilinear_u8`),
-    and whether it has one."""
+    and whether it has one. Each walk's points are read only up to its first off the mask (speedm2: the
+    same values as reading them all)."""
     n = len(uv)
     v = np.empty(n, np.float32)
-    for i in range(n):
-        v[i] = bilinear_u8(mask, np.float32(uv[i, 0]), np.float32(uv[i, 1]))
     nw = len(bounds) - 1
     idx = np.empty(nw)
     crosses = np.zeros(nw, np.bool_)
@@ -477,6 +476,7 @@ def walk_edges(mask, uv, bounds):
         start, end = bounds[i], bounds[i + 1]
         first_off = end
         for j in range(start, end):
+            v[j] = bilinear_u8(mask, np.float32(uv[j, 0]), np.float32(uv[j, 1]))
             if not v[j] >= half:
                 first_off = j
                 break
@@ -956,6 +956,7 @@ def warm_up() -> None:
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
     _warm_match()
+    _warm_match2()
     _warm_segment()
 
 
@@ -1314,6 +1315,241 @@ def _warm_match() -> None:
     refine_steps(np.zeros((1, 7), np.float32), f[:1], i[:1], _readonly(np.zeros(256, np.float32)), 12.0, 0.25, 1.5)
     line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)
     centre_line(np.zeros(2), np.zeros(2), 0.5)
+
+
+# --- match stage, second pass (speedm2)
+
+
+@numba.njit(**_JIT)
+def end_slopes_groups(t, y, g, n_groups, reach):
+    """``curves.end_slopes_groups``' numpy steps in one loop, bit for bit: each group's least-squares
+    slope (G, 2) of ``y`` over ``t`` (N,) float64 near its low and high end (within ``reach`` of it;
+    all the group's samples where fewer than 5 lie there or they span less than 5), 0 without samples
+    or spread. Every sum runs over the samples in index order, as ``np.bincount``'s (a sample left out
+    adds 0.0 there, which changes no sum); minima and maxima as ``np.minimum.at`` / ``np.maximum.at``'s."""
+    n = len(t)
+    out = np.zeros((n_groups, 2))
+    lo, hi = np.full(n_groups, np.inf), np.full(n_groups, -np.inf)
+    for i in range(n):
+        k = g[i]
+        lo[k] = min(lo[k], t[i])
+        hi[k] = max(hi[k], t[i])
+    near = np.empty(n, np.bool_)
+    cnt, s, sxx, sxy = np.empty(n_groups), np.empty(n_groups), np.empty(n_groups), np.empty(n_groups)
+    t_lo, t_hi = np.empty(n_groups), np.empty(n_groups)
+    whole = np.empty(n_groups, np.bool_)
+    for e in range(2):
+        cnt[:] = 0.0
+        t_lo[:] = np.inf
+        t_hi[:] = -np.inf
+        for i in range(n):
+            k = g[i]
+            near[i] = t[i] <= lo[k] + reach if e == 0 else t[i] >= hi[k] - reach
+            if near[i]:
+                cnt[k] += 1.0
+                t_lo[k] = min(t_lo[k], t[i])
+                t_hi[k] = max(t_hi[k], t[i])
+        for k in range(n_groups):
+            whole[k] = cnt[k] < 5 or t_hi[k] - t_lo[k] < 5
+        cnt[:] = 0.0
+        s[:] = 0.0
+        for i in range(n):
+            k = g[i]
+            near[i] = near[i] or whole[k]
+            if near[i]:
+                cnt[k] += 1.0
+                s[k] += t[i]
+        sxx[:] = 0.0
+        sxy[:] = 0.0
+        for i in range(n):
+            k = g[i]
+            dt = t[i] - s[k] / max(cnt[k], 1.0) if near[i] else 0.0
+            sxx[k] += dt * dt
+            sxy[k] += dt * y[i]             # (0.0 * y off the end, as numpy's: NaN stays NaN)
+        for k in range(n_groups):
+            out[k, e] = sxy[k] / sxx[k] if sxx[k] > 0 else 0.0
+    return out
+
+
+def _warm_match2() -> None:
+    """:func:`warm_up`'s part for the kernels of this block (the argument types callers pass)."""
+    f = np.zeros(4)
+    end_slopes_groups(f, f, np.zeros(4, np.intp), 1, 60.0)
+    m = np.zeros(8, np.uint8)
+    for soft in (True, False):
+        mask_runs(m, m.view(np.uint64), 4, 127, soft)
+    nearest_per_query(np.zeros(2, np.int64), np.zeros(2))
+    near_junctions(np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.zeros((1, 2), np.bool_), np.zeros((1, 2, 2)),
+                   np.zeros((1, 2)))
+    last_on(np.zeros((4, 4), np.uint8), np.zeros((1, 2)), np.zeros((1, 2)), np.arange(2.0), np.full(1, 2, np.int64))
+
+
+@numba.njit(**_JIT)
+def _soft_edge(flat, p_out, p_in, outside, inside):
+    """``edges._soft_crossing`` of one boundary: the coverage fraction in float32, then the position in
+    float64 (numpy's promotion of float32 times int64), the same value."""
+    a = np.float32(flat[p_out])
+    b = np.float32(flat[p_in])
+    frac = (np.float32(127.5) - a) / max(b - a, np.float32(1.0))
+    frac = min(max(frac, np.float32(0.0)), np.float32(1.0))
+    return float(outside) + float(frac) * float(inside - outside)
+
+
+@numba.njit(**_JIT)
+def _scan_runs(flat, words, w, above, rows, x0, x1):
+    """:func:`mask_runs`' scan into ``rows``, ``x0``, ``x1`` (their length the most runs it takes): the
+    number of runs, or -1 when there are more."""
+    total = len(flat)
+    n_words = len(words)
+    cap = len(rows)
+    n = 0
+    inside = False
+    row, row_start, row_end, start = 0, 0, w, 0
+    p = 0
+    high = np.uint64(0x8080808080808080)
+    ones = np.uint64(0x0101010101010101)
+    while p < total:
+        if (p & 7) == 0:
+            wd = words[p >> 3]
+            if not inside:                  # 8 pixels off at a time
+                off_mask = high if above == 127 else ~np.uint64(0)
+                if (wd & off_mask) == 0:
+                    wi = (p >> 3) + 1
+                    while wi + 4 <= n_words and ((words[wi] | words[wi + 1] | words[wi + 2] | words[wi + 3])
+                                                 & off_mask) == 0:
+                        wi += 4
+                    while wi < n_words and (words[wi] & off_mask) == 0:
+                        wi += 1
+                    p = wi << 3
+                    continue
+            elif p + 8 < row_end:           # 8 pixels on, the row going on after them
+                if above == 127:
+                    if (wd & high) == high:
+                        p += 8
+                        continue
+                elif above == 0 and ((wd - ones) & ~wd & high) == 0:
+                    p += 8
+                    continue
+        while p >= row_end:
+            row += 1
+            row_start = row_end
+            row_end += w
+        on = flat[p] > above
+        p += 1
+        end = -1
+        if on:
+            if not inside:
+                inside = True
+                start = p - 1 - row_start
+            if p == row_end:
+                end = w - 1
+        elif inside:
+            end = p - 2 - row_start
+        if end >= 0:
+            inside = False
+            if n == cap:
+                return -1
+            rows[n] = row
+            x0[n] = start
+            x1[n] = end
+            n += 1
+    return n
+
+
+@numba.njit(**_JIT)
+def mask_runs(flat, words, w, above, soft):
+    """``edges.find_runs``' runs of a uint8 mask (``flat``: its pixels row-major, H W of them; ``words``
+    the same bytes as uint64): rows, first and last columns (R,) int64 and sub-pixel left and right
+    boundaries (R,) float64, row-major, the same values as the numpy steps (``_run_bounds`` and, with
+    ``soft``, ``_soft_crossing``). Branch where ``flat > above``. Stretches of 8 pixels off (or, inside a
+    run, on) are skipped a word at a time (``above`` 127: by the bytes' high bits; 0: zero bytes)."""
+    cap = max(1024, len(flat) // 256)
+    while True:
+        rows, x0, x1 = np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty(cap, np.int64)
+        n = _scan_runs(flat, words, w, above, rows, x0, x1)
+        if n >= 0:
+            break
+        cap *= 4
+    left, right = np.empty(n), np.empty(n)
+    for i in range(n):
+        left[i] = x0[i] - 0.5
+        right[i] = x1[i] + 0.5
+        if soft:
+            base = rows[i] * w
+            if x0[i] > 0:
+                left[i] = _soft_edge(flat, base + x0[i] - 1, base + x0[i], x0[i] - 1, x0[i])
+            if x1[i] < w - 1:
+                right[i] = _soft_edge(flat, base + x1[i] + 1, base + x1[i], x1[i] + 1, x1[i])
+    return rows[:n].copy(), x0[:n].copy(), x1[:n].copy(), left, right
+
+
+@numba.njit(**_JIT)
+def last_on(mask, starts, directions, s, n_s):
+    """``tips._last_on``: where each line ``starts[k] + s directions[k]`` (float64 (K, 2); ``s`` (S,)
+    float64, evenly spaced, whole or half values) last has ``mask`` (uint8) at or above 128, interpolated
+    between samples (K,); NaN where the line starts off the mask or does not leave it within its first
+    ``n_s[k]`` samples. The same values: the sample points in float32 (product, then sum), the reads
+    :func:`bilinear_u8` (cv2.remap's), the crossing's fraction in float32 and its position in float64;
+    each line read only up to its first sample off the mask."""
+    n_lines = len(starts)
+    out = np.empty(n_lines)
+    step = s[1] - s[0]
+    half, tiny = np.float32(127.5), np.float32(1e-6)
+    for k in range(n_lines):
+        sx, sy = np.float32(starts[k, 0]), np.float32(starts[k, 1])
+        dx, dy = np.float32(directions[k, 0]), np.float32(directions[k, 1])
+        first_off, prev, cur = -1, np.float32(0.0), np.float32(0.0)
+        for j in range(n_s[k]):
+            sj = np.float32(s[j])
+            v = bilinear_u8(mask, sx + dx * sj, sy + dy * sj)
+            if v < 128:
+                first_off, cur = j, v
+                break
+            prev = v
+        if first_off <= 0:
+            out[k] = np.nan
+        else:
+            frac = (prev - half) / max(prev - cur, tiny)
+            out[k] = s[first_off - 1] + float(frac) * step
+    return out
+
+
+@numba.njit(**_JIT)
+def nearest_per_query(q, res):
+    """``dense.fit_steep_many``'s pick of each query's candidate nearest the model: for ``q`` (N,)
+    non-decreasing query ids, the index of each run of equal ids' smallest ``res`` (N,) (the first of
+    equal ones; NaN above all), in order: ``order = np.lexsort((res, q))`` taken at each id's first
+    place, the same indices."""
+    n = len(q)
+    out = np.empty(n, np.int64)
+    m = 0
+    i = 0
+    while i < n:
+        best = i
+        j = i + 1
+        while j < n and q[j] == q[i]:
+            if res[j] < res[best] or (np.isnan(res[best]) and not np.isnan(res[j])):
+                best = j
+            j += 1
+        out[m] = best
+        m += 1
+        i = j
+    return out[:m].copy()
+
+
+@numba.njit(**_JIT)
+def near_junctions(xc, rows, g, junction, nxy, thr):
+    """``dense._row_centres``' test of each sample (``xc``, ``rows`` (N,) float64 of piece ``g`` (N,)):
+    within ``thr[g, k]`` (np.hypot of the differences, the same values) of its piece's end ``k``'s node
+    ``nxy[g, k]`` (x, y) where ``junction[g, k]``. Returns (N,) bool."""
+    n = len(xc)
+    near = np.zeros(n, np.bool_)
+    for i in range(n):
+        p = g[i]
+        for k in range(2):
+            if junction[p, k] and np.hypot(xc[i] - nxy[p, k, 0], rows[i] - nxy[p, k, 1]) < thr[p, k]:
+                near[i] = True
+    return near
 
 
 # --- segment (segtips)

@@ -4,7 +4,6 @@ lies nearer its far end (localize/caps.py, localize/tips.py; constructed masks).
 
 import cv2
 import numpy as np
-from appliance.config import load_config
 from appliance.localize.caps import cap_curves, cap_disparity
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
@@ -14,6 +13,8 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.radius import radius_at, ridge_radius_map
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.tips import flat_cap_curves
+
+from .shapes import end_placer
 
 H, W, R = 200, 480, 6.0
 SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
@@ -75,15 +76,6 @@ def test_cap_curve_takes_the_stubs_radius_from_its_width():
     assert abs(c.d_at(64.0)[0] - 171.3) < 0.3
 
 
-def _placer(left: np.ndarray, right: np.ndarray) -> tuple:
-    grey = np.zeros((H, W), np.uint8)
-    bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
-    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
-    graph = build_graph(skeletonize(bl, "fast", 4))
-    b = EndPlacer(graph, sm, {}, load_config().localize.match)
-    return b, list(range(len(graph.seg_yx))), find_runs(left.T, soft=True)
-
-
 def _flat_stub(mask: np.ndarray, tip: tuple, length: float, r: float = R) -> None:
     """A flat stub from its tip (the cap's centre, x y) ``length`` px to the right, 3 px lower there."""
     _capsule(mask, tip, (tip[0] + length, tip[1] + 3.0 * length / 60.0), r)
@@ -110,7 +102,7 @@ def test_flat_stub_growing_from_a_limb_gets_its_caps_disparity():
     limb = np.array([[312, 0], [336, 0], [336, H], [312, H]], np.float32)     # in front: further left in the right view
     cv2.fillPoly(left, [np.rint(limb * 16).astype(np.int32)], 255, cv2.LINE_AA, SHIFT)
     cv2.fillPoly(right, [np.rint((limb - [260, 0]) * 16).astype(np.int32)], 255, cv2.LINE_AA, SHIFT)
-    b, segs, runs_lt = _placer(left, right)
+    b, segs, runs_lt = end_placer(left, right)
     curves = flat_cap_curves(b, segs, runs_lt)
     uvd = _tip_of(b, curves, tip)
     assert uvd is not None
@@ -124,7 +116,7 @@ def test_short_flat_stub_walks_out_of_its_own_cap():
     left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
     _flat_stub(left, tip, 26.0, 7.0)
     _flat_stub(right, (tip[0] - d_true, tip[1]), 40.0, 7.0)            # longer in the right view
-    b, segs, runs_lt = _placer(left, right)
+    b, segs, runs_lt = end_placer(left, right)
     curves = flat_cap_curves(b, segs, runs_lt)
     uvd = _tip_of(b, curves, tip)
     assert uvd is not None
@@ -139,7 +131,7 @@ def test_flat_tips_run_end_read_further_inside_where_the_line_leaves_the_cap_off
     left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
     _flat_stub(left, tip, 60.0)
     _flat_stub(right, (tip[0] - d_true, tip[1]), 60.0)
-    b, _, _ = _placer(left, right)
+    b, _, _ = end_placer(left, right)
     b.runs_l, b.runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
     out = np.array([-0.8, -0.6])
     uv_edge = np.array(tip) + (R + 2.0) * out          # (the drawn rim lies ~0.7 px out; the walk's edge past it)
@@ -157,7 +149,7 @@ def _steep_end(cut: bool, offset_r: float):
     if cut:
         edge = np.array([[250, -20], [350, -20], [350, -11.6], [250, 161.6]], np.float32)   # above the edge: gone
         cv2.fillPoly(left, [np.rint(edge * 16).astype(np.int32)], 0, cv2.LINE_AA, SHIFT)
-    b, _, _ = _placer(left, left)
+    b, _, _ = end_placer(left, left)
     end = [n for n in range(len(b.g.node_kind)) if b.g.node_kind[n] == ENDPOINT]
     node = min(end, key=lambda n: b.node_xy[n][1])
     c = BranchCurve(0, True, (75.0, 130.0), Poly.constant(300.4 + offset_r * R), Poly.constant(150.0), R, 50,

@@ -4,16 +4,12 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from appliance.config import load_config
 from appliance.localize.edges import find_runs
-from appliance.localize.ends import EndPlacer
-from appliance.localize.graph import build_graph
-from appliance.localize.matching import StereoMasks
-from appliance.localize.radius import ridge_radius_map
-from appliance.localize.skeleton import skeletonize
 from appliance.localize.tips import (
     cap_shape, cap_shapes, flat_cap_curves, front_disparity, occluder_confirmed, round_cap, round_end, silhouette_offset_px,
 )
+
+from .shapes import end_placer
 
 H, W, R = 200, 480, 6.0
 SHIFT = 4                                   # sub-pixel drawing: coordinates in 1/16 px
@@ -35,12 +31,7 @@ def _placer(d_px: float, square: bool = False):
     left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
     _stub(left, 0.0, square)
     _stub(right, d_px, square)
-    grey = np.zeros((H, W), np.uint8)
-    bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
-    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
-    graph = build_graph(skeletonize(bl, "fast", 4))
-    b = EndPlacer(graph, sm, {}, load_config().localize.match)
-    return b, list(range(len(graph.seg_yx))), find_runs(left.T, soft=True)
+    return end_placer(left, right)
 
 
 def test_flat_stub_gets_a_curve_at_its_caps_disparity():

@@ -459,9 +459,11 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
     d_surf, score = found
     good = np.isfinite(d_surf) & (score >= 0.6)
     xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
-    on_right = (xr >= 0) & (xr < sm.right_mask.shape[1])
+    yr = np.rint(uv[:, 1]).astype(int)                 # (a patch at the piece's end may lie past the view's edge)
+    h, w = sm.right_mask.shape
+    on_right = (xr >= 0) & (xr < w) & (yr >= 0) & (yr < h)
     good &= on_right                                   # the match must land on a branch in the right view
-    good[on_right] &= sm.right_mask[np.rint(uv[on_right, 1]).astype(int), xr[on_right]] >= 128
+    good[on_right] &= sm.right_mask[yr[on_right], xr[on_right]] >= 128
     if good.sum() >= 3:
         ug, dv = u[good], v_poly.deriv()(u[good])
         k = patch_depth_fraction(radius, _patch_half_h(radius), dv)
@@ -470,7 +472,6 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
         degree = 0 if hi - lo < 100 else 1
         d_poly, inl_d = robust_fit(ug, d_axis, degree)
         if SLANT and degree == 1:   # the axis further behind the surface where the branch turns in depth
-            h, w = sm.left_mask.shape
             k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
                                        (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
             d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)

@@ -44,7 +44,8 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     right mask best along the same rows, within the working range; None when it fits nowhere
     well (:data:`MAX_FIT_ERROR`), or about as well at another place (``min_margin``, by default
     :data:`MIN_FIT_MARGIN`) unless the grey images tell those fits apart (:func:`_grey_choice`:
-    then the fit they prefer). Sub-pixel by a parabola through the fit and its neighbours.
+    then the fit they prefer), or where the rectified right view's edge (``sm.valid_right``) crosses
+    the fitted half. Sub-pixel by a parabola through the fit and its neighbours.
 
     Only the patch's half towards ``out`` (unit (x, y), from the piece to its end) counts: the
     cap and the background beyond it, alike in both views at a tip, while the piece behind it
@@ -86,6 +87,8 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
         k = _grey_choice(sm, (y0, y1, x0, x1), s0, np.r_[k, rivals], half_px)
         if k is None:
             return None
+    if sm.valid_right is not None and not sm.valid_right[y0:y1, s0 + k:s0 + k + x1 - x0][half > 0].all():
+        return None                     # the right view's edge cuts the cap there: its fit is the edge's
     off = 0.0
     if 0 < k < len(err) - 1:
         a, b, c = (float(v) for v in err[k - 1:k + 2])

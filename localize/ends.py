@@ -1188,7 +1188,7 @@ class EndPlacer:
         rows2, side2 = np.concatenate([rows, rows]), np.repeat([-1.0, 1.0], n)
         e_left, e_right = np.concatenate([lo_l, hi_l]), np.concatenate([lo_r, hi_r])
         cap = ((e_left - p[0]) * out[0] + np.concatenate([dv, dv]) * out[1] >= -CAP_EDGE_BACK * r) \
-            & ~at_view_edge(rows2, e_left, side2, sm.valid_left) & ~at_view_edge(rows2, e_right, side2, None, w)
+            & ~at_view_edge(rows2, e_left, side2, sm.valid_left) & ~at_view_edge(rows2, e_right, side2, sm.valid_right, w)
         cap_lo, cap_hi = cap[:n], cap[n:]
         # an edge's disparity is its silhouette's (the row's circle): taken back to the middle's
         half = np.sqrt(np.maximum(r * r - dv * dv, 0.0))
@@ -1249,7 +1249,11 @@ class EndPlacer:
         e_l = runs_l.right_px[i] if right_end else runs_l.left_px[i]
         e_r = runs_r.right_px[j] if right_end else runs_r.left_px[j]
         d = e_l - e_r
-        ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1])
+        w = sm.left_mask.shape[1]
+        side = 1.0 if right_end else -1.0
+        # (a right run cut by the rectified right view's edge does not end at the cap)
+        ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1]) \
+            & ~at_view_edge(np.full(len(j), row), e_r, side, sm.valid_right, w)
         similar = ok & (np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3)
         if similar.any():
             d = d[similar]
@@ -1281,6 +1285,8 @@ class EndPlacer:
         el = runs_l.right_px[il] if right_end else runs_l.left_px[il]
         ir = runs_r.find(rows, el - d - sgn * 1.0)
         er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
+        fin = np.isfinite(er)
+        er[fin] = np.where(at_view_edge(rows[fin], er[fin], sgn, sm.valid_right, w), np.nan, er[fin])
         de = el - er
         de = de[np.abs(de - d) <= 1.0]
         d = float(median(de)) if len(de) >= 3 else d

@@ -217,7 +217,7 @@ class Localizer:
             gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
-                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), r.valid[0])
+                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid)
             matching = match_dense(graph_l, sm, c.match)
         clock.lap("match")
         result = self._assemble(matching, stamp_ns)

@@ -57,8 +57,8 @@ class StereoMasks:
         Disparities of the working range.
     f_px, offset_px : float
         Rectified focal length and principal-point difference ``cx_left - cx_right``.
-    valid_left : ndarray (H, W) bool, optional
-        Where the rectified left image sees the scene; a branch end at its edge leaves the view.
+    valid_left, valid_right : ndarray (H, W) bool, optional
+        Where each rectified image sees the scene; a branch end at its edge leaves the view.
     """
 
     left_mask: np.ndarray
@@ -70,3 +70,4 @@ class StereoMasks:
     f_px: float
     offset_px: float = 0.0
     valid_left: np.ndarray | None = None
+    valid_right: np.ndarray | None = None

@@ -76,9 +76,10 @@ def y_pair(calib: StereoCalibration, depth_mm: float, angle_deg: float, parent_r
     return imgs[0], imgs[1], masks[0], masks[1], fork, d
 
 
-def end_placer(left: np.ndarray, right: np.ndarray):
+def end_placer(left: np.ndarray, right: np.ndarray, valid_right: np.ndarray | None = None):
     """An ``EndPlacer`` over the soft masks ``left`` / ``right`` (uint8 0-255, no grey texture, rectified,
-    working range 100-300 px): (placer, every segment's index, the left mask's transposed runs)."""
+    working range 100-300 px; ``valid_right``: where the right view sees the scene): (placer, every
+    segment's index, the left mask's transposed runs)."""
     from appliance.config import load_config
     from appliance.localize.edges import find_runs
     from appliance.localize.ends import EndPlacer
@@ -89,7 +90,7 @@ def end_placer(left: np.ndarray, right: np.ndarray):
 
     grey = np.zeros(left.shape, np.uint8)
     bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
-    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0)
+    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0, valid_right=valid_right)
     graph = build_graph(skeletonize(bl, "fast", 4))
     return EndPlacer(graph, sm, {}, load_config().localize.match), list(range(len(graph.seg_yx))), \
         find_runs(left.T, soft=True)

@@ -154,3 +154,27 @@ def test_cap_shapes_read_together_are_each_ends_own():
     together = cap_shapes(m, ends)
     assert together == [cap_shape(m, *end) for end in ends]
     assert together[0] is not None and together[3] is None
+
+
+def test_flat_tip_whose_right_cap_is_cut_by_the_right_views_edge_is_hidden():
+    """The rectified right view ends (its valid area) across the stub's cap: the right run ends at the
+    view's edge, 2-3 px short of the cap, which would give a disparity that far off (seed 201's
+    tip: 14.6 mm). The tip's end is not seen in the right view: hidden, not placed."""
+    d_true = 150.0
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    _stub(left, 0.0, False)
+    _stub(right, d_true, False)
+    edge = int(CAP[0] - d_true - R + 3)                      # the right view sees columns >= edge
+    right[:, :edge] = 0
+    valid = np.ones((H, W), bool)
+    valid[:, :edge] = False
+    for v, placed in ((None, True), (valid, False)):         # (without the valid area: the cut end is taken)
+        b, segs, runs_lt = end_placer(left, right, v)
+        b.curves.update(flat_cap_curves(b, segs, runs_lt))
+        ends = [n for n in range(len(b.g.node_kind)) if np.hypot(*(b.node_xy[n] - CAP)) < 3 * R]
+        for n in ends:
+            b.tip(n)
+        got = [n for n in ends if n in b.uvd and n not in b.hidden]
+        assert bool(got) == placed
+        if placed:
+            assert abs(b.uvd[got[0]][2] - d_true) > 1.5               # the cut end's disparity: px off

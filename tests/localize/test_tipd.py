@@ -142,7 +142,7 @@ def test_a_flat_end_whose_right_run_is_cut_elsewhere_keeps_its_run_end_disparity
     touched = right.copy()
     cv2.line(touched, (214, 60), (294, 140), 255, 8)     # slanting across the cap's end
     uv_edge, out = np.array([400.0, 100.0]), np.array([1.0, 0.0])
-    sm = SimpleNamespace(left_mask=left, f_px=3000.0, d_range_px=(50.0, 300.0))
+    sm = SimpleNamespace(left_mask=left, f_px=3000.0, d_range_px=(50.0, 300.0), valid_right=None)
     for mask_r, expect in ((right, d), (touched, None)):
         placer = SimpleNamespace(sm=sm, runs_l=find_runs(left), runs_r=find_runs(mask_r))
         placer._end_outline_agrees = lambda *a, p=placer: EndPlacer._end_outline_agrees(p, *a)

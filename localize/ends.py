@@ -1250,10 +1250,10 @@ class EndPlacer:
         e_r = runs_r.right_px[j] if right_end else runs_r.left_px[j]
         d = e_l - e_r
         w = sm.left_mask.shape[1]
-        side = 1.0 if right_end else -1.0
+        sgn = 1.0 if right_end else -1.0
         # (a right run cut by the rectified right view's edge does not end at the cap)
         ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1]) \
-            & ~at_view_edge(np.full(len(j), row), e_r, side, sm.valid_right, w)
+            & ~at_view_edge(np.full(len(j), row), e_r, sgn, sm.valid_right, w)
         similar = ok & (np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3)
         if similar.any():
             d = d[similar]
@@ -1270,16 +1270,15 @@ class EndPlacer:
                 return None
         k = int(0.5 * r)
         # the run ends' disparity is their silhouette's, not the cap centre's (tips.silhouette_offset_px)
-        cx = 0.5 * (sm.left_mask.shape[1] - 1)
+        cx = 0.5 * (w - 1)
         if k < 1:
-            return d - silhouette_offset_px(uv_edge[0], d, r, 1.0 if right_end else -1.0, sm.f_px, cx)
+            return d - silhouette_offset_px(uv_edge[0], d, r, sgn, sm.f_px, cx)
         # the rows within half a radius of the axis end alike in both views too (the cap's sphere):
         # the median of their run ends' disparities near the axis row's (1 px)
         # (centred on the cap's centre's row, where a sphere's outline is furthest along the rows: on
         # a piece inclined to the rows the centre line's end lies a little off it)
         rows = int(np.rint(uv_edge[1] - out[1] * r)) + np.arange(-k, k + 1)
         rows = rows[(rows >= 0) & (rows < sm.left_mask.shape[0])]
-        sgn = 1.0 if right_end else -1.0
         il = runs_l.find(rows, np.full(len(rows), e_l - sgn * (1.0 + r)))
         rows, il = rows[il >= 0], il[il >= 0]
         el = runs_l.right_px[il] if right_end else runs_l.left_px[il]

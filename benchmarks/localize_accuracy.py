@@ -216,7 +216,7 @@ def main() -> int:
               f"{s.depth_err_px['p95']:>8.3f}{s.branch_coverage:>7.2f}{s.branch_precision:>7.2f}"
               f"{s.radius_err_mm['median']:>9.2f}")
     print("\n== per kind: true features found / seen in both views, and false ones")
-    head = f"{'method':<22}{'tips':>14}{'false tips':>12}{'forks':>14}{'false forks':>13}"
+    head = f"{'method':<22}{'tips':>14}{'false tips':>12}{'forks':>14}{'false forks':>13}{'free-cap tips':>15}"
     print(head)
     print("-" * len(head))
     for method, s in pooled.items():
@@ -226,7 +226,11 @@ def main() -> int:
             found = sum(r.result_id >= 0 for r in true)
             false = sum(r.truth_index < 0 and r.kind == kind for r in s.rows)
             cells.append(f"{f'{found}/{len(true)}':>14}{false:>{12 if kind == 'endpoint' else 13}}")
+        free = [r for r in s.rows if r.cap_free]
+        cells.append(f"{f'{sum(r.result_id >= 0 for r in free)}/{len(free)}':>15}")
         print(f"{method:<22}" + "".join(cells))
+    print("free-cap tips: tips seen in both views whose round end shows in both, neither cut by an occluder nor "
+          "continued or touched by another branch (synth.caps)")
     print("\n== branch axes: distance of reported axis points to the true axis (covered points), mm")
     head = f"{'method':<22}" + "".join(f"{f'{lo}-{hi} p95':>14}" for lo, hi in BANDS_MM) + f"{'median':>8}{'p95':>8}"
     print(head)

@@ -27,6 +27,7 @@ from appliance.calibrate.compare import compare
 from appliance.calibrate.model import StereoCalibration, load_calibration
 from appliance.errors import ApplianceError
 from appliance.localize.result import Branch, Feature, LocalizationResult
+from appliance.synth.caps import cap_readings
 from appliance.synth.rig import Rig, rig_from_calibration
 from appliance.synth.truth import SceneTruth, load_truth
 
@@ -38,7 +39,8 @@ class FeatureRow:
     """One true feature (visible in both views) or one unmatched result feature.
 
     ``truth_index`` is -1 for a result feature matching no true feature; ``result_id`` is -1 for a true
-    feature no result matched. Errors are NaN where not defined.
+    feature no result matched. Errors are NaN where not defined. ``cap_free`` tells, for a true tip seen
+    in both views, whether its round end shows free in both (:mod:`appliance.synth.caps`); None otherwise.
     """
 
     truth_index: int
@@ -51,6 +53,7 @@ class FeatureRow:
     err_3d_mm: float
     left_err_px: float
     radius_err_mm: float
+    cap_free: bool | None = None
 
 
 def _stats(values) -> dict:
@@ -220,6 +223,10 @@ def _true_axis_samples(truth: SceneTruth, step_mm: float = 2.0):
     return pts, lens, radii, vis
 
 
+def _free(reading: tuple[str, str] | None) -> bool | None:
+    return None if reading is None else reading == ("free", "free")
+
+
 def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 5.0, cover_mm: float = 10.0,
                  name: str = "", match_kind: bool = True) -> Score:
     """Score ``result`` against ``truth``.
@@ -257,6 +264,7 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
             if all(i != a and j != b for a, b in pairs):
                 pairs.append((int(i), int(j)))
     by_truth = {j: i for i, j in pairs}
+    caps = cap_readings(truth)
     rows = []
     for j in range(len(tf)):
         if j not in by_truth and not both[j]:
@@ -270,10 +278,10 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
             rows.append(FeatureRow(j, int(f.id), str(tf.kind[j]), z_true, z, z - z_true, disp,
                                    float(np.linalg.norm(np.subtract(f.xyz_mm, tf.xyz_mm[j]))),
                                    float(np.linalg.norm(np.subtract(f.left_px, tf.left_px[j]))),
-                                   float(f.radius_mm - tf.radius_mm[j])))
+                                   float(f.radius_mm - tf.radius_mm[j]), _free(caps[j])))
         else:
             nan = float("nan")
-            rows.append(FeatureRow(j, -1, str(tf.kind[j]), z_true, nan, nan, nan, nan, nan, nan))
+            rows.append(FeatureRow(j, -1, str(tf.kind[j]), z_true, nan, nan, nan, nan, nan, nan, _free(caps[j])))
     matched_res = {i for i, _ in pairs}
     for i, f in enumerate(res):
         if i not in matched_res:

@@ -1055,6 +1055,9 @@ class EndPlacer:
                 return None
             if d_cap is not None:
                 self.uvd[node][2] = d_cap
+        if not self._beyond_in_right_view(uv_edge, out, self.uvd[node][2]):
+            self.hidden.add(int(node))                # the right view's edge cuts the cap: no end seen there
+            return None
         if self.cfg.oblique_end_ratio > 0:
             # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
             # usually cuts the branch obliquely (in both views alike when the leaf sits on the
@@ -1210,6 +1213,21 @@ class EndPlacer:
         if len(d) < 3:
             return None
         return float(median(d))
+
+    def _beyond_in_right_view(self, uv_edge: np.ndarray, out: np.ndarray, d: float) -> bool:
+        """Whether the right view sees the pixel just past the cap's end (``uv_edge``, left px, moved by
+        disparity ``d``) along its row: a cap whose end lies at or past the right view's left or right
+        edge shows there only the edge, whatever rows are read. (A cap cut by the top or bottom edge
+        is cut on the same rows in both views: the rows left still give its disparity.)"""
+        u, v = np.rint(uv_edge + out - np.array([d, 0.0])).astype(int)
+        h, w = self.sm.right_mask.shape
+        if not 0 <= u < w:
+            return False
+        valid = self.sm.valid_right
+        if valid is None:
+            return True
+        row = valid[min(max(v, 0), h - 1)]
+        return bool(row[u]) or not row.any()
 
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
         """Whether the right mask has branch within half a radius of the point's right position."""

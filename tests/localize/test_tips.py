@@ -178,3 +178,23 @@ def test_flat_tip_whose_right_cap_is_cut_by_the_right_views_edge_is_hidden():
         assert bool(got) == placed
         if placed:
             assert abs(b.uvd[got[0]][2] - d_true) > 1.5               # the cut end's disparity: px off
+
+
+def test_a_cap_past_the_right_views_side_edge_has_no_end_seen_there():
+    """A cap whose end, moved by its disparity, lies past the right view's left or right edge shows only
+    the edge there (seed 233's steep tip was read 3 px off, 9 mm): not seen. One cut by the top or
+    bottom edge is cut on the same rows in both views: still seen."""
+    left, right = np.zeros((H, W), np.uint8), np.zeros((H, W), np.uint8)
+    _stub(left, 0.0, False)
+    _stub(right, 150.0, False)
+    valid = np.ones((H, W), bool)
+    valid[:3] = False                                   # the rectified view's top strip
+    valid[:, :20] = False                               # ... and its left side
+    b, _, _ = end_placer(left, right, valid)
+    out = np.array([-1.0, 0.0])
+    edge = np.array([CAP[0] - R, CAP[1]])
+    assert b._beyond_in_right_view(edge, out, 150.0)
+    assert not b._beyond_in_right_view(edge, out, CAP[0] - R - 0.5)          # past the image's edge
+    assert not b._beyond_in_right_view(edge, out, CAP[0] - R - 1 - 15)       # inside it, not in the valid area
+    up = np.array([0.0, -1.0])
+    assert b._beyond_in_right_view(np.array([CAP[0], 1.0]), up, 150.0)        # the top strip: rows cut alike

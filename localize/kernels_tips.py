@@ -12,7 +12,7 @@ import math
 
 import numba
 import numpy as np
-from appliance.localize.kernels import _JIT, _median, bilinear_u8
+from appliance.localize.kernels import _JIT, _median, bilinear_u8, masked_sqdiff
 
 # (tips.py's constants, repeated for the kernels: the tests check them against tips.py's)
 CAP_WIDTH_BACK = 1.5
@@ -102,6 +102,72 @@ def cap_shapes_offsets(mask, ends):
             shapes[i, v, 2] = (ev[0] - ev[2]) / expect
             status[i, v] = 1
     return offsets, shapes, status
+
+
+@numba.njit(**_JIT)
+def cap_fit(left, right, cx, cy, half_px, ox, oy, d_min, d_max, n_far, max_error, min_margin):
+    """``caps.cap_disparity`` up to the grey images' choice: the left mask's square patch around
+    (``cx``, ``cy``) (half size ``half_px``), its half towards (``ox``, ``oy``) weighted, slid along the
+    right mask's rows over the disparities ``d_min`` ... ``d_max`` (uint8 masks (H, W)).
+
+    Returns
+    -------
+    ok : bool
+        False where the patch leaves the image, the strip is too short or the best fit's differing
+        area exceeds ``max_error`` (None).
+    x0, y0, s0 : int
+        The patch's first column and row, and the strip's first column.
+    k : int
+        The best fit's offset along the strip (the smallest squared difference, the first of ties).
+    err : ndarray (P,)
+        The squared differences per offset (shares of the half's area, 255 = 1).
+    rivals : ndarray (R,) int64
+        The fits more than ``half_px`` from it among the ``n_far`` best such (by ``err``, stable) whose
+        differing area is within ``min_margin`` of the best's (compared in float32, as numpy's
+        float32 areas against a Python float).
+    half : ndarray (2 half_px + 1, 2 half_px + 1) uint8
+        The weights (1: the outward half).
+    """
+    h, w = left.shape
+    x, y = np.int64(np.rint(cx)), np.int64(np.rint(cy))
+    x0, x1, y0, y1 = x - half_px, x + half_px + 1, y - half_px, y + half_px + 1
+    empty_f, empty_i = np.zeros(0), np.zeros(0, np.int64)
+    size = 2 * half_px + 1
+    half = np.zeros((size, size), np.uint8)
+    if x0 < 0 or y0 < 0 or x1 > w or y1 > h:
+        return False, x0, y0, 0, 0, empty_f, empty_i, half
+    cut = -half_px / 3
+    n_half = 0
+    for i in range(size):
+        for j in range(size):
+            if ((x0 + j) - cx) * ox + ((y0 + i) - cy) * oy >= cut:
+                half[i, j] = 1
+                n_half += 1
+    n = float(n_half) * 255.0 ** 2
+    s0 = max(np.int64(np.floor(x0 - d_max)), 0)
+    s1 = min(np.int64(np.ceil(x1 - d_min)), w)
+    if s1 - s0 < x1 - x0 + 2:
+        return False, x0, y0, s0, 0, empty_f, empty_i, half
+    err = masked_sqdiff(right[y0:y1, s0:s1], left[y0:y1, x0:x1], half) / n
+    k = np.argmin(err)
+    far = np.flatnonzero(np.abs(np.arange(len(err)) - k) > half_px)
+    cand = far[np.argsort(err[far], kind="mergesort")[:n_far]]
+    # the share of the half's area that differs (sum |a - b|: integers, exact in float32), in float32
+    den = np.float32(float(n_half) * 255.0)
+    area = np.empty(len(cand) + 1, np.float32)
+    for m in range(len(cand) + 1):
+        off = k if m == 0 else cand[m - 1]
+        acc = 0
+        for i in range(size):
+            for j in range(size):
+                if half[i, j]:
+                    acc += abs(np.int64(right[y0 + i, s0 + off + j]) - np.int64(left[y0 + i, x0 + j]))
+        area[m] = np.float32(acc) / den
+    if float(area[0]) > max_error:
+        return False, x0, y0, s0, k, err, empty_i, half
+    bound = np.float32(float(area[0]) + min_margin)
+    rivals = cand[area[1:] < bound]
+    return True, x0, y0, s0, k, err, rivals, half
 
 
 # --- the runs' look-ups and the outline's geometry, one value at a time
@@ -366,6 +432,7 @@ def warm_up() -> None:
     """Compile (or load) this module's kernels for the argument types the localizer passes
     (:func:`kernels.warm_up` calls it)."""
     cap_shapes_offsets(np.zeros((4, 4), np.uint8), np.zeros((1, 5)))
+    cap_fit(np.zeros((4, 4), np.uint8), np.zeros((4, 4), np.uint8), 1.0, 1.0, 1, 1.0, 0.0, 0.0, 1.0, 4, 0.15, 0.15)
     i, f = _readonly(np.zeros(1, np.int64)), _readonly(np.zeros(1))
     rt = (i, i, i, f, f, i, f, f, 4)
     valid = _readonly(np.zeros((0, 0), np.bool_))

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from appliance.localize import ends, kernels_tips, tips
+from appliance.localize import caps, ends, kernels, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, EndPlacer, cap_row_scale
@@ -51,6 +51,49 @@ def _ref_cap_shapes_offsets(mask, ends_):
             shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
         out_shapes[i] = shapes
     return out_shapes, offsets
+
+
+def _ref_cap_disparity(sm, centre_xy, half_px, out, min_margin=caps.MIN_FIT_MARGIN):
+    """caps.cap_disparity before the pass (numpy steps around kernels.masked_sqdiff)."""
+    h, w = sm.left_mask.shape
+    x, y = np.rint(centre_xy).astype(int)
+    x0, x1, y0, y1 = x - half_px, x + half_px + 1, y - half_px, y + half_px + 1
+    if x0 < 0 or y0 < 0 or x1 > w or y1 > h:
+        return None
+    patch = sm.left_mask[y0:y1, x0:x1].astype(np.float32)
+    yy, xx = np.arange(y0, y1)[:, None], np.arange(x0, x1)[None, :]
+    half = ((xx - centre_xy[0]) * out[0] + (yy - centre_xy[1]) * out[1] >= -half_px / 3).astype(np.float32)
+    n = float(half.sum()) * 255.0 ** 2
+    dmin, dmax = sm.d_range_px
+    s0, s1 = max(int(np.floor(x0 - dmax)), 0), min(int(np.ceil(x1 - dmin)), w)
+    if s1 - s0 < x1 - x0 + 2:
+        return None
+    strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
+    err = kernels.masked_sqdiff(np.ascontiguousarray(sm.right_mask[y0:y1, s0:s1]),
+                                np.ascontiguousarray(sm.left_mask[y0:y1, x0:x1]), half.astype(np.uint8)) / n
+    k = int(np.argmin(err))
+    cand = np.flatnonzero(np.abs(np.arange(len(err)) - k) > half_px)
+    cand = cand[np.argsort(err[cand], kind="stable")[:caps.FAR_CANDIDATES]] if len(cand) else cand
+    offsets = np.r_[k, cand]
+    cols = offsets[:, None] + np.arange(patch.shape[1])[None, :]
+    diff = np.abs(strip[:, cols] - patch[:, None, :]) * half[:, None, :]
+    area = diff.sum(axis=(0, 2)) / (float(half.sum()) * 255.0)
+    best = float(area[0])
+    if best > caps.MAX_FIT_ERROR:
+        return None
+    rivals = cand[area[1:] < best + min_margin] if len(cand) else cand
+    if len(rivals):
+        k = caps._grey_choice(sm, (y0, y1, x0, x1), s0, np.r_[k, rivals], half_px)
+        if k is None:
+            return None
+    if sm.valid_right is not None and not sm.valid_right[y0:y1, s0 + k:s0 + k + x1 - x0][half > 0].all():
+        return None
+    off = 0.0
+    if 0 < k < len(err) - 1:
+        a, b, c = (float(v) for v in err[k - 1:k + 2])
+        den = a - 2 * b + c
+        off = 0.5 * (a - c) / den if den > 0 else 0.0
+    return float(x0 - (s0 + k + off))
 
 
 def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r, d_prior, h, w):
@@ -212,6 +255,39 @@ def test_cap_shapes_offsets_is_the_remap_reads_bit_for_bit():
     assert n_read > 60
 
 
+def test_cap_fit_gives_caps_cap_disparity_bit_for_bit():
+    """Random patches over random capsule pairs (caps and bodies, repeated caps along the rows with
+    textured and flat grey images, patches leaving the image, a right view cut by its valid area, any
+    direction, two margins): caps.cap_disparity with the kernel gives the former numpy steps' disparity
+    or None, bit for bit."""
+    rng = np.random.default_rng(3)
+    n_val = n_rival = 0
+    for trial in range(80):
+        left, right, d = _blob_pair(rng)
+        h, w = left.shape
+        grey_l = rng.integers(0, 255, (h, w)).astype(np.uint8) if trial % 2 else np.full((h, w), 90, np.uint8)
+        grey_r = np.roll(grey_l, -int(round(d)), axis=1)
+        valid_r = None
+        if trial % 3 == 0:
+            valid_r = np.ones((h, w), bool)
+            valid_r[:, :int(rng.integers(1, 60))] = False
+        sm = SimpleNamespace(left_mask=left, right_mask=right, left_gray=grey_l, right_gray=grey_r, valid_right=valid_r,
+                             d_range_px=(float(rng.uniform(2, 15)), float(rng.uniform(40, 80))))
+        on = np.argwhere(left >= 128)
+        for _ in range(6):
+            y, x = on[rng.integers(len(on))] if len(on) and rng.random() < 0.85 else rng.uniform(0, 80, 2)
+            a = rng.uniform(0, 2 * np.pi)
+            centre, out = np.array([x, y], float) + rng.uniform(-1, 1, 2), np.array([np.cos(a), np.sin(a)])
+            half_px, margin = int(rng.integers(4, 14)), float(rng.choice([caps.MIN_FIT_MARGIN, 0.08]))
+            want = _ref_cap_disparity(sm, centre, half_px, out, margin)
+            assert caps.cap_disparity(sm, centre, half_px, out, margin) == want
+            n_val += want is not None
+            ok, *_, rivals, _ = kernels_tips.cap_fit(left, right, centre[0], centre[1], half_px, out[0], out[1],
+                                                     *sm.d_range_px, caps.FAR_CANDIDATES, caps.MAX_FIT_ERROR, margin)
+            n_rival += bool(ok and len(rivals))
+    assert n_val > 40 and n_rival > 5
+
+
 def test_cap_disparity_kernel_is_the_numpy_rows_at_rounding_level():
     """Random caps' rows over random capsule pairs (rows on and off the runs, valid areas cutting the
     view, split rows): the same None / NaN, disparities within 1e-9 px (numpy's vectorised
@@ -311,7 +387,7 @@ def test_warm_up_compiles_the_signatures_the_tips_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_tips.cap_shapes_offsets, kernels_tips.cap_disparity, kernels_tips.end_disparity,
+    mine = [kernels_tips.cap_shapes_offsets, kernels_tips.cap_fit, kernels_tips.cap_disparity, kernels_tips.end_disparity,
             kernels_tips.end_outline_agrees]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_00.png")) for s in ("left", "right"))

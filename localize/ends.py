@@ -1113,9 +1113,11 @@ class EndPlacer:
         if len(rows) == 0:
             return False
         lo, hi = c.t_range
-        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi)).mean()))   # (np.clip's)
+        ds = c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi))       # (np.clip's)
+        slope = float(np.hypot(1.0, ds.sum() / len(ds)))             # (the mean: np.mean's sum and division)
         ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
-        return bool(((ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)).mean() >= 0.8)
+        wide = (ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)
+        return bool(np.count_nonzero(wide) / len(wide) >= 0.8)
 
     def _cap_cut_by_edge(self, c: BranchCurve, uv_edge: np.ndarray, out: np.ndarray, r: float) -> float | None:
         """A steep piece that runs to the edge of the view: the distance (px) from its last
@@ -1186,13 +1188,13 @@ class EndPlacer:
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
         """Whether the right mask has branch within half a radius of the point's right position."""
         m = self.sm.right_mask
-        u, v = uvd[0] - uvd[2], uvd[1]
+        u, v = float(uvd[0] - uvd[2]), float(uvd[1])          # (Python floats: round() halves to even, as numpy)
         k = max(1, int(round(0.5 * r)))
-        y0, y1 = int(round(v)) - k, int(round(v)) + k + 1
-        x0, x1 = int(round(u)) - k, int(round(u)) + k + 1
+        y0, y1 = round(v) - k, round(v) + k + 1
+        x0, x1 = round(u) - k, round(u) + k + 1
         if y0 < 0 or x0 < 0 or y1 > m.shape[0] or x1 > m.shape[1]:
             return False
-        return bool((m[y0:y1, x0:x1] >= 128).any())
+        return bool(m[y0:y1, x0:x1].max() >= 128)
 
     def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0,
                        inside_px: float = 1.0) -> float | None:

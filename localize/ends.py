@@ -989,10 +989,10 @@ class EndPlacer:
         speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
         out = step / speed
         r = max(c.radius_px, 1.0)
-        beyond = np.rint(uv_edge + 2.5 * out).astype(int)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        bx, by = round(ex + 2.5 * ox), round(ey + 2.5 * oy)        # (np.rint's in Python floats: halves to even)
         h, w = self.sm.left_mask.shape
-        if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (
-                self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
+        if not (0 <= bx < w and 0 <= by < h) or (self.sm.valid_left is not None and not self.sm.valid_left[by, bx]):
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
                 return None                          # the branch leaves the view: no tip seen
@@ -1003,8 +1003,7 @@ class EndPlacer:
         # (placed one piece radius back for the checks below; a tip that passes them all is moved
         # onto its cap's centre in tips())
         uv = uv_edge - out * back
-        t = c.t_of(uv)
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(float(uv[1] if c.by_row else uv[0]))[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
         cap_behind = False
         if not c.by_row:
@@ -1048,7 +1047,7 @@ class EndPlacer:
                 self.uvd[node] = uvd
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
-            d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
             if d_cap is not None and np.isnan(d_cap):
                 self.hidden.add(int(node))
                 return None
@@ -1138,7 +1137,8 @@ class EndPlacer:
             return None
         return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
 
-    def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
+    def _cap_disparity(self, c: BranchCurve, t_edge: float, uv_edge: np.ndarray, out: np.ndarray, sign: float,
+                       d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.
 
         Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
@@ -1153,13 +1153,11 @@ class EndPlacer:
         circle), and a row whose edges disagree (:func:`tips.split_row_disparity`: one cut or
         merged in one view only) the nearest of the two and the middle to the agreeing rows. A
         run ending at the view's edge gives no edge there. Median over the rows, within 2.5 px
-        of ``d_prior``; None with fewer than 3 rows.
+        of ``d_prior``; None with fewer than 3 rows. ``uv_edge``, ``out``: where the centre line
+        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
         """
         sm = self.sm
         h, w = sm.left_mask.shape
-        uv_edge = c.uv_at(t_edge)[0]
-        step = c.uv_at(t_edge + sign)[0] - uv_edge
-        out = step / max(float(np.hypot(*step)), 1e-9)
         p = uv_edge - out * r                                # the cap's centre (the tip)
         a = max(int(np.ceil(min(p[1] - r, t_edge))), 0)
         b = min(int(np.floor(max(p[1] + r, t_edge))), h - 1)

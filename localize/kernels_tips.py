@@ -150,8 +150,21 @@ def cap_fit(left, right, cx, cy, half_px, ox, oy, d_min, d_max, n_far, max_error
         return False, x0, y0, s0, 0, empty_f, empty_i, half
     err = masked_sqdiff(right[y0:y1, s0:s1], left[y0:y1, x0:x1], half) / n
     k = np.argmin(err)
-    far = np.flatnonzero(np.abs(np.arange(len(err)) - k) > half_px)
-    cand = far[np.argsort(err[far], kind="mergesort")[:n_far]]
+    # the n_far best fits more than half_px from it (a stable sort's first: the smallest, the first of ties)
+    taken = np.zeros(len(err), np.bool_)
+    cand = np.empty(n_far, np.int64)
+    n_cand = 0
+    for m in range(n_far):
+        best = -1
+        for j in range(len(err)):
+            if abs(j - k) > half_px and not taken[j] and (best < 0 or err[j] < err[best]):
+                best = j
+        if best < 0:
+            break
+        taken[best] = True
+        cand[n_cand] = best
+        n_cand += 1
+    cand = cand[:n_cand]
     # the share of the half's area that differs (sum |a - b|: integers, exact in float32), in float32
     den = np.float32(float(n_half) * 255.0)
     area = np.empty(len(cand) + 1, np.float32)
@@ -166,11 +179,30 @@ def cap_fit(left, right, cx, cy, half_px, ox, oy, d_min, d_max, n_far, max_error
     if float(area[0]) > max_error:
         return False, x0, y0, s0, k, err, empty_i, half
     bound = np.float32(float(area[0]) + min_margin)
-    rivals = cand[area[1:] < bound]
-    return True, x0, y0, s0, k, err, rivals, half
+    rivals = np.empty(len(cand), np.int64)
+    n_rivals = 0
+    for m in range(len(cand)):
+        if area[m + 1] < bound:
+            rivals[n_rivals] = cand[m]
+            n_rivals += 1
+    return True, x0, y0, s0, k, err, rivals[:n_rivals], half
 
 
 # --- the runs' look-ups and the outline's geometry, one value at a time
+
+
+@numba.njit(**_JIT)
+def _count_le(a, q, strict):
+    """How many of the sorted ``a``'s values are <= ``q`` (< ``q`` if ``strict``): ``np.searchsorted``'s
+    right (left) side, by bisection (a plain loop: compiles faster than numpy's generic one)."""
+    lo, hi = 0, len(a)
+    while lo < hi:
+        m = (lo + hi) // 2
+        if a[m] < q or (not strict and a[m] == q):
+            lo = m + 1
+        else:
+            hi = m
+    return lo
 
 
 @numba.njit(**_JIT)
@@ -181,7 +213,7 @@ def _find1(rt, row, x):
     if not np.isfinite(x):
         return -1
     xi = np.int64(np.rint(x))
-    i = np.searchsorted(keys, row * width + xi, side="right") - 1
+    i = _count_le(keys, row * width + xi, False) - 1
     if rows[i] == row and x1[i] >= xi:
         return i - 1
     return -1
@@ -303,13 +335,21 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
             else:
                 cap_hi[k], e_hi[k] = cap, de
         mid[k] = 0.5 * ((lo_l[k] - lo_r[k]) + (hi_l[k] - hi_r[k]))
-    both = np.flatnonzero(cap_lo & cap_hi)
-    d_both = np.empty(len(both))
-    _split_rows(mid[both], e_lo[both], e_hi[both], len(both), d_prior, split_px, d_both)
-    if len(both) >= 3:
-        split = np.abs(e_lo[both] - e_hi[both])
-        m = _median(split)
-        if split_lo < m <= split_hi and np.sum(np.abs(split - m) <= 1.0) / len(split) >= split_share:
+    # the rows with both edges on the cap: their middles, edges and splits
+    b_mid, b_lo, b_hi, split = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    n_b = 0
+    for k in range(n):
+        if cap_lo[k] and cap_hi[k]:
+            b_mid[n_b], b_lo[n_b], b_hi[n_b], split[n_b] = mid[k], e_lo[k], e_hi[k], abs(e_lo[k] - e_hi[k])
+            n_b += 1
+    d_both = np.empty(n_b)
+    _split_rows(b_mid, b_lo, b_hi, n_b, d_prior, split_px, d_both)
+    if n_b >= 3:
+        m = _median(split[:n_b])
+        n_alike = 0
+        for k in range(n_b):
+            n_alike += abs(split[k] - m) <= 1.0
+        if split_lo < m <= split_hi and n_alike / n_b >= split_share:
             return 2, np.nan
     v_c = (py - cy) / f_px
     d = np.empty(n)
@@ -370,7 +410,7 @@ def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min,
     if i < 0:
         return False, 0.0
     r_rows = rr[5]
-    j0, j1 = np.searchsorted(r_rows, row), np.searchsorted(r_rows, row + 1)
+    j0, j1 = _count_le(r_rows, row, True), _count_le(r_rows, row + 1, True)
     if j1 == j0:
         return False, 0.0
     right_end = ox > 0

@@ -96,6 +96,16 @@ def _grey_choice(sm: StereoMasks, box: tuple, s0: int, offsets: np.ndarray, half
     return int(offsets[i]) if ncc[i] >= GREY_MIN_NCC and lead >= GREY_MIN_LEAD else None
 
 
+def _area_err(strip: np.ndarray, patch: np.ndarray, half: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Share (K,) of the masked patch's area (coverage 0-255, weights ``half``) that differs from
+    the strip's window at each column offset in ``offsets`` (K,): sum |a - b| half / (sum half 255).
+    (The rule :func:`kernels_tips.cap_fit` computes, for uint8 masks; kept as its reference.)"""
+    cols = offsets[:, None] + np.arange(patch.shape[1])[None, :]          # (K, w)
+    win = strip[:, cols]                                                  # (h, K, w)
+    diff = np.abs(win - patch[:, None, :]) * half[:, None, :]
+    return diff.sum(axis=(0, 2)) / (float(half.sum()) * 255.0)
+
+
 def _rows_agree(runs_l: Runs, runs_r: Runs, rows: np.ndarray, u_poly: Poly, d: float, max_width_px: float) -> bool:
     """Whether most (60 %, at least 2) ``rows`` cross the branch at ``u_poly`` in the left view,
     no wider than ``max_width_px``, and at ``d`` px less in the right one with runs of about the

@@ -74,10 +74,7 @@ def _ref_cap_disparity(sm, centre_xy, half_px, out, min_margin=caps.MIN_FIT_MARG
     k = int(np.argmin(err))
     cand = np.flatnonzero(np.abs(np.arange(len(err)) - k) > half_px)
     cand = cand[np.argsort(err[cand], kind="stable")[:caps.FAR_CANDIDATES]] if len(cand) else cand
-    offsets = np.r_[k, cand]
-    cols = offsets[:, None] + np.arange(patch.shape[1])[None, :]
-    diff = np.abs(strip[:, cols] - patch[:, None, :]) * half[:, None, :]
-    area = diff.sum(axis=(0, 2)) / (float(half.sum()) * 255.0)
+    area = caps._area_err(strip, patch, half, np.r_[k, cand])
     best = float(area[0])
     if best > caps.MAX_FIT_ERROR:
         return None

@@ -3,7 +3,7 @@
 Each kernel replaces one of the tips' functions (tips.py, ends.py's tip helpers), a few dozen small
 numpy calls per end, by one compiled loop: the same rules, the same values where the arithmetic is
 the same (the mask reads are :func:`kernels.bilinear_u8`, cv2.remap's), at rounding level where
-numpy's vectorised trigonometry and numba's differ in the last bits.
+numpy's vectorised trigonometry and libm's differ in the last bits.
 """
 
 from __future__ import annotations

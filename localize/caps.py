@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels_tips
 from appliance.localize.curves import BranchCurve, Poly, angle_deg
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
@@ -52,39 +52,17 @@ def cap_disparity(sm: StereoMasks, centre_xy: np.ndarray, half_px: int, out: np.
     may be cut differently by an occluder in each. The fit's error is the share of that half's
     pixels that differ (coverage 0-255 compared as a fraction).
     """
-    h, w = sm.left_mask.shape
-    x, y = np.rint(centre_xy).astype(int)
-    x0, x1, y0, y1 = x - half_px, x + half_px + 1, y - half_px, y + half_px + 1
-    if x0 < 0 or y0 < 0 or x1 > w or y1 > h:
+    # (the patch, its outward half, the squared differences along the strip, the best fit and its
+    # rivals: one kernel, the same values)
+    ok, x0, y0, s0, k, err, rivals, half = kernels_tips.cap_fit(
+        np.ascontiguousarray(sm.left_mask), np.ascontiguousarray(sm.right_mask),
+        float(centre_xy[0]), float(centre_xy[1]), int(half_px), float(out[0]), float(out[1]), float(sm.d_range_px[0]),
+        float(sm.d_range_px[1]), FAR_CANDIDATES, MAX_FIT_ERROR, float(min_margin))
+    if not ok:
         return None
-    patch = sm.left_mask[y0:y1, x0:x1].astype(np.float32)
-    yy, xx = np.arange(y0, y1)[:, None], np.arange(x0, x1)[None, :]      # (np.mgrid's values, broadcast)
-    half = ((xx - centre_xy[0]) * out[0] + (yy - centre_xy[1]) * out[1] >= -half_px / 3).astype(np.float32)
-    n = float(half.sum()) * 255.0 ** 2
-    dmin, dmax = sm.d_range_px
-    s0, s1 = max(int(np.floor(x0 - dmax)), 0), min(int(np.ceil(x1 - dmin)), w)
-    if s1 - s0 < x1 - x0 + 2:
-        return None
-    strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
-    if sm.right_mask.dtype == np.uint8 and sm.left_mask.dtype == np.uint8:     # (exact sums: kernels.masked_sqdiff)
-        err = kernels.masked_sqdiff(np.ascontiguousarray(sm.right_mask[y0:y1, s0:s1]),
-                                    np.ascontiguousarray(sm.left_mask[y0:y1, x0:x1]), half.astype(np.uint8)) / n
-    else:
-        err = cv2.matchTemplate(strip, patch, cv2.TM_SQDIFF, mask=half)[0] / n
-    k = int(np.argmin(err))
-    far = np.abs(np.arange(len(err)) - k) > half_px
-    # the tests read the share of the half's area that differs: sum |a - b| (the squared differences'
-    # sum for a binary mask; a soft one's are smaller at its outline, its partial pixels' differences
-    # squared), at the best fit and at the few best fits far from it
-    cand = np.flatnonzero(far)
-    cand = cand[np.argsort(err[cand], kind="stable")[:FAR_CANDIDATES]] if len(cand) else cand
-    area = _area_err(strip, patch, half, np.r_[k, cand])
-    best = float(area[0])
-    if best > MAX_FIT_ERROR:
-        return None
-    rivals = cand[area[1:] < best + min_margin] if len(cand) else cand
+    k, x1, y1 = int(k), x0 + 2 * half_px + 1, y0 + 2 * half_px + 1
     if len(rivals):
-        k = _grey_choice(sm, (y0, y1, x0, x1), s0, np.r_[k, rivals], half_px)
+        k = _grey_choice(sm, (y0, y1, x0, x1), s0, np.concatenate(([k], rivals)), half_px)
         if k is None:
             return None
     if sm.valid_right is not None and not sm.valid_right[y0:y1, s0 + k:s0 + k + x1 - x0][half > 0].all():
@@ -120,7 +98,8 @@ def _grey_choice(sm: StereoMasks, box: tuple, s0: int, offsets: np.ndarray, half
 
 def _area_err(strip: np.ndarray, patch: np.ndarray, half: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Share (K,) of the masked patch's area (coverage 0-255, weights ``half``) that differs from
-    the strip's window at each column offset in ``offsets`` (K,): sum |a - b| half / (sum half 255)."""
+    the strip's window at each column offset in ``offsets`` (K,): sum |a - b| half / (sum half 255).
+    (The rule :func:`kernels_tips.cap_fit` computes, for uint8 masks; kept as its reference.)"""
     cols = offsets[:, None] + np.arange(patch.shape[1])[None, :]          # (K, w)
     win = strip[:, cols]                                                  # (h, K, w)
     diff = np.abs(win - patch[:, None, :]) * half[:, None, :]

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_tips
 from appliance.localize.curves import BranchCurve, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
@@ -28,9 +28,8 @@ from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.radius import radius_at
 from appliance.localize.texture import nearer_in_front
-from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, VIEW_EDGE_PX, at_view_edge, cap_centre,
-                                     cap_shapes_offsets, occluder_confirmed, reads_round, silhouette_offset_px,
-                                     split_row_disparity)
+from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
+                                     cap_shapes_offsets, occluder_confirmed, reads_round)
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
 # steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
@@ -990,10 +989,10 @@ class EndPlacer:
         speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
         out = step / speed
         r = max(c.radius_px, 1.0)
-        beyond = np.rint(uv_edge + 2.5 * out).astype(int)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        bx, by = round(ex + 2.5 * ox), round(ey + 2.5 * oy)        # (np.rint's in Python floats: halves to even)
         h, w = self.sm.left_mask.shape
-        if not (0 <= beyond[0] < w and 0 <= beyond[1] < h) or (
-                self.sm.valid_left is not None and not self.sm.valid_left[beyond[1], beyond[0]]):
+        if not (0 <= bx < w and 0 <= by < h) or (self.sm.valid_left is not None and not self.sm.valid_left[by, bx]):
             back = self._cap_cut_by_edge(c, uv_edge, out, r)
             if back is None:
                 return None                          # the branch leaves the view: no tip seen
@@ -1004,8 +1003,7 @@ class EndPlacer:
         # (placed one piece radius back for the checks below; a tip that passes them all is moved
         # onto its cap's centre in tips())
         uv = uv_edge - out * back
-        t = c.t_of(uv)
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(t)[0]])
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(float(uv[1] if c.by_row else uv[0]))[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
         cap_behind = False
         if not c.by_row:
@@ -1049,7 +1047,7 @@ class EndPlacer:
                 self.uvd[node] = uvd
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
-            d_cap = self._cap_disparity(c, t_edge, sign, self.uvd[node][2], r)
+            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
             if d_cap is not None and np.isnan(d_cap):
                 self.hidden.add(int(node))
                 return None
@@ -1117,9 +1115,11 @@ class EndPlacer:
         if len(rows) == 0:
             return False
         lo, hi = c.t_range
-        slope = float(np.hypot(1.0, c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi)).mean()))   # (np.clip's)
+        ds = c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi))       # (np.clip's)
+        slope = float(np.hypot(1.0, ds.sum() / len(ds)))             # (the mean: np.mean's sum and division)
         ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
-        return bool(((ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)).mean() >= 0.8)
+        wide = (ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)
+        return bool(np.count_nonzero(wide) / len(wide) >= 0.8)
 
     def _cap_cut_by_edge(self, c: BranchCurve, uv_edge: np.ndarray, out: np.ndarray, r: float) -> float | None:
         """A steep piece that runs to the edge of the view: the distance (px) from its last
@@ -1140,7 +1140,8 @@ class EndPlacer:
             return None
         return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
 
-    def _cap_disparity(self, c: BranchCurve, t_edge: float, sign: float, d_prior: float, r: float) -> float | None:
+    def _cap_disparity(self, c: BranchCurve, t_edge: float, uv_edge: np.ndarray, out: np.ndarray, sign: float,
+                       d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.
 
         Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
@@ -1155,13 +1156,11 @@ class EndPlacer:
         circle), and a row whose edges disagree (:func:`tips.split_row_disparity`: one cut or
         merged in one view only) the nearest of the two and the middle to the agreeing rows. A
         run ending at the view's edge gives no edge there. Median over the rows, within 2.5 px
-        of ``d_prior``; None with fewer than 3 rows.
+        of ``d_prior``; None with fewer than 3 rows. ``uv_edge``, ``out``: where the centre line
+        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
         """
         sm = self.sm
         h, w = sm.left_mask.shape
-        uv_edge = c.uv_at(t_edge)[0]
-        step = c.uv_at(t_edge + sign)[0] - uv_edge
-        out = step / max(float(np.hypot(*step)), 1e-9)
         p = uv_edge - out * r                                # the cap's centre (the tip)
         a = max(int(np.ceil(min(p[1] - r, t_edge))), 0)
         b = min(int(np.floor(max(p[1] + r, t_edge))), h - 1)
@@ -1169,50 +1168,23 @@ class EndPlacer:
         rows = rows[(np.abs(rows - p[1]) <= r) & (sign * (t_edge - rows) >= -0.5)]
         if len(rows) < 3:
             return None
-        runs_l, runs_r = self.runs_l, self.runs_r
-        il = runs_l.find(rows, c.s_at(rows))
-        rows, il = rows[il >= 0], il[il >= 0]
-        if len(rows) < 3 or not len(runs_r.row):
-            return None
-        lo_l, hi_l = runs_l.left_px[il], runs_l.right_px[il]
-        c_l = runs_l.centre_px[il]
-        # the right run at the left middle moved by the prior: its middle may be off it, merged
-        # on one side with something the left view shows apart (then its other edge counts)
-        rr = runs_r.find(rows, c_l - d_prior)
-        q = np.nonzero(rr >= 0)[0]
-        rr = rr[q]
-        if len(q) < 3:
-            return None
-        rows, lo_l, hi_l = rows[q], lo_l[q], hi_l[q]
-        lo_r, hi_r = runs_r.left_px[rr], runs_r.right_px[rr]
-        # which edges are the cap's: on the outward side of its centre, not at the view's edge
-        n = len(rows)
-        dv = rows - p[1]
-        rows2, side2 = np.concatenate([rows, rows]), np.repeat([-1.0, 1.0], n)
-        e_left, e_right = np.concatenate([lo_l, hi_l]), np.concatenate([lo_r, hi_r])
-        cap = ((e_left - p[0]) * out[0] + np.concatenate([dv, dv]) * out[1] >= -CAP_EDGE_BACK * r) \
-            & ~at_view_edge(rows2, e_left, side2, sm.valid_left) & ~at_view_edge(rows2, e_right, side2, sm.valid_right, w)
-        cap_lo, cap_hi = cap[:n], cap[n:]
-        # an edge's disparity is its silhouette's (the row's circle): taken back to the middle's
-        half = np.sqrt(np.maximum(r * r - dv * dv, 0.0))
-        de = e_left - e_right
-        de = np.where(cap, de - silhouette_offset_px(np.full(2 * n, p[0]), de, np.concatenate([half, half]), side2,
-                                                     sm.f_px, 0.5 * (w - 1)), np.inf)
-        d_lo, d_hi = lo_l - lo_r, hi_l - hi_r
-        e_lo, e_hi = de[:n], de[n:]
-        both = cap_lo & cap_hi
-        d = np.where(cap_lo, e_lo, e_hi)
-        d[both] = split_row_disparity(0.5 * (d_lo + d_hi)[both], e_lo[both], e_hi[both], d_prior)
-        if both.sum() >= 3:
-            split = np.abs(e_lo[both] - e_hi[both])
-            m = median(split)
-            if CAP_SPLIT_PX[0] < m <= CAP_SPLIT_PX[1] and (np.abs(split - m) <= 1.0).mean() >= CAP_SPLIT_SHARE:
-                return np.nan           # one view's outline is off across the cap: no depth
-        d = d * cap_row_scale(rows, p[1], 0.5 * (h - 1), sm.f_px)
-        d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
-        if len(d) < 3:
-            return None
-        return float(median(d))
+        # (the rows' runs, edges, silhouette offsets, split rows and median: one kernel)
+        rl, rr, valid_l, valid_r = EndPlacer._tip_tables(self)
+        status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
+                                               float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
+                                               h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE)
+        return None if status == 0 else float(d)
+
+    def _tip_tables(self) -> tuple:
+        """The mask runs' and the valid areas' tables the tips' kernels take (:func:`kernels_tips.runs_tables`),
+        made once per placer (again if its runs are replaced)."""
+        # (read through getattr: the tests' stand-in placers and masks carry only what they use)
+        key = (self.runs_l, self.runs_r, getattr(self.sm, "valid_left", None), getattr(self.sm, "valid_right", None))
+        hit = self.__dict__.get("_tip_k")
+        if hit is None or any(x is not y for x, y in zip(hit[0], key)):
+            hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
+                                       kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
+        return hit[1]
 
     def _beyond_in_right_view(self, uv_edge: np.ndarray, out: np.ndarray, d: float) -> bool:
         """Whether the right view sees the pixel just past the cap's end (``uv_edge``, left px, moved by
@@ -1232,13 +1204,13 @@ class EndPlacer:
     def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
         """Whether the right mask has branch within half a radius of the point's right position."""
         m = self.sm.right_mask
-        u, v = uvd[0] - uvd[2], uvd[1]
+        u, v = float(uvd[0] - uvd[2]), float(uvd[1])          # (Python floats: round() halves to even, as numpy)
         k = max(1, int(round(0.5 * r)))
-        y0, y1 = int(round(v)) - k, int(round(v)) + k + 1
-        x0, x1 = int(round(u)) - k, int(round(u)) + k + 1
+        y0, y1 = round(v) - k, round(v) + k + 1
+        x0, x1 = round(u) - k, round(u) + k + 1
         if y0 < 0 or x0 < 0 or y1 > m.shape[0] or x1 > m.shape[1]:
             return False
-        return bool((m[y0:y1, x0:x1] >= 128).any())
+        return bool(m[y0:y1, x0:x1].max() >= 128)
 
     def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0,
                        inside_px: float = 1.0) -> float | None:
@@ -1253,61 +1225,13 @@ class EndPlacer:
         along the row from ``uv_edge``.
         """
         sm = self.sm
-        row = int(np.rint(uv_edge[1]))
-        if not 0 <= row < sm.left_mask.shape[0]:
-            return None
-        runs_l, runs_r = self.runs_l, self.runs_r
-        i = runs_l.find(np.array([row]), np.array([uv_edge[0] - np.sign(out[0]) * inside_px]))[0]
-        if i < 0:
-            return None
-        j = np.arange(*np.searchsorted(runs_r.row, [row, row + 1]))    # the right runs of that row
-        if len(j) == 0:
-            return None
-        right_end = out[0] > 0
-        e_l = runs_l.right_px[i] if right_end else runs_l.left_px[i]
-        e_r = runs_r.right_px[j] if right_end else runs_r.left_px[j]
-        d = e_l - e_r
-        w = sm.left_mask.shape[1]
-        sgn = 1.0 if right_end else -1.0
-        # (a right run cut by the rectified right view's edge does not end at the cap)
-        ok = (d >= sm.d_range_px[0]) & (d <= sm.d_range_px[1]) \
-            & ~at_view_edge(np.full(len(j), row), e_r, sgn, sm.valid_right, w)
-        similar = ok & (np.abs(runs_r.span_px[j] - runs_l.span_px[i]) <= 0.2 * runs_l.span_px[i] + 3)
-        if similar.any():
-            d = d[similar]
-            d = float(d[np.argmin(np.abs(d - d_prior))])
-        else:
-            # the right run is cut (or merged) elsewhere along the piece, an occluder or a crossing
-            # branch in that view only: its end is still the cap's if the end's outline agrees row
-            # by row (the nearest such within 2 px of the prior)
-            d = d[ok & (np.abs(d - d_prior) <= END_RUN_CUT_PX)]
-            if r <= 0 or not len(d):
-                return None
-            d = float(d[np.argmin(np.abs(d - d_prior))])
-            if not self._end_outline_agrees(uv_edge, out, d, r):
-                return None
-        k = int(0.5 * r)
-        # the run ends' disparity is their silhouette's, not the cap centre's (tips.silhouette_offset_px)
-        cx = 0.5 * (w - 1)
-        if k < 1:
-            return d - silhouette_offset_px(uv_edge[0], d, r, sgn, sm.f_px, cx)
-        # the rows within half a radius of the axis end alike in both views too (the cap's sphere):
-        # the median of their run ends' disparities near the axis row's (1 px)
-        # (centred on the cap's centre's row, where a sphere's outline is furthest along the rows: on
-        # a piece inclined to the rows the centre line's end lies a little off it)
-        rows = int(np.rint(uv_edge[1] - out[1] * r)) + np.arange(-k, k + 1)
-        rows = rows[(rows >= 0) & (rows < sm.left_mask.shape[0])]
-        il = runs_l.find(rows, np.full(len(rows), e_l - sgn * (1.0 + r)))
-        rows, il = rows[il >= 0], il[il >= 0]
-        el = runs_l.right_px[il] if right_end else runs_l.left_px[il]
-        ir = runs_r.find(rows, el - d - sgn * 1.0)
-        er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
-        fin = np.isfinite(er)
-        er[fin] = np.where(at_view_edge(rows[fin], er[fin], sgn, sm.valid_right, w), np.nan, er[fin])
-        de = el - er
-        de = de[np.abs(de - d) <= 1.0]
-        d = float(median(de)) if len(de) >= 3 else d
-        return d - silhouette_offset_px(uv_edge[0], d, r, sgn, sm.f_px, cx)
+        h, w = sm.left_mask.shape
+        rl, rr, _, valid_r = EndPlacer._tip_tables(self)
+        ok, d = kernels_tips.end_disparity(rl, rr, valid_r, float(uv_edge[0]), float(uv_edge[1]), float(out[0]),
+                                           float(out[1]), float(d_prior), float(r), float(inside_px),
+                                           float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
+                                           END_RUN_CUT_PX)
+        return float(d) if ok else None
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
         """Whether a flat piece's end has the same outline in both views at disparity ``d``.
@@ -1317,18 +1241,9 @@ class EndPlacer:
         least 3 rows: a round cap ends alike in both views; a right run that runs on into
         something touching the cap (another branch) ends elsewhere on some rows.
         """
-        k = max(1, int(0.6 * r))
-        rows = int(np.rint(uv_edge[1])) + np.arange(-k, k + 1)
-        rows = rows[(rows >= 0) & (rows < self.sm.left_mask.shape[0])]
-        sgn = 1.0 if out[0] > 0 else -1.0
-        il = self.runs_l.find(rows, np.full(len(rows), uv_edge[0] - sgn * r))
-        rows, il = rows[il >= 0], il[il >= 0]
-        e_l = self.runs_l.right_px[il] if sgn > 0 else self.runs_l.left_px[il]
-        ir = self.runs_r.find(rows, e_l - d - sgn * r)
-        if (ir >= 0).sum() < 3:
-            return False
-        e_r = self.runs_r.right_px[ir[ir >= 0]] if sgn > 0 else self.runs_r.left_px[ir[ir >= 0]]
-        return bool((np.abs(e_l[ir >= 0] - e_r - d) <= 1.2).mean() >= 0.8)
+        rl, rr, _, _ = EndPlacer._tip_tables(self)
+        return bool(kernels_tips.end_outline_agrees(rl, rr, float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(d),
+                                                    float(r), self.sm.left_mask.shape[0]))
 
     def bridge_holds(self, s: int) -> bool:
         """A recovered piece joins one branch only if each side's disparity, carried along its

@@ -958,6 +958,8 @@ def warm_up() -> None:
     _warm_match()
     _warm_match2()
     _warm_segment()
+    from appliance.localize import kernels_tips      # (the tips' kernels, speedT: that module imports this one)
+    kernels_tips.warm_up()
 
 
 # --- match stage (speedm)

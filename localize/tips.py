@@ -19,7 +19,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_tips
 from appliance.localize.caps import cap_disparity
 from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
 from appliance.localize.edges import Runs
@@ -330,42 +330,16 @@ def cap_shapes(mask: np.ndarray, ends: list) -> list:
 
 def cap_shapes_offsets(mask: np.ndarray, ends: list) -> tuple[list, np.ndarray]:
     """:func:`cap_shapes`, and how far the middle of each end's width across lies from its centre
-    line (K,) px, towards ``(-out_y, out_x)`` (NaN where a side is not read)."""
+    line (K,) px, towards ``(-out_y, out_x)`` (NaN where a side is not read). Compiled
+    (:func:`kernels_tips.cap_shapes_offsets`: each end's lines read up to where they leave the mask)."""
     if not ends:
         return [], np.zeros(0)
-    ns = [np.array([-out[1], out[0]]) for _, out, _ in ends]
-    ps = [uv_edge - CAP_WIDTH_BACK * r * out for uv_edge, out, r in ends]
-    s1 = [np.arange(0.0, 3.0 * r + 4.0, 0.5) for _, _, r in ends]
-    n1 = np.repeat([len(s) for s in s1], 2)
-    w = _last_on(mask, np.stack([q for p in ps for q in (p, p)]), np.stack([m for n in ns for m in (n, -n)]),
-                 max(s1, key=len), n1).reshape(-1, 2)
-    offsets = 0.5 * (w[:, 0] - w[:, 1])
-    out_shapes, readable = [None] * len(ends), []
-    starts, dirs, s2, variants_all = [], [], [], []
-    for i, ((_, out, r), n, p, (wa, wb)) in enumerate(zip(ends, ns, ps, w)):
-        if not (np.isfinite(wa) and np.isfinite(wb)):
-            continue
-        variants = ((0.5 * (wa + wb), p + 0.5 * (wa - wb) * n),   # the middle across, 1.5 r behind the end
-                    (min(wa, wb), p))                             # merged on one side: the other's reach
-        starts.append(np.stack([q for rho, mid in variants for q in (mid, mid + 0.7 * rho * n, mid - 0.7 * rho * n)]))
-        dirs.append(np.broadcast_to(out, (6, 2)))
-        s2.append(np.arange(0.0, 1.5 * r + 2.0 * variants[0][0] + 4.0, 0.5))    # (a side running on further: touched)
-        variants_all.append(variants)
-        readable.append(i)
-    if not readable:
-        return out_shapes, offsets
-    e = _last_on(mask, np.concatenate(starts), np.concatenate(dirs), max(s2, key=len),
-                 np.repeat([len(s) for s in s2], 6)).reshape(-1, 2, 3)
-    for i, variants, ei in zip(readable, variants_all, e):
-        shapes = []
-        for (rho, _), ev in zip(variants, ei):
-            if not np.isfinite(ev[0]):
-                shapes.append(None)
-                continue
-            ev = np.where(np.isfinite(ev), ev, np.inf)          # a side that never leaves the mask runs on
-            expect = (1.0 - np.sqrt(0.51)) * rho
-            shapes.append((float(rho), float((ev[0] - ev[1]) / expect), float((ev[0] - ev[2]) / expect)))
-        out_shapes[i] = shapes
+    arr = np.empty((len(ends), 5))
+    for i, (uv_edge, out, r) in enumerate(ends):
+        arr[i, :2], arr[i, 2:4], arr[i, 4] = uv_edge, out, r
+    offsets, shapes, status = kernels_tips.cap_shapes_offsets(np.ascontiguousarray(mask), arr)
+    out_shapes = [None if st[0] < 0 else [tuple(sh[v].tolist()) if st[v] else None for v in (0, 1)]
+                  for sh, st in zip(shapes, status.tolist())]
     return out_shapes, offsets
 
 

@@ -554,7 +554,6 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     curves = fit_steep_many(graph, steep, runs_l, runs_r, sm, angle)
     _resolve_shared(curves, graph, runs_l, runs_r, sm, angle)
     withheld = withheld_segments(curves, sm)    # short pieces whose bark shows another surface (steepcheck.py)
-    curves = {s: c for s, c in curves.items() if s not in withheld}
     # tips on the grey image's sub-pixel outline near the ends (measured: the fits above gain depth
     # with it too but lose a little recall and precision; forks gain nothing)
     ends_xy, ends_d = _ends_disparity(graph, curves, sm.d_range_px)
@@ -601,6 +600,9 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 b.tip(node)
     # steep pieces still without a curve, matched edge by edge on their own: branches to keep clear of,
     # not trusted for forks and tips (placed above without them)
+    # (the withheld pieces' curves served the forks and tips above, as before: dropped there, ends.py lost
+    # correct forks; they are not reported, but may be matched again edge by edge if their texture agrees)
+    curves = {s: c for s, c in curves.items() if s not in withheld}
     curves.update(confirmed(edge_consensus(graph, [s for s in steep if s not in curves], curves, runs_l, runs_r, sm),
                             withheld, sm))
 

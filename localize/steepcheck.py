@@ -30,7 +30,9 @@ HALF_H_PX = 3          # patch half height (7 rows)
 SLACK_PX = 1.5         # own window: axis disparity - slack .. one-radius-nearer surface's + slack
 OWN_MAX = 0.45         # median correlation at the own run below this: the run shows another surface
 MARGIN = 0.2           # ... and the best correlation in the working range is at least this much higher
-MIN_PATCHES = 2        # fewer patches (a piece of < ~4 rows) say too little: not judged
+SAME_RUN_PX = 3.0      # a withheld piece matched again within this of its old disparity: the same run
+MIN_ROWS = 4           # a shorter piece (a stub between junctions): its patches lie mostly outside it
+MIN_PATCHES = 2        # fewer patches with texture say too little: not judged
 
 
 @dataclass(frozen=True)
@@ -121,7 +123,7 @@ def _range_scores(left, right, uv: np.ndarray, hw: int, d_range_px: tuple[float,
 def check_piece(c: BranchCurve, sm: StereoMasks, max_rows: float = MAX_ROWS) -> TextureCheck | None:
     """The texture test of one steep curve (None: not a steep piece of at most ``max_rows`` rows of
     fitted span, or too few patches)."""
-    if not c.by_row or c.t_range[1] - c.t_range[0] > max_rows:
+    if not c.by_row or not MIN_ROWS <= c.t_range[1] - c.t_range[0] <= max_rows:
         return None
     uv, lo, hi = _patches(c, sm.f_px, sm.left_mask.shape, sm.d_range_px)
     if len(uv) < MIN_PATCHES:
@@ -150,19 +152,25 @@ def wrong_run_pieces(curves: dict[int, BranchCurve], sm: StereoMasks) -> list[Te
     return out
 
 
-def withheld_segments(curves: dict[int, BranchCurve], sm: StereoMasks) -> list[int]:
-    """The segments of the short steep pieces whose curves are to be dropped (:func:`check_piece`)."""
-    return [r.segment for r in wrong_run_pieces(curves, sm) if r.withheld]
+def withheld_segments(curves: dict[int, BranchCurve], sm: StereoMasks) -> dict[int, BranchCurve]:
+    """The short steep pieces whose curves are not to be reported (:func:`check_piece`): {segment: curve}."""
+    return {r.segment: curves[r.segment] for r in wrong_run_pieces(curves, sm) if r.withheld}
 
 
-def confirmed(new_curves: dict[int, BranchCurve], withheld: list[int], sm: StereoMasks) -> dict[int, BranchCurve]:
+def confirmed(new_curves: dict[int, BranchCurve], withheld: dict[int, BranchCurve],
+              sm: StereoMasks) -> dict[int, BranchCurve]:
     """``new_curves`` (a later stage's curves of pieces without one, e.g. matched edge by edge) without
-    those of the ``withheld`` segments whose texture does not confirm them now: a withheld piece comes
-    back only if its new curve passes :func:`check_piece` whatever its length (a longer match of the
-    same rows may be right: it is judged on its own texture)."""
+    those of the ``withheld`` pieces that come back on the run their texture refused (within
+    ``SAME_RUN_PX`` of the withheld curve's disparity on its rows, median) or whose texture does not
+    confirm the new curve (:func:`check_piece`, whatever its length)."""
     out = {}
     for s, c in new_curves.items():
-        if s in withheld:
+        old = withheld.get(s)
+        if old is not None:
+            lo, hi = old.t_range
+            t = np.arange(np.ceil(lo), np.floor(hi) + 1) if hi >= lo + 1 else np.array([0.5 * (lo + hi)])
+            if np.median(np.abs(c.d_at(t) - old.d_poly(t))) <= SAME_RUN_PX:
+                continue
             r = check_piece(c, sm, max_rows=np.inf)
             if r is None or r.withheld:
                 continue

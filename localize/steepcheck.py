@@ -22,13 +22,13 @@ import numpy as np
 from appliance.localize import kernels
 from appliance.localize.curves import BranchCurve
 from appliance.localize.matching import StereoMasks
-from appliance.localize.texture import _ncc_core, _windows
 
 MAX_ROWS = 25          # pieces whose fitted span is at most this many rows are checked
 STEP_ROWS = 3          # one patch every this many rows
 HALF_H_PX = 3          # patch half height (7 rows)
 SLACK_PX = 1.5         # own window: axis disparity - slack .. one-radius-nearer surface's + slack
 OWN_MAX = 0.45         # median correlation at the own run below this: the run shows another surface
+OWN_CLEAR = 0.2        # below this the range search is skipped (60 scenes: such pieces' best was >= 0.73)
 MARGIN = 0.2           # ... and the best correlation in the working range is at least this much higher
 SAME_RUN_PX = 3.0      # a withheld piece matched again within this of its old disparity: the same run
 MIN_ROWS = 4           # a shorter piece (a stub between junctions): its patches lie mostly outside it
@@ -59,85 +59,85 @@ class TextureCheck:
     withheld: bool
 
 
+def _median(a: np.ndarray) -> float:
+    """The median of a few values (np.median's checks cost more here)."""
+    v = sorted(a.tolist())
+    k = len(v) // 2
+    return v[k] if len(v) % 2 else 0.5 * (v[k - 1] + v[k])
+
+
 def _half_w(radius_px: float) -> int:
     """Patch half width: inside the branch's visible width (0.6 radius), 2-7 px."""
     return int(min(7, max(2, round(0.6 * radius_px))))
 
 
 def _patches(c: BranchCurve, f_px: float, shape: tuple[int, int], d_range_px: tuple[float, float]):
-    """Patch centres (P, 2) int (u, v) along a steep curve and each one's own window (lo, hi) int
-    disparities; patches whose own or whole-range strips leave the image are dropped."""
+    """Patch centres (P, 2) int (u, v) every ``STEP_ROWS`` rows along a steep curve and each one's own
+    window (lo, hi) int disparities; patches whose own strips leave the image are dropped."""
     h, w = shape
     t0, t1 = c.t_range
-    a, b = int(np.ceil(t0)), int(np.floor(t1))
-    if b < a:
-        return np.zeros((0, 2), int), np.zeros(0, int), np.zeros(0, int)
-    n = max(1, (b - a) // STEP_ROWS + 1)
-    v = np.rint(np.linspace(a, b, n) if n > 1 else np.array([0.5 * (a + b)])).astype(int)
-    u = np.rint(c.s_poly(v.astype(float))).astype(int)
-    d = np.asarray(c.d_poly(v.astype(float)), float)
+    v = np.arange(int(np.ceil(t0)), int(np.floor(t1)) + 1, STEP_ROWS)
+    vf = v.astype(float)
+    u = np.rint(c.s_poly(vf)).astype(int)
+    d = c.d_poly(vf)
     lo = np.floor(d - SLACK_PX).astype(int)
     hi = np.ceil(d / max(1.0 - c.radius_px / f_px, 0.5) + SLACK_PX).astype(int)
     hw, hh = _half_w(c.radius_px), HALF_H_PX
-    dmin = int(np.floor(d_range_px[0]))
     ok = (v - hh >= 0) & (v + hh < h) & (u - hw >= 0) & (u + hw < w) & (u - hi - hw >= 0) & (u - lo + hw < w) \
-        & (u - dmin + hw + 1 > 0)
-    return np.column_stack([u, v])[ok], lo[ok], hi[ok]
+        & (u - int(np.floor(d_range_px[0])) + hw + 1 > 0)
+    return np.column_stack([u[ok], v[ok]]), lo[ok], hi[ok]
 
 
-def _own_scores(left, right, uv: np.ndarray, lo: np.ndarray, hi: np.ndarray, hw: int) -> tuple[np.ndarray, np.ndarray]:
-    """Best correlation (P,) of each patch in its own window, and whether it has texture (P,) bool."""
-    hh = HALF_H_PX
-    n_pos = int((hi - lo).max()) + 1
-    y0, y1 = int(uv[:, 1].min()) - hh, int(uv[:, 1].max()) + hh + 1
-    lx0, lx1 = int(uv[:, 0].min()) - hw, int(uv[:, 0].max()) + hw + 1
-    rx0 = int((uv[:, 0] - hi).min()) - hw
-    rx1 = max(int((uv[:, 0] - hi).max()) + n_pos + hw, int((uv[:, 0] - lo).max()) + hw + 1)
-    lbox = np.asarray(left[y0:y1, lx0:lx1])
-    rbox = np.asarray(right[y0:y1, rx0:min(rx1, right.shape[1])])
-    if rbox.shape[1] < rx1 - rx0:                      # (the longest window past the image's edge)
-        rbox = np.pad(rbox, ((0, 0), (0, rx1 - rx0 - rbox.shape[1])), mode="edge")
-    ty = uv[:, 1] - hh - y0
-    tmpl = _windows(lbox, (2 * hh + 1, 2 * hw + 1))[ty, uv[:, 0] - hw - lx0].astype(np.float64)
-    strip = _windows(rbox, (2 * hh + 1, n_pos + 2 * hw))[ty, uv[:, 0] - hi - hw - rx0].astype(np.float64)
-    _, best, flat = _ncc_core(tmpl, strip, uv, hh, hw, n_pos, hi)
-    return best, ~flat
-
-
-def _range_scores(left, right, uv: np.ndarray, hw: int, d_range_px: tuple[float, float]) -> np.ndarray:
-    """Best correlation (P,) of each patch over the whole working range (-1 where not searched)."""
+def _scores(left, right, uv: np.ndarray, lo: np.ndarray, hi: np.ndarray, hw: int) -> np.ndarray:
+    """Best normalised correlation (P,) of each patch (centre ``uv`` (P, 2) int, half width ``hw``, half
+    height ``HALF_H_PX``) over its disparities ``lo``..``hi`` (P,) int (:func:`kernels.ncc_search`: the
+    same scores as matchTemplate's TM_CCOEFF_NORMED; strips clipped at the image's edge); -1 for a patch
+    without texture (std < 1 grey level). The images are read once each, over the box the patches and
+    their strips need."""
     h, w = left.shape
     hh = HALF_H_PX
-    lo, hi = int(np.floor(d_range_px[0])), int(np.ceil(d_range_px[1]))
-    y0, y1 = max(int(uv[:, 1].min()) - hh, 0), min(int(uv[:, 1].max()) + hh + 1, h)
-    lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
-    rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
-    lbox = np.require(np.asarray(left[y0:y1, lx0:lx1]), np.uint8, ["C", "W"])
-    rbox = np.require(np.asarray(right[y0:y1, rx0:rx1]), np.uint8, ["C", "W"])
-    d_out, score = np.full(len(uv), np.nan), np.full(len(uv), -1.0)
-    kernels.ncc_search(lbox, rbox, np.ascontiguousarray(uv, np.int64), np.full(len(uv), hh, np.int64), hw,
-                       lo, hi, h, w, y0, lx0, rx0, d_out, score)
+    us, vs, los, his = uv[:, 0].tolist(), uv[:, 1].tolist(), lo.tolist(), hi.tolist()
+    y0, y1 = min(vs) - hh, max(vs) + hh + 1
+    lx0, lx1 = min(us) - hw, max(us) + hw + 1
+    rx0 = max(min(u - d for u, d in zip(us, his)) - hw, 0)
+    rx1 = min(max(u - d for u, d in zip(us, los)) + hw + 1, w)
+    lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
+    rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
+    n = len(us)
+    hhs = np.full(n, hh, np.int64)
+    score, d_out = np.full(n, -1.0), np.full(n, np.nan)
+    uv = np.ascontiguousarray(uv, np.int64)
+    if min(los) == max(los) and min(his) == max(his):     # one window for all: one call
+        kernels.ncc_search(lbox, rbox, uv, hhs, hw, los[0], his[0], h, w, y0, lx0, rx0, d_out, score)
+        return score
+    for i in range(n):                       # (a few patches, each with its own window)
+        kernels.ncc_search(lbox, rbox, uv[i:i + 1], hhs[:1], hw, los[i], his[i], h, w, y0, lx0, rx0,
+                           d_out[i:i + 1], score[i:i + 1])
     return score
 
 
 def check_piece(c: BranchCurve, sm: StereoMasks, max_rows: float = MAX_ROWS) -> TextureCheck | None:
-    """The texture test of one steep curve (None: not a steep piece of at most ``max_rows`` rows of
-    fitted span, or too few patches)."""
+    """The texture test of one steep curve (None: not a steep piece of ``MIN_ROWS`` to ``max_rows``
+    rows of fitted span, or fewer than ``MIN_PATCHES`` patches with texture)."""
     if not c.by_row or not MIN_ROWS <= c.t_range[1] - c.t_range[0] <= max_rows:
         return None
     uv, lo, hi = _patches(c, sm.f_px, sm.left_mask.shape, sm.d_range_px)
     if len(uv) < MIN_PATCHES:
         return None
     hw = _half_w(c.radius_px)
-    own, textured = _own_scores(sm.left_gray, sm.right_gray, uv, lo, hi, hw)
+    own = _scores(sm.left_gray, sm.right_gray, uv, lo, hi, hw)
+    textured = own > -1.0
     if textured.sum() < MIN_PATCHES:
         return None
     uv, own = uv[textured], own[textured]
-    own_med = float(np.median(own))
+    own_med = _median(own)
     if own_med >= OWN_MAX:
         return TextureCheck(int(c.segment), len(uv), own_med, float("nan"), False)
-    other = _range_scores(sm.left_gray, sm.right_gray, uv, hw, sm.d_range_px)
-    other_med = float(np.median(np.maximum(other, own)))
+    if own_med < OWN_CLEAR:             # another surface beyond doubt: the range search would confirm it
+        return TextureCheck(int(c.segment), len(uv), own_med, float("nan"), True)
+    d_lo, d_hi = int(np.floor(sm.d_range_px[0])), int(np.ceil(sm.d_range_px[1]))
+    other = _scores(sm.left_gray, sm.right_gray, uv, np.full(len(uv), d_lo), np.full(len(uv), d_hi), hw)
+    other_med = _median(np.maximum(other, own))
     return TextureCheck(int(c.segment), len(uv), own_med, other_med, other_med - own_med >= MARGIN)
 
 

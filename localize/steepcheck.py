@@ -27,7 +27,7 @@ MAX_ROWS = 25          # pieces whose fitted span is at most this many rows are 
 STEP_ROWS = 3          # one patch every this many rows
 HALF_H_PX = 3          # patch half height (7 rows)
 SLACK_PX = 1.5         # own window: axis disparity - slack .. one-radius-nearer surface's + slack
-OWN_MAX = 0.45         # median correlation at the own run below this: the run shows another surface
+OWN_MAX = 0.6          # median correlation at the own run below this: the run shows another surface
 OWN_CLEAR = 0.2        # below this the range search is skipped (60 scenes: such pieces' best was >= 0.73)
 MARGIN = 0.2           # ... and the best correlation in the working range is at least this much higher
 SAME_RUN_PX = 3.0      # a withheld piece matched again within this of its old disparity: the same run

@@ -45,7 +45,7 @@ from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.rectify import ReadBox
-from appliance.localize.steepcheck import confirmed, withheld_segments
+from appliance.localize.steepcheck import withheld_segments
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
@@ -601,10 +601,10 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     # steep pieces still without a curve, matched edge by edge on their own: branches to keep clear of,
     # not trusted for forks and tips (placed above without them)
     # (the withheld pieces' curves served the forks and tips above, as before: dropped there, ends.py lost
-    # correct forks; they are not reported, but may be matched again edge by edge if their texture agrees)
+    # correct forks; they are not reported, nor matched again here)
     curves = {s: c for s, c in curves.items() if s not in withheld}
-    curves.update(confirmed(edge_consensus(graph, [s for s in steep if s not in curves], curves, runs_l, runs_r, sm),
-                            withheld, sm))
+    curves.update(edge_consensus(graph, [s for s in steep if s not in curves and s not in withheld], curves,
+                                 runs_l, runs_r, sm))
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px

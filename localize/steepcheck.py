@@ -8,8 +8,8 @@ nothing more there, but the bark does: the same surface seen from both cameras c
 strongly (normalised cross-correlation ~0.9 at the surface's disparity), another branch's bark
 does not (~0). A short piece whose texture does not correlate at its own fitted disparity while it
 clearly correlates elsewhere in the working range shows another surface in its run: it is not
-reported rather than reported at a confident wrong depth (:func:`withheld_segments`), and a later
-match of it (edge by edge) stands only on another run its texture confirms (:func:`confirmed`).
+reported rather than reported at a confident wrong depth (:func:`withheld_segments`), nor matched
+again edge by edge.
 Measured on 60 scenes: docs/localize-steepcheck.md.
 
 The surface a patch sees is nearer than the axis (up to one radius): the piece's own disparity is
@@ -32,7 +32,6 @@ SLACK_PX = 1.5         # own window: axis disparity - slack .. one-radius-nearer
 OWN_MAX = 0.6          # median correlation at the own run below this: the run shows another surface
 OWN_CLEAR = 0.2        # below this the range search is skipped (60 scenes: such pieces' best was >= 0.73)
 MARGIN = 0.2           # ... and the best correlation in the working range is at least this much higher
-SAME_RUN_PX = 3.0      # a withheld piece matched again within this of its old disparity: the same run
 MIN_ROWS = 4           # a shorter piece (a stub between junctions): its patches lie mostly outside it
 MIN_PATCHES = 2        # fewer patches with texture say too little: not judged
 
@@ -152,27 +151,7 @@ def wrong_run_pieces(curves: dict[int, BranchCurve], sm: StereoMasks) -> list[Te
     return out
 
 
-def withheld_segments(curves: dict[int, BranchCurve], sm: StereoMasks) -> dict[int, BranchCurve]:
-    """The short steep pieces whose curves are not to be reported (:func:`check_piece`): {segment: curve}."""
-    return {r.segment: curves[r.segment] for r in wrong_run_pieces(curves, sm) if r.withheld}
+def withheld_segments(curves: dict[int, BranchCurve], sm: StereoMasks) -> set[int]:
+    """The segments of the short steep pieces whose curves are not to be reported (:func:`check_piece`)."""
+    return {r.segment for r in wrong_run_pieces(curves, sm) if r.withheld}
 
-
-def confirmed(new_curves: dict[int, BranchCurve], withheld: dict[int, BranchCurve],
-              sm: StereoMasks) -> dict[int, BranchCurve]:
-    """``new_curves`` (a later stage's curves of pieces without one, e.g. matched edge by edge) without
-    those of the ``withheld`` pieces that come back on the run their texture refused (within
-    ``SAME_RUN_PX`` of the withheld curve's disparity on its rows, median) or whose texture does not
-    confirm the new curve (:func:`check_piece`, whatever its length)."""
-    out = {}
-    for s, c in new_curves.items():
-        old = withheld.get(s)
-        if old is not None:
-            lo, hi = old.t_range
-            t = np.arange(np.ceil(lo), np.floor(hi) + 1) if hi >= lo + 1 else np.array([0.5 * (lo + hi)])
-            if np.median(np.abs(c.d_at(t) - old.d_poly(t))) <= SAME_RUN_PX:
-                continue
-            r = check_piece(c, sm, max_rows=np.inf)
-            if r is None or r.withheld:
-                continue
-        out[s] = c
-    return out

@@ -18,6 +18,7 @@ searched from its curve's (axis) disparity to that of a surface one radius neare
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,31 +73,32 @@ def _half_w(radius_px: float) -> int:
     return int(min(7, max(2, round(0.6 * radius_px))))
 
 
-def _patches(c: BranchCurve, f_px: float, shape: tuple[int, int]):
-    """Patch centres (P, 2) int (u, v) every ``STEP_ROWS`` rows along a steep curve and each one's own
-    window (lo, hi) int disparities; patches whose own strips leave the image are dropped."""
+def _patches(c: BranchCurve, f_px: float, shape: tuple[int, int]) -> tuple[list, list, list, list]:
+    """Patch centres (u, v) int every ``STEP_ROWS`` rows along a steep curve and each one's own window
+    (lo, hi) int disparities, as lists (a few patches: Python floats cost less than arrays here);
+    patches whose own strips leave the image are dropped."""
     h, w = shape
     t0, t1 = c.t_range
-    v = np.arange(int(np.ceil(t0)), int(np.floor(t1)) + 1, STEP_ROWS)
-    vf = v.astype(float)
-    u = np.rint(c.s_poly(vf)).astype(int)
-    d = c.d_poly(vf)
-    lo = np.floor(d - SLACK_PX).astype(int)
-    hi = np.ceil(d / max(1.0 - c.radius_px / f_px, 0.5) + SLACK_PX).astype(int)
     hw, hh = _half_w(c.radius_px), HALF_H_PX
-    ok = (v - hh >= 0) & (v + hh < h) & (u - hw >= 0) & (u + hw < w) & (u - hi - hw >= 0) & (u - lo + hw < w)
-    return np.column_stack([u[ok], v[ok]]), lo[ok], hi[ok]
+    nearer = 1.0 / max(1.0 - c.radius_px / f_px, 0.5)     # axis -> surface one radius nearer
+    us, vs, los, his = [], [], [], []
+    for v in range(math.ceil(t0), math.floor(t1) + 1, STEP_ROWS):
+        u = round(c.s_poly.at(v))
+        d = c.d_poly.at(v)
+        lo, hi = math.floor(d - SLACK_PX), math.ceil(d * nearer + SLACK_PX)
+        if hh <= v < h - hh and u - hi - hw >= 0 and u - lo + hw < w and hw <= u < w - hw:
+            us.append(u), vs.append(v), los.append(lo), his.append(hi)
+    return us, vs, los, his
 
 
-def _scores(left, right, uv: np.ndarray, lo: np.ndarray, hi: np.ndarray, hw: int) -> np.ndarray:
-    """Best normalised correlation (P,) of each patch (centre ``uv`` (P, 2) int, half width ``hw``, half
-    height ``HALF_H_PX``) over its disparities ``lo``..``hi`` (P,) int (:func:`kernels.ncc_search`: the
+def _scores(left, right, us: list, vs: list, los: list, his: list, hw: int) -> np.ndarray:
+    """Best normalised correlation (P,) of each patch (centres ``us``, ``vs`` int, half width ``hw``, half
+    height ``HALF_H_PX``) over its disparities ``los``..``his`` int (:func:`kernels.ncc_search`: the
     same scores as matchTemplate's TM_CCOEFF_NORMED; strips clipped at the image's edge); -1 for a patch
     without texture (std < 1 grey level). The images are read once each, over the box the patches and
     their strips need."""
     h, w = left.shape
     hh = HALF_H_PX
-    us, vs, los, his = uv[:, 0].tolist(), uv[:, 1].tolist(), lo.tolist(), hi.tolist()
     y0, y1 = min(vs) - hh, max(vs) + hh + 1
     lx0, lx1 = min(us) - hw, max(us) + hw + 1
     rx0 = max(min(u - d for u, d in zip(us, his)) - hw, 0)
@@ -106,9 +108,10 @@ def _scores(left, right, uv: np.ndarray, lo: np.ndarray, hi: np.ndarray, hw: int
     n = len(us)
     hhs = np.full(n, hh, np.int64)
     score, d_out = np.full(n, -1.0), np.full(n, np.nan)
-    uv = np.ascontiguousarray(uv, np.int64)
-    if min(los) == max(los) and min(his) == max(his):     # one window for all: one call
-        kernels.ncc_search(lbox, rbox, uv, hhs, hw, los[0], his[0], h, w, y0, lx0, rx0, d_out, score)
+    uv = np.array([us, vs], np.int64).T.copy()
+    lo0, hi0 = min(los), max(his)
+    if max(los) - lo0 <= 1 and hi0 - min(his) <= 1:     # (nearly) one window for all: one call, over their union
+        kernels.ncc_search(lbox, rbox, uv, hhs, hw, lo0, hi0, h, w, y0, lx0, rx0, d_out, score)
         return score
     for i in range(n):                       # (a few patches, each with its own window)
         kernels.ncc_search(lbox, rbox, uv[i:i + 1], hhs[:1], hw, los[i], his[i], h, w, y0, lx0, rx0,
@@ -121,24 +124,27 @@ def check_piece(c: BranchCurve, sm: StereoMasks, max_rows: float = MAX_ROWS) -> 
     rows of fitted span, or fewer than ``MIN_PATCHES`` patches with texture)."""
     if not c.by_row or not MIN_ROWS <= c.t_range[1] - c.t_range[0] <= max_rows:
         return None
-    uv, lo, hi = _patches(c, sm.f_px, sm.left_mask.shape)
-    if len(uv) < MIN_PATCHES:
+    us, vs, los, his = _patches(c, sm.f_px, sm.left_mask.shape)
+    if len(us) < MIN_PATCHES:
         return None
     hw = _half_w(c.radius_px)
-    own = _scores(sm.left_gray, sm.right_gray, uv, lo, hi, hw)
+    own = _scores(sm.left_gray, sm.right_gray, us, vs, los, his, hw)
     textured = own > -1.0
-    if textured.sum() < MIN_PATCHES:
+    n = int(textured.sum())
+    if n < MIN_PATCHES:
         return None
-    uv, own = uv[textured], own[textured]
+    own = own[textured]
     own_med = _median(own)
     if own_med >= OWN_MAX:
-        return TextureCheck(int(c.segment), len(uv), own_med, float("nan"), False)
+        return TextureCheck(int(c.segment), n, own_med, float("nan"), False)
     if own_med < OWN_CLEAR:             # another surface beyond doubt: the range search would confirm it
-        return TextureCheck(int(c.segment), len(uv), own_med, float("nan"), True)
-    d_lo, d_hi = int(np.floor(sm.d_range_px[0])), int(np.ceil(sm.d_range_px[1]))
-    other = _scores(sm.left_gray, sm.right_gray, uv, np.full(len(uv), d_lo), np.full(len(uv), d_hi), hw)
+        return TextureCheck(int(c.segment), n, own_med, float("nan"), True)
+    keep = np.flatnonzero(textured).tolist()
+    us, vs = [us[i] for i in keep], [vs[i] for i in keep]
+    d_lo, d_hi = math.floor(sm.d_range_px[0]), math.ceil(sm.d_range_px[1])
+    other = _scores(sm.left_gray, sm.right_gray, us, vs, [d_lo] * n, [d_hi] * n, hw)
     other_med = _median(np.maximum(other, own))
-    return TextureCheck(int(c.segment), len(uv), own_med, other_med, other_med - own_med >= MARGIN)
+    return TextureCheck(int(c.segment), n, own_med, other_med, other_med - own_med >= MARGIN)
 
 
 def wrong_run_pieces(curves: dict[int, BranchCurve], sm: StereoMasks) -> list[TextureCheck]:

@@ -80,9 +80,10 @@ def test_a_long_piece_or_a_stub_is_not_judged():
 
 def test_scores_are_matchtemplates():
     sm = _scene()
-    uv = np.array([[U_A, 60], [U_A, 90]])
-    got = _scores(sm.left_gray, sm.right_gray, uv, np.array([35, 38]), np.array([45, 42]), 4)
-    for (u, v), lo, hi, g in zip(uv, (35, 38), (45, 42), got):
-        tm = sm.left_gray[v - 3:v + 4, u - 4:u + 5].astype(np.float32)
-        strip = sm.right_gray[v - 3:v + 4, u - hi - 4:u - lo + 5].astype(np.float32)
-        assert abs(cv2.matchTemplate(strip, tm, cv2.TM_CCOEFF_NORMED).max() - g) < 1e-4
+    us, vs = [U_A, U_A, U_B], [60, 90, 120]
+    for los, his in (([35, 38, 20], [45, 42, 50]), ([30, 30, 30], [50, 50, 50])):   # own windows; one for all
+        got = _scores(sm.left_gray, sm.right_gray, us, vs, los, his, 4)
+        for u, v, lo, hi, g in zip(us, vs, los, his, got):
+            tm = sm.left_gray[v - 3:v + 4, u - 4:u + 5].astype(np.float32)
+            strip = sm.right_gray[v - 3:v + 4, u - hi - 4:u - lo + 5].astype(np.float32)
+            assert abs(cv2.matchTemplate(strip, tm, cv2.TM_CCOEFF_NORMED).max() - g) < 1e-4

@@ -45,6 +45,7 @@ from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
 from appliance.localize.radius import radius_at
 from appliance.localize.rectify import ReadBox
+from appliance.localize.steepcheck import withheld_segments
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
@@ -552,6 +553,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     flat = [s for s, a in angle.items() if a < cfg.max_horizontal_deg]
     curves = fit_steep_many(graph, steep, runs_l, runs_r, sm, angle)
     _resolve_shared(curves, graph, runs_l, runs_r, sm, angle)
+    withheld = withheld_segments(curves, sm)    # short pieces whose bark shows another surface (steepcheck.py)
     # tips on the grey image's sub-pixel outline near the ends (measured: the fits above gain depth
     # with it too but lose a little recall and precision; forks gain nothing)
     ends_xy, ends_d = _ends_disparity(graph, curves, sm.d_range_px)
@@ -598,7 +600,11 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
                 b.tip(node)
     # steep pieces still without a curve, matched edge by edge on their own: branches to keep clear of,
     # not trusted for forks and tips (placed above without them)
-    curves.update(edge_consensus(graph, [s for s in steep if s not in curves], curves, runs_l, runs_r, sm))
+    # (the withheld pieces' curves served the forks and tips above, as before: dropped there, ends.py lost
+    # correct forks; they are not reported, nor matched again here)
+    curves = {s: c for s, c in curves.items() if s not in withheld}
+    curves.update(edge_consensus(graph, [s for s in steep if s not in curves and s not in withheld], curves,
+                                 runs_l, runs_r, sm))
 
     h, w = sm.left_mask.shape
     dmin, dmax = sm.d_range_px

@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
-from appliance.localize import kernels
-from appliance.localize.curves import BranchCurve, _solve, linspace, median
+from appliance.localize import kernels, kernels_forks
+from appliance.localize.curves import BranchCurve, Poly, _solve, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -727,29 +727,14 @@ class EndPlacer:
         t_edge, sign = self._walk_out(c, node, whole=True)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
-        lo_u, lo_v = (uv.min(0) - 2).tolist()
-        hi_u, hi_v = (uv.max(0) + 2).tolist()
+        # (the scan of all pieces compiled: kernels_forks.hidden_crossings, the same values)
+        row, pieces, table = self._curve_table()
+        cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)
         best = None
-        for s2, c2 in self.curves.items():
-            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
-                continue
-            # the box's extent along t is the span's own (its first and last samples): a piece
-            # clear of the walk there is skipped before its box is sampled
-            lo, hi = c2.t_range
-            lo_t, hi_t = (lo_v, hi_v) if c2.by_row else (lo_u, hi_u)
-            if min(lo, hi) > hi_t or max(lo, hi) < lo_t:
-                continue
-            u0, v0, u1, v1 = self._box(s2)
-            if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
-                continue
-            ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
-            inside = (ta >= lo - 2) & (ta <= hi + 2)
-            if inside.sum() < 2:
-                continue
-            f = tb - c2.s_at(ta)
-            cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
-            if len(cross) and (best is None or cross[0] < best[0]):
-                best = (int(cross[0]), c2)
+        for j in np.flatnonzero(cross != -1).tolist():
+            k = int(cross[j]) if cross[j] >= 0 else self._hidden_crossing(uv, *pieces[j])
+            if k >= 0 and (best is None or k < best[0]):
+                best = (k, pieces[j][1])
         if best is None:
             return False
         k, c2 = best
@@ -768,6 +753,51 @@ class EndPlacer:
         self.radius[node] = c.radius_px
         self.hidden.discard(int(node))
         return True
+
+    def _curve_table(self) -> tuple[dict, list, tuple]:
+        """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves
+        stay): {piece: row}, the (piece, curve) of each row, and (by_row, t_lo, t_hi, radius, poly,
+        coef, n_coef, dcoef, n_dcoef, t0, ts)."""
+        key = tuple(self.curves.items())
+        hit = getattr(self, "_table_cache", None)       # (made on first use)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        cv = [c for _, c in key]
+        n = len(cv)
+        coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
+        n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        poly = np.zeros(n, bool)
+        t0, ts = np.zeros(n), np.ones(n)
+        for j, c in enumerate(cv):
+            p = c.s_poly
+            if type(p) is Poly and len(p.coef) <= 4:
+                poly[j] = True
+                n_coef[j], n_dcoef[j] = len(p.coef), len(p._deriv.coef)
+                coef[j, :n_coef[j]], dcoef[j, :n_dcoef[j]] = p.coef, p._deriv.coef
+                t0[j], ts[j] = p.t0, p.ts
+        table = (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
+                 np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
+                 poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
+        out = ({s: j for j, (s, _) in enumerate(key)}, key, table)
+        self._table_cache = (key, out)
+        return out
+
+    def _hidden_crossing(self, uv: np.ndarray, s2: int, c2: BranchCurve) -> int:
+        """:func:`kernels_forks.hidden_crossings`' result for one piece ``s2`` whose centre line is not
+        a plain Poly (spliced past an occluder; its span already checked): numpy."""
+        lo_u, lo_v = (uv.min(0) - 2).tolist()
+        hi_u, hi_v = (uv.max(0) + 2).tolist()
+        u0, v0, u1, v1 = self._box(s2)
+        if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
+            return -1
+        lo, hi = c2.t_range
+        ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
+        inside = (ta >= lo - 2) & (ta <= hi + 2)
+        if inside.sum() < 2:
+            return -1
+        f = tb - c2.s_at(ta)
+        cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
+        return int(cross[0]) if len(cross) else -1
 
     def prewalk(self, nodes) -> None:
         """The plain walks (:meth:`_walk_out`: the end's first fitted piece's centre line, followed

@@ -90,12 +90,9 @@ SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two a
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Total-least-squares line through points (N, 2): centroid and unit direction."""
-    c = pts.sum(0) / len(pts)                 # (the mean, bit for bit, without np.mean's checks)
-    q = pts - c
-    sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
-    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)        # the direction of the largest spread
-    return c, np.array([np.cos(a), np.sin(a)])
+    """Total-least-squares line through points (N, 2): centroid and unit direction (the direction of
+    the largest spread; compiled: :func:`kernels_forks.tls_line`)."""
+    return kernels_forks.tls_line(np.ascontiguousarray(pts, float))
 
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:

@@ -109,7 +109,172 @@ def _min_max(a):
     return lo, hi
 
 
+@numba.njit(**_JIT)
+def tls_line(pts):
+    """Total-least-squares line through points ``pts`` (N, 2) (x, y; px): centroid (2,) and unit
+    direction (2,) (``ends._line``, ``forkplace._tls``: the centroid as numpy's row-by-row sum, the
+    second moments summed in order, the direction ``0.5 arctan2(2 sxy, sxx - syy)``; equal up to
+    rounding)."""
+    n = pts.shape[0]
+    cx, cy = 0.0, 0.0
+    for i in range(n):
+        cx += pts[i, 0]
+        cy += pts[i, 1]
+    cx /= n
+    cy /= n
+    sxx, syy, sxy = 0.0, 0.0, 0.0
+    for i in range(n):
+        qx, qy = pts[i, 0] - cx, pts[i, 1] - cy
+        sxx += qx * qx
+        syy += qy * qy
+        sxy += qx * qy
+    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    c, e = np.empty(2), np.empty(2)
+    c[0], c[1] = cx, cy
+    e[0], e[1] = np.cos(a), np.sin(a)
+    return c, e
+
+
+@numba.njit(**_JIT)
+def _median(a):
+    """``np.median`` of a non-empty 1-D array (the same value: the middle order statistics)."""
+    b = np.sort(a)
+    k = len(b) // 2
+    return b[k] if len(b) % 2 else (b[k - 1] + b[k]) / 2
+
+
+@numba.njit(**_JIT)
+def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
+    """:func:`parent_axis`' scans of the cross-sections: per section k (``s`` (K,)), from its sample nearest
+    ``t = 0`` that is on (within ``middle_max_r`` r + 1) outwards to the first off sample each side
+    (``t`` in -half..half, the mask read lazily by :func:`kernels.bilinear_u8`, cv2.remap's values).
+    Returns per section (K, 3): found (1/0), middle t, width (px)."""
+    K = len(s)
+    T = 2 * half + 1
+    out = np.zeros((K, 3))
+    lim = middle_max_r * r + 1.0
+    for k in range(K):
+        bx, by = base[0] + s[k] * e[0], base[1] + s[k] * e[1]
+        vals = np.full(T, -1.0)
+        c = -1
+        for dd in range(half + 1):
+            if dd > lim:
+                break
+            for j in (half - dd, half + dd):
+                if vals[j] < 0:
+                    t = float(j - half)
+                    vals[j] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+                if vals[j] >= 128.0:
+                    c = j
+                    break
+            if c >= 0:
+                break
+        if c < 0:
+            continue
+        a = c - 1
+        while a >= 0:
+            if vals[a] < 0:
+                t = float(a - half)
+                vals[a] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+            if vals[a] < 128.0:
+                break
+            a -= 1
+        b = c + 1
+        while b < T:
+            if vals[b] < 0:
+                t = float(b - half)
+                vals[b] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+            if vals[b] < 128.0:
+                break
+            b += 1
+        if a < 0 or b >= T:                     # the section runs off its window
+            continue
+        va, vb = vals[a], vals[b]
+        lo = (a - half) + (128.0 - va) / max(vals[a + 1] - va, 1e-9)
+        hi = (b - half) - (128.0 - vb) / max(vals[b - 1] - vb, 1e-9)
+        out[k, 0], out[k, 1], out[k, 2] = 1.0, 0.5 * (lo + hi), hi - lo
+    return out
+
+
+@numba.njit(**_JIT)
+def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_r, step_min_px, width_tol,
+                width_tol_px, middle_max_r, same_width, same_width_px, middle_off_px, max_turn_sin):
+    """:func:`forkplace.parent_axis` compiled whole (its arguments, then its module's constants): the
+    parent's axis at a fork from its cross-sections clear of the crotch (:func:`forkplace._sections`'
+    scans). Returns (found, centroid (2,), unit direction (2,)); equal to the numpy steps up to rounding
+    (the sums of the line fits, the trigonometry)."""
+    c0, e0 = np.zeros(2), np.zeros(2)
+    sg = 1.0 if e1[0] * out[0] + e1[1] * out[1] >= 0.0 else -1.0
+    e = np.empty(2)
+    e[0], e[1] = sg * e1[0], sg * e1[1]
+    nrm = np.empty(2)
+    nrm[0], nrm[1] = -e[1], e[0]
+    cos_a = e[0] * out[0] + e[1] * out[1]
+    sin_a = abs(e[0] * out[1] - e[1] * out[0])
+    if sin_a < 0.2:
+        return False, c0, e0
+    r = min(r_behind, r_ahead)
+    step = max(step_r * r, step_min_px)
+    K = n_sections
+    s = np.empty(2 * K)
+    behind = max(0.0, (r_child - r * cos_a) / sin_a)
+    ahead = (r * cos_a + r_child) / sin_a
+    for k in range(K):
+        s[k] = -(behind + 0.5 * r + 3.0 + step * k)
+        s[K + k] = ahead + 0.5 * r + 3.0 + step * k
+    half = int(np.ceil(2.5 * r + 4.0))
+    f = _sections_k(mask, xy, e, nrm, s, r, half, middle_max_r)
+    ok = np.zeros(2 * K, np.bool_)
+    n_ok = 0
+    for k in range(2 * K):
+        ok[k] = f[k, 0] > 0 and abs(f[k, 2] - 2.0 * r) <= width_tol * 2.0 * r + width_tol_px \
+            and abs(f[k, 1]) <= middle_max_r * r + 1.0
+        n_ok += ok[k]
+    if n_ok == 0:
+        return False, c0, e0
+    widths = np.empty(n_ok)
+    j = 0
+    for k in range(2 * K):
+        if ok[k]:
+            widths[j] = f[k, 2]
+            j += 1
+    w = _median(widths)
+    mids = np.empty((n_ok, 2))
+    m = 0
+    for k in range(2 * K):
+        if ok[k] and abs(f[k, 2] - w) <= same_width * w + same_width_px:
+            mids[m, 0] = xy[0] + s[k] * e[0] + f[k, 1] * nrm[0]
+            mids[m, 1] = xy[1] + s[k] * e[1] + f[k, 1] * nrm[1]
+            m += 1
+    if m < 3:
+        return False, c0, e0
+    mids = mids[:m]
+    c, ea = tls_line(mids)
+    n_in, n_off = 0, 0
+    res_ok = np.empty(m, np.bool_)
+    for i in range(m):
+        res = abs((mids[i, 0] - c[0]) * -ea[1] + (mids[i, 1] - c[1]) * ea[0])
+        res_ok[i] = res <= middle_off_px
+        n_in += res_ok[i]
+    if n_in < m and n_in >= 3:                  # (off middles: left out once)
+        keep = np.empty((n_in, 2))
+        j = 0
+        for i in range(m):
+            if res_ok[i]:
+                keep[j, 0], keep[j, 1] = mids[i, 0], mids[i, 1]
+                j += 1
+        c, ea = tls_line(keep)
+    return abs(ea[0] * e[1] - ea[1] * e[0]) <= max_turn_sin, c, ea
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
     hidden_crossings(np.zeros((2, 2)), 0.0, -1, b, f, f, f, b, np.zeros((1, 4)), n, np.zeros((1, 4)), n, f, f + 1)
+    from appliance.localize import forkplace                 # (imports this module)
+    forkplace.parent_axis(np.zeros((4, 4), np.uint8), np.zeros(2), np.array([1.0, 0.0]), np.array([0.0, 1.0]),
+                          1.0, 1.0, 1.0)
+    pts = np.zeros((3, 2))
+    tls_line(pts)
+    pts.setflags(write=False)                                 # (EndPlacer.seg_points' read-only points)
+    tls_line(pts)

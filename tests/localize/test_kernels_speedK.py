@@ -90,3 +90,111 @@ def test_hidden_crossings_is_the_numpy_loop():
         assert set(got[~plain].tolist()) <= {-1, -2}
         n_found += int((want[plain] >= 0).sum())
     assert n_found > 100
+
+
+def _line_numpy(pts):
+    """ends._line's former numpy steps."""
+    c = pts.sum(0) / len(pts)
+    q = pts - c
+    sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
+    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    return c, np.array([np.cos(a), np.sin(a)])
+
+
+def test_tls_line_is_numpys_line_up_to_rounding():
+    """Random point sets (2-300 points, lines with scatter, collinear, isotropic blobs, coordinates up to
+    1300 px): the centroid within 1e-9 px and the direction within 1e-12 (both ways round being one
+    line only when the spread is isotropic: those are left out of the direction check)."""
+    rng = np.random.default_rng(7)
+    for trial in range(2000):
+        n = int(rng.integers(2, 300))
+        a = rng.uniform(0, np.pi)
+        t = rng.uniform(-80, 80, n)
+        pts = rng.uniform(0, 1300, 2) + t[:, None] * np.array([np.cos(a), np.sin(a)])
+        pts += rng.normal(0, [0.0, 0.5, 3.0][trial % 3], (n, 2))
+        if trial % 7 == 0:
+            pts = np.round(pts)                     # (skeleton pixels)
+        c, e = kernels_forks.tls_line(pts)
+        c0, e0 = _line_numpy(pts)
+        np.testing.assert_allclose(c, c0, rtol=0, atol=1e-9)
+        q = pts - c0
+        sxx, syy, sxy = q[:, 0] @ q[:, 0], q[:, 1] @ q[:, 1], q[:, 0] @ q[:, 1]
+        if np.hypot(sxx - syy, 2 * sxy) > 1e-6 * (sxx + syy):
+            np.testing.assert_allclose(e, e0, rtol=0, atol=1e-12)
+
+
+def _parent_axis_numpy(mask, xy, e1, out, r_behind, r_ahead, r_child):
+    """forkplace.parent_axis' former numpy steps around its cross-section scans."""
+    from appliance.localize import forkplace as fp
+    from appliance.localize.curves import median
+    e = e1 if float(np.dot(e1, out)) >= 0.0 else -e1
+    n = np.array([-e[1], e[0]])
+    cos_a = float(np.dot(e, out))
+    sin_a = abs(float(e[0] * out[1] - e[1] * out[0]))
+    if sin_a < 0.2:
+        return None
+    r = min(r_behind, r_ahead)
+    step = max(fp.SECTION_STEP_R * r, fp.SECTION_STEP_MIN_PX)
+    k = step * np.arange(fp.SECTIONS)
+    s = np.concatenate([-(max(0.0, (r_child - r * cos_a) / sin_a) + 0.5 * r + 3.0 + k),
+                        (r * cos_a + r_child) / sin_a + 0.5 * r + 3.0 + k])
+    half = int(np.ceil(2.5 * r + 4.0))
+    f = kernels_forks._sections_k(mask, np.asarray(xy, float), e, n, s, float(r), half, fp.MIDDLE_MAX_R)
+    ok = (f[:, 0] > 0) & (np.abs(f[:, 2] - 2.0 * r) <= fp.WIDTH_TOL * 2.0 * r + fp.WIDTH_TOL_PX) \
+        & (np.abs(f[:, 1]) <= fp.MIDDLE_MAX_R * r + 1.0)
+    f, s = f[ok], s[ok]
+    if len(f):
+        w = float(median(f[:, 2]))
+        keep = np.abs(f[:, 2] - w) <= fp.SAME_WIDTH * w + fp.SAME_WIDTH_PX
+        f, s = f[keep], s[keep]
+    mids = xy + s[:, None] * e + f[:, 1:2] * n
+    if len(mids) < 3:
+        return None
+    c, ea = _line_numpy(mids)
+    res = np.abs((mids - c) @ np.array([-ea[1], ea[0]]))
+    if (res > fp.MIDDLE_OFF_PX).any() and (res <= fp.MIDDLE_OFF_PX).sum() >= 3:
+        c, ea = _line_numpy(mids[res <= fp.MIDDLE_OFF_PX])
+    return (c, ea) if abs(ea[0] * e[1] - ea[1] * e[0]) <= fp.MAX_TURN_SIN else None
+
+
+def test_parent_axis_kernel_is_the_numpy_steps_up_to_rounding():
+    """Forks on random soft and binary Y masks (parent and child radii, angles, the fork placed a few px
+    and degrees off, radii read too large or small, flipped directions, masks with leaves cut out): the
+    same None / axis as the numpy steps, the centroid within 1e-9 px and the direction within 1e-12."""
+    import cv2
+
+    from appliance.localize.forkplace import parent_axis
+    rng = np.random.default_rng(11)
+    n_axis = n_none = 0
+    for trial in range(300):
+        r_par, r_child = rng.uniform(3, 30), rng.uniform(2, 15)
+        f = rng.uniform(120, 280, 2)
+        a_par = rng.uniform(0, np.pi)
+        e_par = np.array([np.cos(a_par), np.sin(a_par)])
+        a_ch = a_par + rng.choice([-1, 1]) * rng.uniform(np.radians(8), np.radians(80))
+        e_ch = np.array([np.cos(a_ch), np.sin(a_ch)])
+        ss = 4
+        big = np.zeros((400 * ss, 400 * ss), np.uint8)
+        px = lambda p: (int(round((p[0] + 0.5) * ss - 0.5)), int(round((p[1] + 0.5) * ss - 0.5)))
+        cv2.line(big, px(f - 300 * e_par), px(f + 300 * e_par), 255, max(1, int(round(2 * r_par * ss))))
+        cv2.line(big, px(f), px(f + 200 * e_ch), 255, max(1, int(round(2 * r_child * ss))))
+        if trial % 4 == 1:                         # a leaf over the parent
+            cv2.circle(big, px(f - rng.uniform(10, 60) * e_par), int(rng.uniform(5, 20) * ss), 0, -1)
+        mask = cv2.resize(big, (400, 400), interpolation=cv2.INTER_AREA)
+        if trial % 2:
+            mask = ((mask >= 128) * 255).astype(np.uint8)
+        turn = rng.normal(0, np.radians(3))
+        e1 = np.cos(turn) * e_par + np.sin(turn) * np.array([-e_par[1], e_par[0]])
+        e1 = e1 if trial % 3 else -e1
+        xy = f + rng.normal(0, 2, 2)
+        r_b, r_a = r_par * rng.uniform(0.7, 1.4), r_par * rng.uniform(0.7, 1.4)
+        want = _parent_axis_numpy(mask, xy, e1, e_ch, r_b, r_a, r_child)
+        got = parent_axis(mask, xy, e1, e_ch, r_b, r_a, r_child)
+        assert (got is None) == (want is None)
+        if want is None:
+            n_none += 1
+            continue
+        n_axis += 1
+        np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(got[1], want[1], rtol=0, atol=1e-12)
+    assert n_axis > 60 and n_none > 20

@@ -527,25 +527,11 @@ class EndPlacer:
         bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
         """
         mask = self.sm.left_mask if mask is None else mask
-        n = np.array([-e1[1], e1[0]])
-        n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
-        sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
-        if sin_t < 0.2:
-            return None
-        cot = np.dot(e2, e1) / np.dot(e2, n)
-        s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
-        step = max(1.5 * r_child, 6.0)
-        pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
-        # the four lines' samples and interval middles compiled (kernels.child_outline_pairs: the
+        # (compiled whole: kernels_forks.child_outline_fork; its scans kernels.child_outline_pairs, the
         # values of _line_samples + _interval_middle, the mask read only where the scans look)
-        hs = np.array([h for pair in pairs for h in pair])
-        reach = (4.7 * r_child + 3) / sin_t + 2            # (as _line_samples)
-        i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
-                                                np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
-        if i < 0:
-            return None
-        h1 = pairs[i][0]
-        return c1 + (m1 - (m2 - m1) * h1 / step) * e1
+        found, xy = kernels_forks.child_outline_fork(np.ascontiguousarray(mask), *(np.ascontiguousarray(v, float) for v in (
+            c1, e1, c2, e2, p0)), float(r_par), float(r_child))
+        return xy if found else None
 
     def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.

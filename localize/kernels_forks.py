@@ -267,6 +267,42 @@ def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_
     return abs(ea[0] * e[1] - ea[1] * e[0]) <= max_turn_sin, c, ea
 
 
+@numba.njit(**_JIT)
+def child_outline_fork(mask, c1, e1, c2, e2, p0, r_par, r_child):
+    """``ends.EndPlacer._fork_from_child_outline`` compiled whole: the fork from the child's outline in
+    ``mask`` (H, W) uint8 where it leaves the parent (axis ``c1`` + t ``e1``; ``p0``: the junction on
+    it; the child's line ``c2``, ``e2``; radii in px). Returns (found, xy (2,)); the scans are
+    :func:`kernels.child_outline_pairs`' (the same values), the products around them equal to numpy's
+    up to rounding."""
+    xy = np.zeros(2)
+    nx, ny = -e1[1], e1[0]
+    side = _sign((c2[0] - p0[0]) * nx + (c2[1] - p0[1]) * ny)
+    if side == 0.0:
+        side = 1.0
+    nx, ny = side * nx, side * ny
+    sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
+    if sin_t < 0.2:
+        return False, xy
+    cot = (e2[0] * e1[0] + e2[1] * e1[1]) / (e2[0] * nx + e2[1] * ny)
+    dx, dy = c2[0] - c1[0], c2[1] - c1[1]
+    s0 = (dx * e1[0] + dy * e1[1]) - (dx * nx + dy * ny) * cot      # the child's line on the parent's
+    step = max(1.5 * r_child, 6.0)
+    hs = np.empty(4)
+    hs[0], hs[1] = r_par + 3.0, r_par + 3.0 + step
+    hs[2], hs[3] = r_par + 3.0 + r_child, r_par + 3.0 + r_child + step
+    bases, s_c = np.empty((4, 2)), np.empty(4)
+    for k in range(4):
+        bases[k, 0], bases[k, 1] = c1[0] + hs[k] * nx, c1[1] + hs[k] * ny
+        s_c[k] = s0 + hs[k] * cot
+    reach = (4.7 * r_child + 3) / sin_t + 2
+    i, m1, m2 = kernels.child_outline_pairs(mask, bases, s_c, e1, reach, r_child, sin_t)
+    if i < 0:
+        return False, xy
+    t = m1 - (m2 - m1) * hs[2 * i] / step
+    xy[0], xy[1] = c1[0] + t * e1[0], c1[1] + t * e1[1]
+    return True, xy
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -274,6 +310,8 @@ def warm_up() -> None:
     from appliance.localize import forkplace                 # (imports this module)
     forkplace.parent_axis(np.zeros((4, 4), np.uint8), np.zeros(2), np.array([1.0, 0.0]), np.array([0.0, 1.0]),
                           1.0, 1.0, 1.0)
+    v = np.array([1.0, 0.0])
+    child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))
     tls_line(pts)
     pts.setflags(write=False)                                 # (EndPlacer.seg_points' read-only points)

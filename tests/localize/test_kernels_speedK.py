@@ -198,3 +198,64 @@ def test_parent_axis_kernel_is_the_numpy_steps_up_to_rounding():
         np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-9)
         np.testing.assert_allclose(got[1], want[1], rtol=0, atol=1e-12)
     assert n_axis > 60 and n_none > 20
+
+
+def _child_outline_numpy(c1, e1, c2, e2, p0, r_par, r_child, mask):
+    """ends.EndPlacer._fork_from_child_outline's former numpy steps around kernels.child_outline_pairs."""
+    from appliance.localize import kernels
+    n = np.array([-e1[1], e1[0]])
+    n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
+    sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
+    if sin_t < 0.2:
+        return None
+    cot = np.dot(e2, e1) / np.dot(e2, n)
+    s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)
+    step = max(1.5 * r_child, 6.0)
+    pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
+    hs = np.array([h for pair in pairs for h in pair])
+    reach = (4.7 * r_child + 3) / sin_t + 2
+    i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
+                                            np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
+    if i < 0:
+        return None
+    return c1 + (m1 - (m2 - m1) * pairs[i][0] / step) * e1
+
+
+def test_child_outline_fork_is_the_numpy_steps_up_to_rounding():
+    """Random Y masks (soft and binary; the parent's line a few px and degrees off, the child's line
+    shifted, children at 8-90 deg, leaves over the child): the same None / fork as the numpy steps
+    around the same scans, within 1e-9 px."""
+    import cv2
+
+    from appliance.localize.ends import EndPlacer
+    rng = np.random.default_rng(3)
+    n_found = n_none = 0
+    for trial in range(300):
+        r_par, r_child = rng.uniform(3, 25), rng.uniform(2, 12)
+        f = rng.uniform(120, 280, 2)
+        a_par = rng.uniform(0, 2 * np.pi)
+        e_par = np.array([np.cos(a_par), np.sin(a_par)])
+        a_ch = a_par + rng.choice([-1, 1]) * rng.uniform(np.radians(8), np.radians(90))
+        e_ch = np.array([np.cos(a_ch), np.sin(a_ch)])
+        mask = np.zeros((400, 400), np.uint8)
+        px = lambda p: (int(round(p[0] * 4)), int(round(p[1] * 4)))
+        cv2.line(mask, px(f - 300 * e_par), px(f + 300 * e_par), 255, max(1, int(round(2 * r_par))), cv2.LINE_AA, 2)
+        cv2.line(mask, px(f), px(f + 200 * e_ch), 255, max(1, int(round(2 * r_child))), cv2.LINE_AA, 2)
+        if trial % 4 == 1:
+            cv2.circle(mask, px(f + rng.uniform(10, 50) * e_ch), int(rng.uniform(3, 12) * 4), 0, -1, cv2.LINE_AA, 2)
+        if trial % 2:
+            mask = ((mask >= 128) * 255).astype(np.uint8)
+        turn = rng.normal(0, np.radians(3))
+        e1 = np.cos(turn) * e_par + np.sin(turn) * np.array([-e_par[1], e_par[0]])
+        c1 = f + rng.normal(0, 2, 2) - 40 * e1
+        c2 = f + rng.uniform(20, 60) * e_ch + rng.normal(0, 1, 2)
+        p0 = c1 + np.dot(f - c1, e1) * e1
+        want = _child_outline_numpy(c1, e1, c2, e_ch, p0, r_par, r_child, mask)
+        got = EndPlacer._fork_from_child_outline(None, c1, e1, c2, e_ch, p0, r_par, r_child, mask)
+        assert (got is None) == (want is None)
+        if want is None:
+            n_none += 1
+            continue
+        n_found += 1
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    assert n_found > 60 and n_none > 20

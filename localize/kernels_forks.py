@@ -303,6 +303,190 @@ def child_outline_fork(mask, c1, e1, c2, e2, p0, r_par, r_child):
     return True, xy
 
 
+@numba.njit(**_JIT)
+def _pairwise_block(a, lo, n):
+    """numpy's pairwise sum of ``a[lo:lo + n]``, n <= 128 (one block: 8 accumulators)."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    m = n - n % 8
+    i = 8
+    while i < m:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(**_JIT)
+def _pairwise(a, lo, n):
+    """numpy's pairwise sum of ``a[lo:lo + n]`` (:func:`kernels._pairwise`'s tree: halves, rounded down to
+    8, above 128; the same value bit for bit), walked with a stack: numba does not link a recursive
+    kernel into a cached one of another module, nor reload it reliably."""
+    seg_lo, seg_n, state = np.empty(64, np.int64), np.empty(64, np.int64), np.empty(64, np.int64)
+    vals = np.empty(64)
+    sp, vp = 1, 0
+    seg_lo[0], seg_n[0], state[0] = lo, n, 0
+    while sp > 0:
+        l0, n0, st = seg_lo[sp - 1], seg_n[sp - 1], state[sp - 1]
+        if n0 <= 128:
+            sp -= 1
+            vals[vp] = _pairwise_block(a, l0, n0)
+            vp += 1
+            continue
+        n2 = n0 // 2
+        n2 -= n2 % 8
+        if st == 0:                             # the first half
+            state[sp - 1] = 1
+            seg_lo[sp], seg_n[sp], state[sp] = l0, n2, 0
+            sp += 1
+        elif st == 1:                           # then the second
+            state[sp - 1] = 2
+            seg_lo[sp], seg_n[sp], state[sp] = l0 + n2, n0 - n2, 0
+            sp += 1
+        else:                                   # their sum
+            sp -= 1
+            vp -= 1
+            vals[vp - 1] = vals[vp - 1] + vals[vp]
+    return vals[0]
+
+
+@numba.njit(**_JIT)
+def _line_fit(x, y):
+    """``forkdisp``'s least-squares line ``y = a x + b`` (closed form; the plain sums numpy's pairwise
+    ones, the products' sums in order): (ok, a, b), not ok when ``x`` has no spread."""
+    n = len(x)
+    sx, sy = _pairwise(x, 0, n), _pairwise(y, 0, n)
+    sxx, sxy = 0.0, 0.0
+    for i in range(n):
+        sxx += x[i] * x[i]
+        sxy += x[i] * y[i]
+    det = n * sxx - sx * sx
+    if det <= 0:
+        return False, 0.0, 0.0
+    a = (n * sxy - sx * sy) / det
+    return True, a, (sy - a * sx) / n
+
+
+@numba.njit(**_JIT)
+def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x1_r, width_r, span_r, centre_r,
+              n_gap, span_rows, sg, end, s_end, slope_s, d_end, slope_d, ratio, t_fork, tol_d_px, width_tol_px,
+              min_rows, k_mad):
+    """:func:`forkdisp.side_disparity_near` compiled from its rows on: the rows ``(i - n_gap) sg + end``
+    (i = 0 .. n_gap + span_rows), the curve carried along its tangent at the span's ``end`` (column
+    ``s_end + slope_s dt``, disparity ``d_end + slope_d dt``, the right view's widths ``ratio`` times
+    the left's), both views' runs (``edges.Runs``' find tables, widths and centres), the robust line
+    through the rows kept (one refit without the residuals beyond ``k_mad`` MADs, as
+    ``forkdisp._robust_line`` was). Returns (found, d at the fork, rows kept, of them in the gap,
+    nearest kept row's distance to the fork (px), scaled MAD, slope); equal to the numpy steps up to
+    the rounding of the line fits' product sums."""
+    fail = (False, 0.0, 0, 0, 0.0, 0.0, 0.0)
+    n = n_gap + span_rows + 1
+    rows = np.empty(n)
+    ri = np.empty(n, np.int64)
+    u, d = np.empty(n), np.empty(n)
+    r_min = np.inf
+    for i in range(n):
+        rows[i] = float(i - n_gap) * sg + end
+        r_min = min(r_min, rows[i])
+        ri[i] = np.int64(rows[i])
+        dt = rows[i] - end
+        u[i] = s_end + slope_s * dt
+        d[i] = d_end + slope_d * dt
+    if r_min < 0 or n < min_rows:
+        return fail
+    il = kernels.runs_find(keys_l, rows_l, x1_l, width_l, ri, u)
+    m = min(n_gap + 20, n) - n_gap
+    ref = np.empty(max(m, 0))
+    n_ref = 0
+    for i in range(n_gap, n_gap + m):
+        if il[i] >= 0:
+            ref[n_ref] = span_l[il[i]]
+            n_ref += 1
+    if n_ref == 0:
+        return fail
+    w_end = _median(ref[:n_ref])
+    k = np.empty(n, np.int64)
+    nk = 0
+    for i in range(n):
+        if il[i] >= 0 and abs(span_l[il[i]] - w_end) <= 0.1 * w_end + 1.5 \
+                and abs(centre_l[il[i]] - u[i]) <= 0.15 * w_end + 1.5:
+            k[nk] = i
+            nk += 1
+    if nk < min_rows:
+        return fail
+    k = k[:nk]
+    c_l, w_l, rq, xq = np.empty(nk), np.empty(nk), np.empty(nk, np.int64), np.empty(nk)
+    for j in range(nk):
+        c_l[j] = centre_l[il[k[j]]]
+        w_l[j] = span_l[il[k[j]]]
+        rq[j] = ri[k[j]]
+        xq[j] = c_l[j] - d[k[j]]
+    ir = kernels.runs_find(keys_r, rows_r, x1_r, width_r, rq, xq)
+    x, y, kk = np.empty(nk), np.empty(nk), np.empty(nk, np.int64)
+    n2 = 0
+    for j in range(nk):
+        j0 = max(ir[j], 0)
+        cd = c_l[j] - centre_r[j0]
+        if ir[j] >= 0 and abs(cd - d[k[j]]) <= tol_d_px and abs(span_r[j0] - ratio * w_l[j]) <= width_tol_px:
+            x[n2] = rows[k[j]] - t_fork
+            y[n2] = cd
+            kk[n2] = k[j]
+            n2 += 1
+    if n2 < min_rows:
+        return fail
+    x, y, kk = x[:n2], y[:n2], kk[:n2]
+    ok, a, b = _line_fit(x, y)
+    if not ok:
+        return fail
+    res = np.empty(n2)
+    for j in range(n2):
+        res[j] = y[j] - (a * x[j] + b)
+    med = _median(res)
+    dev = np.empty(n2)
+    for j in range(n2):
+        dev[j] = abs(res[j] - med)
+    mad = 1.4826 * _median(dev)
+    keep = np.empty(n2, np.bool_)
+    n_keep = 0
+    for j in range(n2):
+        keep[j] = abs(res[j]) <= k_mad * (mad + 1e-3) + 0.05
+        n_keep += keep[j]
+    if n_keep < min_rows:
+        return fail
+    if n_keep < n2:
+        xk, yk = np.empty(n_keep), np.empty(n_keep)
+        j2 = 0
+        for j in range(n2):
+            if keep[j]:
+                xk[j2], yk[j2] = x[j], y[j]
+                j2 += 1
+        ok, a, b = _line_fit(xk, yk)
+        if not ok:
+            return fail
+    n_gap_k = 0
+    nearest = np.inf
+    for j in range(n2):
+        if keep[j]:
+            n_gap_k += kk[j] < n_gap
+            nearest = min(nearest, abs(x[j]))
+    return True, b, n_keep, n_gap_k, nearest, mad, a
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -310,6 +494,12 @@ def warm_up() -> None:
     from appliance.localize import forkplace                 # (imports this module)
     forkplace.parent_axis(np.zeros((4, 4), np.uint8), np.zeros(2), np.array([1.0, 0.0]), np.array([0.0, 1.0]),
                           1.0, 1.0, 1.0)
+    ro_i = np.zeros(2, np.int64)
+    ro_f = np.zeros(2)
+    ro_i.setflags(write=False)                                # (Runs' cached tables are read-only)
+    ro_f.setflags(write=False)
+    side_near(ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_i, ro_i, ro_i, 4, ro_f, ro_f, 1, 1, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0,
+              1.0, 0.0, 2.5, 1.2, 12, 3.5)
     v = np.array([1.0, 0.0])
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))

@@ -259,3 +259,136 @@ def test_child_outline_fork_is_the_numpy_steps_up_to_rounding():
         n_found += 1
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
     assert n_found > 60 and n_none > 20
+
+
+def _side_near_numpy(c, runs_l, runs_r, t_fork, gap_min_px=6.0, span_rows=40, tol_d_px=2.5, width_tol_px=1.2,
+                     min_rows=12, max_gap_px=300):
+    """forkdisp.side_disparity_near's former numpy steps (with its _carried, _robust_line, _line_fit):
+    (d, rows kept, of them in the gap, gap, nearest, MAD, slope) or None."""
+    import math
+
+    from appliance.localize.curves import median
+    if not c.by_row or not math.isfinite(t_fork):
+        return None
+    lo, hi = c.t_range
+    if lo - gap_min_px < t_fork < hi + gap_min_px:
+        return None
+    end, sg = (lo, 1.0) if t_fork < lo else (hi, -1.0)
+    n_gap = int(abs(t_fork - end))
+    if n_gap > max_gap_px:
+        return None
+    rows = np.arange(-n_gap, span_rows + 1, dtype=float)
+    rows *= sg
+    rows += end
+    if rows.min() < 0 or len(rows) < min_rows:
+        return None
+    slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[0 if end == lo else 1]
+    slope_s = c.s_poly.deriv().at(end)
+    dt = rows - end
+    w_ratio = math.hypot(1.0, slope_s - slope_d) / math.hypot(1.0, slope_s)
+    u, d = c.s_poly.at(end) + slope_s * dt, c.d_poly.at(end) + slope_d * dt
+    il = runs_l.find(rows, u)
+    i0 = np.maximum(il, 0)
+    w_l, c_l, found = runs_l.span_px.take(i0), runs_l.centre_px.take(i0), il >= 0
+    ref = found[n_gap:n_gap + 20]
+    if not ref.any():
+        return None
+    w_end = float(median(w_l[n_gap:n_gap + 20][ref]))
+    ok = found & (np.abs(w_l - w_end) <= 0.1 * w_end + 1.5)
+    ok &= np.abs(c_l - u) <= 0.15 * w_end + 1.5
+    k = np.flatnonzero(ok)
+    if len(k) < min_rows:
+        return None
+    c_l, d, w_l = c_l.take(k), d.take(k), w_l.take(k)
+    ir = runs_r.find(rows.take(k), c_l - d)
+    j0 = np.maximum(ir, 0)
+    cd = c_l - runs_r.centre_px.take(j0)
+    ok = (ir >= 0) & (np.abs(cd - d) <= tol_d_px)
+    ok &= np.abs(runs_r.span_px.take(j0) - w_ratio * w_l) <= width_tol_px
+    k2 = np.flatnonzero(ok)
+    if len(k2) < min_rows:
+        return None
+    k, cd = k.take(k2), cd.take(k2)
+    x, y = rows.take(k) - t_fork, cd
+
+    def line_fit(x, y):
+        n = len(x)
+        sx, sy = float(x.sum()), float(y.sum())
+        det = n * float(x @ x) - sx * sx
+        if det <= 0:
+            return None
+        a = (n * float(x @ y) - sx * sy) / det
+        return a, (sy - a * sx) / n
+    ab = line_fit(x, y)
+    if ab is None:
+        return None
+    res = y - (ab[0] * x + ab[1])
+    mad = 1.4826 * float(median(np.abs(res - median(res))))
+    keep = np.abs(res) <= 3.5 * (mad + 1e-3) + 0.05
+    if int(np.count_nonzero(keep)) < min_rows:
+        return None
+    if np.count_nonzero(keep) < len(x):
+        ab = line_fit(x[keep], y[keep])
+        if ab is None:
+            return None
+    n_gap_k = int(np.count_nonzero(keep & (k < n_gap)))
+    if n_gap_k == 0 and hi - lo < 2 * span_rows:
+        return None
+    return ab[1], int(np.count_nonzero(keep)), n_gap_k, n_gap, float(np.abs(x[keep]).min()), mad, ab[0]
+
+
+def test_side_near_kernel_is_the_numpy_steps_up_to_rounding():
+    """Steep parents (soft masks, the right view moved by a disparity leaning along the rows, a child
+    widening rows near the fork, ragged edges, a leaf cutting rows) read at random fork rows either side
+    of random spans: the same None / values as the numpy steps (rows counted alike; disparity and slope
+    within 1e-9 px, the MAD within 1e-9)."""
+    from appliance.localize.edges import find_runs
+    from appliance.localize.forkdisp import side_disparity_near
+    rng = np.random.default_rng(13)
+    h, w = 400, 320
+    n_found = n_none = 0
+    for trial in range(60):
+        a_u, b_u = rng.uniform(100, 200), rng.uniform(-0.6, 0.6)
+        a_d, b_d = rng.uniform(20, 60), rng.uniform(-0.03, 0.03)
+        half, fork_row, child = rng.uniform(4, 14), rng.uniform(60, 340), rng.uniform(0, 10)
+        v = np.arange(h, dtype=float)[:, None]
+        u = np.arange(w, dtype=float)[None, :]
+        masks = []
+        for view in (0, 1):
+            c = a_u + b_u * v - view * (a_d + b_d * v) + rng.normal(0, 0.3 * (trial % 3), (h, 1))
+            lo_e = c - half - np.where(np.abs(v - fork_row) <= 15, child, 0.0)
+            cov = np.clip(np.minimum(u - lo_e, c + half - u) + 0.5, 0.0, 1.0)
+            m = np.rint(255 * cov).astype(np.uint8)
+            if trial % 4 == 3:
+                r0 = int(rng.uniform(0, h - 20))
+                m[r0:r0 + int(rng.uniform(3, 20))] = 0
+            masks.append(m)
+        runs_l, runs_r = find_runs(masks[0], soft=True), find_runs(masks[1], soft=True)
+        for _ in range(8):
+            lo = float(rng.integers(0, 300))
+            hi = lo + float(rng.integers(10, 200))
+            t = np.arange(lo, hi + 1)
+            err = rng.normal(0, 0.01)
+            cv = BranchCurve(0, True, (lo, min(hi, 399.0)), Poly.fit(t, a_u + b_u * t, 1),
+                             Poly.fit(t, a_d + b_d * t + err * (t - t.mean()), 1), half, len(t))
+            t_fork = float(rng.uniform(0, 399))
+            want = _side_near_numpy(cv, runs_l, runs_r, t_fork)
+            got = side_disparity_near(cv, runs_l, runs_r, t_fork)
+            assert (got is None) == (want is None)
+            if want is None:
+                n_none += 1
+                continue
+            n_found += 1
+            assert (got.n_rows, got.n_gap_rows, got.gap_px) == want[1:4]
+            assert got.nearest_px == want[4]
+            np.testing.assert_allclose([got.d_px, got.mad_px, got.slope], [want[0], want[5], want[6]], rtol=0,
+                                       atol=1e-9)
+    assert n_found > 50 and n_none > 50
+
+
+def test_pairwise_is_numpys_sum_bit_for_bit():
+    """kernels_forks._pairwise (the line fits' plain sums) against ndarray.sum on 1-400 random values."""
+    rng = np.random.default_rng(17)
+    for n in [*range(1, 400), 1000, 4097]:
+        a = rng.normal(0, 100, n)
+        assert kernels_forks._pairwise(a, 0, n) == a.sum()

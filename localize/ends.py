@@ -394,9 +394,9 @@ class EndPlacer:
                                          float(((near[child] - xy) @ out).min()), d, rad[child],
                                          self.sm.f_px, self.sm.offset_px)
         if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
-            pts = self.seg_points(child)
-            dist = np.hypot(*(pts - p).T)
-            agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
+            # (compiled: kernels.near_points, the same selection as np.hypot's)
+            pts = kernels.near_points(self.seg_points(child), float(p[0]), float(p[1]), 1.2 * r, 1.2 * r + 60)[0]
+            agree = self._runs_agree(pts, d, rad[child])
         if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
             sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
             agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
@@ -654,31 +654,12 @@ class EndPlacer:
         least ``min_rows`` and 60 % of the rows with any (rows merged with the parent in the
         right view have none). A piece within ~17 deg of the rows: False.
         """
-        if len(pts) < 2:
-            return False
-        c, e = _line(pts)
-        sin_t = abs(e[1])
-        v = np.arange(np.ceil(pts[:, 1].min()), np.floor(pts[:, 1].max()) + 1)
-        if len(v) < min_rows or sin_t < 0.3:
-            return False
-        rows = v.astype(int)
-        il = self.runs_l.find(rows, c[0] + (v - c[1]) * e[0] / e[1])
-        keep = il >= 0
-        w_l = self.runs_l.span_px[np.maximum(il, 0)]
-        keep &= w_l <= 2.4 * r / sin_t + 3
-        rows, il, w_l = rows[keep], il[keep], w_l[keep]
-        if len(rows) < min_rows:
-            return False
-        c_l = self.runs_l.centre_px[il]
+        # (compiled whole: kernels_forks.runs_agree, the same steps)
+        rl, rr = self.runs_l, self.runs_r
         dmin, dmax = self.sm.d_range_px
-        q, rr = self.runs_r.between(rows, c_l - dmax, c_l - dmin)
-        similar = np.abs(self.runs_r.span_px[rr] - w_l[q]) <= 0.15 * w_l[q] + 1.5
-        q, rr = q[similar], rr[similar]
-        near_d = np.abs(c_l[q] - self.runs_r.centre_px[rr] - d) <= max(1.0, 0.006 * abs(d))
-        qd = q[near_d]                                   # (ascending: distinct rows where they change)
-        n_cand = int(np.count_nonzero(q[1:] != q[:-1])) + 1 if len(q) else 0
-        n_ok = int(np.count_nonzero(qd[1:] != qd[:-1])) + 1 if len(qd) else 0
-        return n_ok >= min_rows and n_ok >= 0.6 * n_cand
+        return kernels_forks.runs_agree(np.ascontiguousarray(pts, float), float(d), float(r), int(min_rows),
+                                        *rl._find_tables, rl.width, rl.span_px, rl.centre_px, rr._centre_keys,
+                                        rr.width, rr.span_px, rr.centre_px, float(dmin), float(dmax))
 
     def _box(self, s: int) -> tuple[float, float, float, float]:
         """Bounding box (u0, v0, u1, v1) of a fitted piece's centre line (cached)."""

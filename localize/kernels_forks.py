@@ -487,6 +487,64 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     return True, b, n_keep, n_gap_k, nearest, mad, a
 
 
+@numba.njit(**_JIT)
+def runs_agree(pts, d, r, min_rows, keys_l, rows_l, x1_l, width_l, span_l, centre_l, ckeys_r, width_r, span_r,
+               centre_r, d_min, d_max):
+    """``ends.EndPlacer._runs_agree`` compiled whole: whether a piece's own row crossings at points ``pts``
+    (N, 2) have disparity ``d`` (px). The rows of the points' line (:func:`tls_line`), the left crossing
+    on each (``kernels.runs_find``; not wider than a piece of radius ``r`` across the row), the right
+    crossings of a similar width in the working range ``d_min``..``d_max`` (``kernels.runs_between`` on
+    the right runs' centre keys); rows where one lies within 1 px or 0.6 % of ``d`` must be at least
+    ``min_rows`` and 60 % of the rows with any. The same steps as numpy (the line up to rounding)."""
+    if len(pts) < 2:
+        return False
+    c, e = tls_line(pts)
+    sin_t = abs(e[1])
+    y_lo, y_hi = np.inf, -np.inf
+    for i in range(len(pts)):
+        y_lo = min(y_lo, pts[i, 1])
+        y_hi = max(y_hi, pts[i, 1])
+    v0, v1 = np.ceil(y_lo), np.floor(y_hi)
+    nv = max(int(np.ceil(v1 + 1 - v0)), 0)            # (len(np.arange(v0, v1 + 1)))
+    if nv < min_rows or sin_t < 0.3:
+        return False
+    rows = np.empty(nv, np.int64)
+    x = np.empty(nv)
+    for i in range(nv):
+        v = v0 + i
+        rows[i] = np.int64(v)
+        x[i] = c[0] + (v - c[1]) * e[0] / e[1]
+    il = kernels.runs_find(keys_l, rows_l, x1_l, width_l, rows, x)
+    w_max = 2.4 * r / sin_t + 3
+    n = 0
+    for i in range(nv):
+        if il[i] >= 0 and span_l[il[i]] <= w_max:
+            rows[n], il[n] = rows[i], il[i]
+            n += 1
+    if n < min_rows:
+        return False
+    rows, il = rows[:n], il[:n]
+    c_l, w_l, lo, hi = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        c_l[i], w_l[i] = centre_l[il[i]], span_l[il[i]]
+        lo[i], hi[i] = c_l[i] - d_max, c_l[i] - d_min
+    q, rr = kernels.runs_between(ckeys_r, rows, width_r, lo, hi)
+    tol = max(1.0, 0.006 * abs(d))
+    n_cand = n_ok = 0
+    last_c = last_ok = -1
+    for j in range(len(q)):                     # (q ascending: distinct rows where it changes)
+        k = q[j]
+        if abs(span_r[rr[j]] - w_l[k]) > 0.15 * w_l[k] + 1.5:
+            continue
+        if k != last_c:
+            n_cand += 1
+            last_c = k
+        if abs(c_l[k] - centre_r[rr[j]] - d) <= tol and k != last_ok:
+            n_ok += 1
+            last_ok = k
+    return n_ok >= min_rows and n_ok >= 0.6 * n_cand
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -500,6 +558,7 @@ def warm_up() -> None:
     ro_f.setflags(write=False)
     side_near(ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_i, ro_i, ro_i, 4, ro_f, ro_f, 1, 1, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0,
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
+    runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))

@@ -392,3 +392,75 @@ def test_pairwise_is_numpys_sum_bit_for_bit():
     for n in [*range(1, 400), 1000, 4097]:
         a = rng.normal(0, 100, n)
         assert kernels_forks._pairwise(a, 0, n) == a.sum()
+
+
+def _runs_agree_numpy(runs_l, runs_r, d_range, pts, d, r, min_rows=3):
+    """ends.EndPlacer._runs_agree's former numpy steps."""
+    if len(pts) < 2:
+        return False
+    c, e = _line_numpy(pts)
+    sin_t = abs(e[1])
+    v = np.arange(np.ceil(pts[:, 1].min()), np.floor(pts[:, 1].max()) + 1)
+    if len(v) < min_rows or sin_t < 0.3:
+        return False
+    rows = v.astype(int)
+    il = runs_l.find(rows, c[0] + (v - c[1]) * e[0] / e[1])
+    keep = il >= 0
+    w_l = runs_l.span_px[np.maximum(il, 0)]
+    keep &= w_l <= 2.4 * r / sin_t + 3
+    rows, il, w_l = rows[keep], il[keep], w_l[keep]
+    if len(rows) < min_rows:
+        return False
+    c_l = runs_l.centre_px[il]
+    dmin, dmax = d_range
+    q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
+    similar = np.abs(runs_r.span_px[rr] - w_l[q]) <= 0.15 * w_l[q] + 1.5
+    q, rr = q[similar], rr[similar]
+    near_d = np.abs(c_l[q] - runs_r.centre_px[rr] - d) <= max(1.0, 0.006 * abs(d))
+    qd = q[near_d]
+    n_cand = int(np.count_nonzero(q[1:] != q[:-1])) + 1 if len(q) else 0
+    n_ok = int(np.count_nonzero(qd[1:] != qd[:-1])) + 1 if len(qd) else 0
+    return n_ok >= min_rows and n_ok >= 0.6 * n_cand
+
+
+def test_runs_agree_kernel_is_the_numpy_steps():
+    """Pieces of random slope and width in both views (the right one moved by a disparity leaning along
+    the rows, ragged, some rows cut, a second branch in the right view), asked at points along them
+    (2-80 points, near-flat ones too) at disparities near and off theirs: the same answers as numpy."""
+    from types import SimpleNamespace
+
+    from appliance.localize.edges import find_runs
+    from appliance.localize.ends import EndPlacer
+    rng = np.random.default_rng(19)
+    h, w = 300, 400
+    n_true = n_false = 0
+    for trial in range(40):
+        a_u, b_u = rng.uniform(120, 280), rng.choice([rng.uniform(-0.8, 0.8), rng.uniform(-4, 4)])
+        a_d, b_d = rng.uniform(20, 60), rng.uniform(-0.03, 0.03)
+        half = rng.uniform(2, 10)
+        v = np.arange(h, dtype=float)[:, None]
+        u = np.arange(w, dtype=float)[None, :]
+        masks = []
+        for view in (0, 1):
+            c = a_u + b_u * (v - 150) - view * (a_d + b_d * v) + rng.normal(0, 0.4 * (trial % 3), (h, 1))
+            cov = np.clip(np.minimum(u - (c - half), c + half - u) + 0.5, 0.0, 1.0)
+            if view and trial % 3 == 2:          # another branch nearby in the right view
+                c2 = c + rng.uniform(-30, 30)
+                cov = np.maximum(cov, np.clip(np.minimum(u - (c2 - half), c2 + half - u) + 0.5, 0.0, 1.0))
+            m = np.rint(255 * cov).astype(np.uint8)
+            if trial % 4 == 3:
+                m[int(rng.uniform(0, h - 30)):][:int(rng.uniform(3, 30))] = 0
+            masks.append(m)
+        placer = SimpleNamespace(runs_l=find_runs(masks[0], soft=True), runs_r=find_runs(masks[1], soft=True),
+                                 sm=SimpleNamespace(d_range_px=(10.0, 80.0)))
+        for _ in range(10):
+            n = int(rng.integers(2, 80))
+            t = rng.uniform(0, h - 1) + np.sort(rng.uniform(0, rng.uniform(1, 120), n))
+            pts = np.column_stack([a_u + b_u * (t - 150), t]) + rng.normal(0, 0.5, (n, 2))
+            d = a_d + b_d * float(t.mean()) + rng.choice([0.0, rng.normal(0, 1.5), 10.0])
+            r = half * rng.uniform(0.7, 1.3)
+            want = _runs_agree_numpy(placer.runs_l, placer.runs_r, (10.0, 80.0), pts, d, r)
+            assert EndPlacer._runs_agree(placer, pts, d, r) == want
+            n_true += want
+            n_false += not want
+    assert n_true > 60 and n_false > 60

@@ -15,10 +15,9 @@ import math
 
 import cv2
 import numpy as np
-from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
 from appliance.localize import kernels, kernels_forks
-from appliance.localize.curves import BranchCurve, Poly, _solve, linspace, median
+from appliance.localize.curves import BranchCurve, Poly, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -26,7 +25,7 @@ from appliance.localize.forkplace import parent_axis
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, VIEW_EDGE_PX, at_view_edge, cap_centre,
                                      cap_shapes_offsets, occluder_confirmed, reads_round, silhouette_offset_px,
@@ -97,12 +96,12 @@ def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     """Intersection of the lines c1 + t e1 and c2 + s e2; None when (nearly) parallel."""
-    a = np.array([[e1[0], -e2[0]], [e1[1], -e2[1]]])      # (np.column_stack's array)
-    # (np.linalg.det's and .solve's LAPACK gufuncs called directly: the same values, ~15 us less)
-    if abs(_umath_linalg.det(a, signature="d->d")) < 0.05:
+    e1x, e1y, e2x, e2y = float(e1[0]), float(e1[1]), float(e2[0]), float(e2[1])
+    det = e2x * e1y - e1x * e2y           # (the 2 x 2 system [e1, -e2] t = c2 - c1 by Cramer's rule: as
+    if abs(det) < 0.05:                    # LAPACK's det and solve up to rounding)
         return None
-    t = _solve(a, c2 - c1)
-    return c1 + t[0] * e1
+    bx, by = float(c2[0] - c1[0]), float(c2[1] - c1[1])
+    return c1 + ((e2x * by - bx * e2y) / det) * e1
 
 
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
@@ -208,7 +207,13 @@ class EndPlacer:
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:
         c = self.curves.get(s)
-        return c.radius_px if c is not None else float(median(radius_at(self.sm.radius_map, pts)))
+        if c is not None:
+            return c.radius_px
+        rm = self.sm.radius_map           # (compiled: the median of radius_at's values, kernels_forks.radius_median)
+        if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32:
+            return float(kernels_forks.radius_median(np.ascontiguousarray(rm.image), int(rm.scale),
+                                                     np.ascontiguousarray(pts, float)))
+        return float(median(radius_at(rm, pts)))
 
     def fork(self, node: int, final: bool = False, needed: bool = True) -> None:
         """A fork: where the child's centre line meets the parent's, with the parent's disparity.
@@ -230,18 +235,15 @@ class EndPlacer:
             return
         p = self.node_xy[node]
         r = self._node_radius(node)
-        near, rad = {}, {}
+        near, rad, dirs = {}, {}, {}
         for s in segs:                  # (cached: both fork rounds ask)
             c = self.curves.get(s)
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
                 pts = self._near_points(s, p, r)
-                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts))
-            near[s], rad[s] = hit[1], hit[2]
-        dirs = {}
-        for s, pts in near.items():
-            v = pts.sum(0) / len(pts) - p
-            dirs[s] = v / max(np.hypot(*v), 1e-9)
+                v = pts.sum(0) / len(pts) - p           # (the piece's direction from the junction)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), v / max(np.hypot(*v), 1e-9))
+            near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]
         if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):

@@ -545,6 +545,23 @@ def runs_agree(pts, d, r, min_rows, keys_l, rows_l, x1_l, width_l, span_l, centr
     return n_ok >= min_rows and n_ok >= 0.6 * n_cand
 
 
+@numba.njit(**_JIT)
+def radius_median(img, scale, pts):
+    """The median (``np.median``'s value; NaN for no points) of ``radius.radius_at``: the radius map
+    ``img`` (H, W) (map pixels ``scale`` full-resolution px wide) at its pixels nearest the
+    full-resolution points ``pts`` (N, 2) (x, y), clipped to the map."""
+    n = len(pts)
+    if n == 0:
+        return np.nan
+    h, w = img.shape
+    vals = np.empty(n)
+    for i in range(n):
+        x = min(max(np.int64(np.rint((pts[i, 0] + 0.5) / scale - 0.5)), 0), w - 1)
+        y = min(max(np.int64(np.rint((pts[i, 1] + 0.5) / scale - 0.5)), 0), h - 1)
+        vals[i] = img[y, x]
+    return _median(vals)
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -563,5 +580,7 @@ def warm_up() -> None:
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))
     tls_line(pts)
+    radius_median(np.zeros((2, 2), np.float32), 1, pts)
     pts.setflags(write=False)                                 # (EndPlacer.seg_points' read-only points)
     tls_line(pts)
+    radius_median(np.zeros((2, 2), np.float32), 1, pts)

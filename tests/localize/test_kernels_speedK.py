@@ -464,3 +464,40 @@ def test_runs_agree_kernel_is_the_numpy_steps():
             n_true += want
             n_false += not want
     assert n_true > 60 and n_false > 60
+
+
+def test_radius_median_is_radius_ats_median():
+    """Random float32 radius maps (scales 1-3) read at random points (on and off the map, on pixel
+    boundaries): the same median as radius.radius_at + curves.median, bit for bit."""
+    from appliance.localize.curves import median
+    from appliance.localize.radius import RadiusMap, radius_at
+    rng = np.random.default_rng(23)
+    for trial in range(300):
+        scale = int(rng.integers(1, 4))
+        img = rng.uniform(0, 20, (int(rng.integers(1, 30)), int(rng.integers(1, 30)))).astype(np.float32)
+        n = int(rng.integers(0, 40))
+        pts = rng.uniform(-5, 35 * scale, (n, 2))
+        if trial % 3 == 0:
+            pts = np.round(pts * 2) / 2
+        want = median(radius_at(RadiusMap(img, scale), pts))
+        got = kernels_forks.radius_median(img, scale, pts)
+        assert (np.isnan(got) and np.isnan(want)) or got == want
+
+
+def test_intersect_is_lapacks_up_to_rounding():
+    """ends._intersect (Cramer's rule) against numpy's det and solve: the same None, the point within 1e-9 px."""
+    from appliance.localize.ends import _intersect
+    rng = np.random.default_rng(29)
+    for _ in range(2000):
+        c1, c2 = rng.uniform(0, 1000, 2), rng.uniform(0, 1000, 2)
+        a1, a2 = rng.uniform(0, 2 * np.pi, 2)
+        if rng.random() < 0.3:
+            a2 = a1 + rng.normal(0, 0.05)
+        e1, e2 = np.array([np.cos(a1), np.sin(a1)]), np.array([np.cos(a2), np.sin(a2)])
+        a = np.column_stack([e1, -e2])
+        got = _intersect(c1, e1, c2, e2)
+        if abs(np.linalg.det(a)) < 0.05:
+            assert got is None
+            continue
+        want = c1 + np.linalg.solve(a, c2 - c1)[0] * e1
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * max(1.0, np.abs(want).max() / 1000))

@@ -562,6 +562,36 @@ def radius_median(img, scale, pts):
     return _median(vals)
 
 
+@numba.njit(**_JIT)
+def passes_through(mask, c, e, s_far_px, r_child_px, reach_px):
+    """:func:`forkchild.passes_through` compiled whole: along ``c - s e`` (``c``, ``e`` (2,)) for ``s`` in
+    ``s_far_px`` .. ``s_far_px + reach_px`` (1 px apart, ``np.arange``'s values), a sample is the
+    branch's where ``mask`` (bilinear, :func:`kernels.bilinear_u8`: cv2.remap's values at the float32
+    points) covers the line (>= 128) and leaves both sides ``1.5 r + 2`` px off it clear; whether
+    ``max(6, ceil(1.5 r))`` such samples come in a row. Reads each sample's sides only where the line is
+    covered, and stops at the first such run (the same answer)."""
+    n = int(np.ceil(((s_far_px + reach_px) - s_far_px) / 1.0))
+    need = max(6, int(np.ceil(1.5 * r_child_px)))
+    if n < need:
+        return False
+    k = 1.5 * r_child_px + 2.0
+    ox, oy = k * -e[1], k * e[0]
+    run = 0
+    delta = (s_far_px + 1.0) - s_far_px           # (np.arange's fill: start, start + step, start + i delta)
+    for i in range(n):
+        s = s_far_px if i == 0 else s_far_px + 1.0 if i == 1 else s_far_px + i * delta
+        x, y = c[0] - s * e[0], c[1] - s * e[1]
+        if kernels.bilinear_u8(mask, np.float32(x), np.float32(y)) >= 128 \
+                and kernels.bilinear_u8(mask, np.float32(x + ox), np.float32(y + oy)) < 128 \
+                and kernels.bilinear_u8(mask, np.float32(x - ox), np.float32(y - oy)) < 128:
+            run += 1
+            if run >= need:
+                return True
+        else:
+            run = 0
+    return False
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -577,6 +607,7 @@ def warm_up() -> None:
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
+    passes_through(np.zeros((4, 4), np.uint8), v, v, 1.0, 1.0, 80.0)
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))
     tls_line(pts)

@@ -890,14 +890,22 @@ class EndPlacer:
         keys = [(offset_px, False), (-offset_px, False)]
         if not offset_px or any(k in done for k in keys):
             return self._walk_out(c, node, offset_px)[0], self._walk_out(c, node, -offset_px)[0]
-        if normal is None:
+        p = c.s_poly
+        if normal is None and type(p) is not Poly:
             ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))      # (as _walk_out)
             step = ab[:len(t)] - ab[len(t):]
             step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
             normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
-        n = len(t)
-        idx, crosses = walk_edges(self.sm.left_mask, np.concatenate([uv + offset_px * normal, uv + -offset_px * normal]),
-                                  np.array([0, n, 2 * n]))
+        # (compiled: the normals, both walks' points and their walk_edges, kernels_forks.side_walks)
+        plain, lo, hi, unused = type(p) is Poly, *c.t_range, np.zeros(1)
+        idx, crosses, nrm = kernels_forks.side_walks(
+            np.ascontiguousarray(self.sm.left_mask), np.ascontiguousarray(t, float), np.ascontiguousarray(uv, float),
+            np.zeros((1, 2)) if normal is None else np.ascontiguousarray(normal, float), normal is not None,
+            bool(c.by_row), np.ascontiguousarray(p.coef, float) if plain else unused,
+            np.ascontiguousarray(p._deriv.coef, float) if plain else unused, float(p.t0) if plain else 0.0,
+            float(p.ts) if plain else 1.0, float(lo), float(hi), float(offset_px))
+        if normal is None:
+            hit[4] = nrm
         out = []
         for i, k in enumerate(keys):
             done[k] = (self._walk_t(t, sign, idx[i], crosses[i]), sign)

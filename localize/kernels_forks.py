@@ -592,6 +592,45 @@ def passes_through(mask, c, e, s_far_px, r_child_px, reach_px):
     return False
 
 
+@numba.njit(**_JIT)
+def side_walks(mask, t, uv, normal, have_normal, by_row, coef, dcoef, t0, ts, lo, hi, offset_px):
+    """``ends.EndPlacer._walk_sides``' two walks compiled: the walk's points ``uv`` (N, 2) at parameters
+    ``t`` (N,) moved ``offset_px`` and ``-offset_px`` along the unit normals (N, 2) (``normal`` where
+    ``have_normal``, else made as ``_walk_out`` makes them: the centre line (a :class:`curves.Poly` of
+    coefficients ``coef``, derivative's ``dcoef``, scaling ``t0``, ``ts``, span ``lo``..``hi``; ``by_row``)
+    half a unit of t either side, their difference normalised, turned a quarter), each read by
+    :func:`kernels.walk_edges` on ``mask``. Returns (index (2,), crosses (2,), the normals (N, 2)): the
+    same values as the numpy steps."""
+    n = len(t)
+    if not have_normal:
+        tt = np.empty(2 * n)
+        for i in range(n):
+            tt[i] = t[i] + 0.5
+            tt[n + i] = t[i] - 0.5
+        sv = kernels.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, tt)
+        normal = np.empty((n, 2))
+        for i in range(n):
+            if by_row:
+                sx, sy = sv[i] - sv[n + i], tt[i] - tt[n + i]
+            else:
+                sx, sy = tt[i] - tt[n + i], sv[i] - sv[n + i]
+            norm = max(np.hypot(sx, sy), 1e-9)
+            sx /= norm
+            sy /= norm
+            normal[i, 0], normal[i, 1] = -sy, sx
+    pts = np.empty((2 * n, 2))
+    neg = -offset_px
+    for i in range(n):
+        pts[i, 0] = uv[i, 0] + offset_px * normal[i, 0]
+        pts[i, 1] = uv[i, 1] + offset_px * normal[i, 1]
+        pts[n + i, 0] = uv[i, 0] + neg * normal[i, 0]
+        pts[n + i, 1] = uv[i, 1] + neg * normal[i, 1]
+    bounds = np.empty(3, np.int64)
+    bounds[0], bounds[1], bounds[2] = 0, n, 2 * n
+    idx, crosses = kernels.walk_edges(mask, pts, bounds)
+    return idx, crosses, normal
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -607,6 +646,9 @@ def warm_up() -> None:
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
+    for have in (False, True):
+        side_walks(np.zeros((4, 4), np.uint8), f, np.zeros((1, 2)), np.zeros((1, 2)), have, True, f, f, 0.0, 1.0,
+                   0.0, 1.0, 1.0)
     passes_through(np.zeros((4, 4), np.uint8), v, v, 1.0, 1.0, 80.0)
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))

@@ -548,3 +548,39 @@ def test_passes_through_kernel_is_the_remap_steps():
         n_true += want
         n_false += not want
     assert n_true > 60 and n_false > 60
+
+
+def test_side_walks_is_the_numpy_steps_bit_for_bit():
+    """Walks out of random curves' ends (steep and flat, degrees 0-3, inside and beyond the span) over
+    soft discs: the same normals as _walk_out's numpy steps and the same walk_edges results, bit for bit
+    (with the normals made by the kernel and given to it)."""
+    import cv2
+
+    from appliance.localize.ends import walk_edges
+    rng = np.random.default_rng(37)
+    n_cross = 0
+    for trial in range(200):
+        deg = int(rng.integers(0, 4))
+        p = Poly(rng.normal(0, 0.3, deg + 1) + np.r_[np.zeros(deg), rng.uniform(60, 140)], float(rng.uniform(50, 150)),
+                 float(rng.uniform(5, 60)))
+        lo = float(rng.uniform(40, 120))
+        c = BranchCurve(0, bool(trial % 2), (lo, lo + float(rng.uniform(0, 60))), p, Poly.constant(20.0), 5.0, 10)
+        start = c.t_range[1] if trial % 3 else c.t_range[0]
+        t = start + rng.choice([-1.0, 1.0]) * np.arange(0, rng.uniform(5, 40), 0.25)
+        uv = c.uv_at(t)
+        mask = np.zeros((200, 200), np.uint8)
+        ctr = uv[int(rng.integers(len(uv)))]
+        cv2.circle(mask, (int(ctr[0] * 4), int(ctr[1] * 4)), int(rng.uniform(3, 30) * 4), 255, -1, cv2.LINE_AA, 2)
+        off = float(rng.uniform(0.5, 6))
+        ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))
+        step = ab[:len(t)] - ab[len(t):]
+        step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
+        normal = np.column_stack([-step[:, 1], step[:, 0]])
+        n = len(t)
+        want = walk_edges(mask, np.concatenate([uv + off * normal, uv + -off * normal]), np.array([0, n, 2 * n]))
+        for have in (False, True):
+            idx, crosses, nrm = kernels_forks.side_walks(mask, t, uv, normal if have else np.zeros((1, 2)), have,
+                                                         c.by_row, p.coef, p._deriv.coef, p.t0, p.ts, *c.t_range, off)
+            assert np.array_equal(nrm, normal) and np.array_equal(idx, want[0]) and np.array_equal(crosses, want[1])
+        n_cross += int(want[1].sum())
+    assert n_cross > 60

@@ -812,15 +812,9 @@ class EndPlacer:
     def _walk_whole(cls, mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:func:`walk_edges`' results read at the nearest whole pixels: each walk's last sample on
         the mask (index), never a crossing (the walk's edge is then that sample + 0.5)."""
-        on = cls._on_mask(uv, mask)
-        starts, ends = bounds[:-1], bounds[1:]
-        off = np.flatnonzero(~on)
-        if len(off):
-            j = np.searchsorted(off, starts)
-            first_off = np.minimum(np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends), ends)
-        else:
-            first_off = ends.copy()
-        return np.maximum(first_off - 1 - starts, 0), np.zeros(len(starts), bool)
+        # (compiled: kernels_forks.walk_whole, the same indices as _on_mask's pixels)
+        return (kernels_forks.walk_whole(np.ascontiguousarray(mask), np.ascontiguousarray(uv, float),
+                                         np.ascontiguousarray(bounds, np.int64)), np.zeros(len(bounds) - 1, bool))
 
     @staticmethod
     def _walk_t(t: np.ndarray, sign: float, idx: float, crosses: bool) -> float:
@@ -828,22 +822,6 @@ class EndPlacer:
         if crosses:
             return float(t[0] + sign * 0.25 * idx + sign * WALK_EDGE_BIAS)
         return float(t[int(idx)] + sign * 0.5)
-
-    @staticmethod
-    def _on_mask(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
-        """Whether the pixels nearest points ``uv`` (N, 2) are on ``mask`` (>= 128; off outside)."""
-        uv = np.rint(uv).astype(np.intp)
-        h, w = mask.shape
-        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
-        # read a clipped pixel, then count as off)
-        x, y = uv[:, 0], uv[:, 1]
-        inside = x.view(np.uintp) < w
-        inside &= y.view(np.uintp) < h
-        idx = y * w
-        idx += x
-        on = mask.reshape(-1).take(idx, mode="clip") >= 128
-        on &= inside
-        return on
 
     def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False,
                   whole: bool = False) -> tuple[float, float]:

@@ -631,6 +631,26 @@ def side_walks(mask, t, uv, normal, have_normal, by_row, coef, dcoef, t0, ts, lo
     return idx, crosses, normal
 
 
+@numba.njit(**_JIT)
+def walk_whole(mask, uv, bounds):
+    """``ends.EndPlacer._walk_whole`` compiled: per walk (points ``uv[bounds[i]:bounds[i + 1]]``, (x, y))
+    the index of its last point before the first whose nearest pixel (``np.rint``) is off ``mask``
+    (< 128, or outside the image), at least 0 (W,) int. Reads each walk only up to that point."""
+    h, w = mask.shape
+    nw = len(bounds) - 1
+    idx = np.empty(nw, np.int64)
+    for i in range(nw):
+        start, end = bounds[i], bounds[i + 1]
+        first_off = end
+        for j in range(start, end):
+            x, y = np.rint(uv[j, 0]), np.rint(uv[j, 1])
+            if not (0 <= x < w and 0 <= y < h and mask[int(y), int(x)] >= 128):
+                first_off = j
+                break
+        idx[i] = max(first_off - 1 - start, 0)
+    return idx
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -646,6 +666,7 @@ def warm_up() -> None:
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
+    walk_whole(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     for have in (False, True):
         side_walks(np.zeros((4, 4), np.uint8), f, np.zeros((1, 2)), np.zeros((1, 2)), have, True, f, f, 0.0, 1.0,
                    0.0, 1.0, 1.0)

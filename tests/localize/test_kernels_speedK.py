@@ -584,3 +584,39 @@ def test_side_walks_is_the_numpy_steps_bit_for_bit():
             assert np.array_equal(nrm, normal) and np.array_equal(idx, want[0]) and np.array_equal(crosses, want[1])
         n_cross += int(want[1].sum())
     assert n_cross > 60
+
+
+def _walk_whole_numpy(mask, uv, bounds):
+    """ends.EndPlacer._walk_whole's former numpy steps (with its _on_mask)."""
+    with np.errstate(invalid="ignore"):             # (a NaN's cast: off the mask either way)
+        xy = np.rint(uv).astype(np.intp)
+    h, w = mask.shape
+    x, y = xy[:, 0], xy[:, 1]
+    inside = (x.view(np.uintp) < w) & (y.view(np.uintp) < h)
+    on = (mask.reshape(-1).take(y * w + x, mode="clip") >= 128) & inside
+    starts, ends = bounds[:-1], bounds[1:]
+    off = np.flatnonzero(~on)
+    if len(off):
+        j = np.searchsorted(off, starts)
+        first_off = np.minimum(np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends), ends)
+    else:
+        first_off = ends.copy()
+    return np.maximum(first_off - 1 - starts, 0)
+
+
+def test_walk_whole_is_the_numpy_steps():
+    """Random walks (in, out of and beyond the image, points on half-pixels, empty walks, a NaN) over
+    random masks: the same indices as the numpy steps."""
+    rng = np.random.default_rng(41)
+    for trial in range(300):
+        mask = (rng.random((30, 40)) < rng.uniform(0.3, 1.0)).astype(np.uint8) * int(rng.choice([128, 255]))
+        n_w = int(rng.integers(1, 6))
+        lens = rng.integers(0, 30, n_w)
+        bounds = np.r_[0, np.cumsum(lens)].astype(np.int64)
+        a, e = rng.uniform(-5, 45, (bounds[-1], 2)), rng.normal(0, 1, 2)
+        uv = a if trial % 2 else rng.uniform(-3, 43, 2) + np.arange(bounds[-1])[:, None] * 0.5 * e
+        if trial % 3 == 0:
+            uv = np.round(uv * 2) / 2
+        if trial == 5 and len(uv):
+            uv[0, 0] = np.nan
+        assert np.array_equal(kernels_forks.walk_whole(mask, uv, bounds), _walk_whole_numpy(mask, uv, bounds))

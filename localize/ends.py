@@ -185,7 +185,13 @@ class EndPlacer:
             return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            pts = c.uv_at(linspace(lo, hi, max(2, int(hi - lo) + 1)))
+            p, n = c.s_poly, max(2, int(hi - lo) + 1)
+            if type(p) is Poly:         # (compiled: kernels_forks.curve_points, the same points)
+                pts = kernels_forks.curve_points(np.ascontiguousarray(p.coef, float),
+                                                 np.ascontiguousarray(p._deriv.coef, float), float(p.t0),
+                                                 float(p.ts), float(lo), float(hi), bool(c.by_row), n)
+            else:
+                pts = c.uv_at(linspace(lo, hi, n))
         else:
             pts = self.g.to_full(self.g.seg_yx[s])
         pts.setflags(write=False)

@@ -651,6 +651,27 @@ def walk_whole(mask, uv, bounds):
     return idx
 
 
+@numba.njit(**_JIT)
+def curve_points(coef, dcoef, t0, ts, lo, hi, by_row, n):
+    """A fitted piece's centre line (n, 2) (x, y) at ``curves.linspace(lo, hi, n)`` (n >= 2; its values:
+    numpy's ``np.linspace`` steps): ``BranchCurve.uv_at`` of a :class:`curves.Poly` centre line
+    (coefficients ``coef``, derivative's ``dcoef``, scaling ``t0``, ``ts``), the same values."""
+    t = np.empty(n)
+    delta = hi - lo
+    div = n - 1
+    step = delta / div
+    for i in range(n):
+        t[i] = (i / div) * delta + lo if step == 0 else i * step + lo
+    t[n - 1] = hi
+    sv = kernels.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, t)
+    out = np.empty((n, 2))
+    a, b = (0, 1) if by_row else (1, 0)
+    for i in range(n):
+        out[i, a] = sv[i]
+        out[i, b] = t[i]
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -666,6 +687,7 @@ def warm_up() -> None:
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
+    curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 2)
     walk_whole(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     for have in (False, True):
         side_walks(np.zeros((4, 4), np.uint8), f, np.zeros((1, 2)), np.zeros((1, 2)), have, True, f, f, 0.0, 1.0,

@@ -620,3 +620,16 @@ def test_walk_whole_is_the_numpy_steps():
         if trial == 5 and len(uv):
             uv[0, 0] = np.nan
         assert np.array_equal(kernels_forks.walk_whole(mask, uv, bounds), _walk_whole_numpy(mask, uv, bounds))
+
+
+def test_curve_points_are_uv_at_linspace():
+    """Random curves (steep and flat, degrees 0-3, spans of 0-300 px, 2-301 points): the same points as
+    BranchCurve.uv_at(curves.linspace(lo, hi, n)), bit for bit."""
+    rng = np.random.default_rng(43)
+    for trial in range(300):
+        c = _random_curve(rng)
+        lo, hi = c.t_range
+        n = max(2, int(hi - lo) + 1)
+        p = c.s_poly
+        got = kernels_forks.curve_points(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, n)
+        assert np.array_equal(got, c.uv_at(linspace(lo, hi, n)))

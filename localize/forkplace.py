@@ -32,6 +32,12 @@ MIDDLE_OFF_PX = 1.0
 MAX_TURN_SIN = 0.10
 
 
+def axis_params() -> tuple:
+    """This module's constants in :func:`kernels_forks.parent_axis`' order (read when called)."""
+    return (SECTIONS, SECTION_STEP_R, SECTION_STEP_MIN_PX, WIDTH_TOL, WIDTH_TOL_PX, MIDDLE_MAX_R, SAME_WIDTH,
+            SAME_WIDTH_PX, MIDDLE_OFF_PX, MAX_TURN_SIN)
+
+
 def parent_axis(mask: np.ndarray, xy: np.ndarray, e1: np.ndarray, out: np.ndarray, r_behind: float,
                 r_ahead: float, r_child: float) -> tuple[np.ndarray, np.ndarray] | None:
     """The parent's axis (centroid, unit direction) from its cross-sections clear of the crotch.
@@ -58,6 +64,5 @@ def parent_axis(mask: np.ndarray, xy: np.ndarray, e1: np.ndarray, out: np.ndarra
     """
     found, c, ea = kernels_forks.parent_axis(
         np.ascontiguousarray(mask), np.asarray(xy, float), np.asarray(e1, float), np.asarray(out, float),
-        float(r_behind), float(r_ahead), float(r_child), SECTIONS, SECTION_STEP_R, SECTION_STEP_MIN_PX, WIDTH_TOL,
-        WIDTH_TOL_PX, MIDDLE_MAX_R, SAME_WIDTH, SAME_WIDTH_PX, MIDDLE_OFF_PX, MAX_TURN_SIN)
+        float(r_behind), float(r_ahead), float(r_child), *axis_params())
     return (c, ea) if found else None

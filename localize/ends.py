@@ -185,18 +185,24 @@ class EndPlacer:
             return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            p, n = c.s_poly, max(2, int(hi - lo) + 1)
-            if type(p) is Poly:         # (compiled: kernels_forks.curve_points, the same points)
-                pts = kernels_forks.curve_points(np.ascontiguousarray(p.coef, float),
-                                                 np.ascontiguousarray(p._deriv.coef, float), float(p.t0),
-                                                 float(p.ts), float(lo), float(hi), bool(c.by_row), n)
-            else:
-                pts = c.uv_at(linspace(lo, hi, n))
+            pts = self._curve_uv(c, lo, hi, max(2, int(hi - lo) + 1))
         else:
             pts = self.g.to_full(self.g.seg_yx[s])
         pts.setflags(write=False)
         self._points_cache[s] = (c, pts)
         return pts
+
+    @staticmethod
+    def _curve_uv(c: BranchCurve, a: float, b: float, n: int) -> np.ndarray:
+        """``c.uv_at(linspace(a, b, n))`` (n >= 2), compiled for a Poly centre line
+        (:func:`kernels_forks.curve_points`, the same points)."""
+        p = c.s_poly
+        if type(p) is not Poly:
+            return c.uv_at(linspace(a, b, n))
+        lo, hi = c.t_range
+        return kernels_forks.curve_points(np.ascontiguousarray(p.coef, float), np.ascontiguousarray(p._deriv.coef, float),
+                                          float(p.t0), float(p.ts), float(lo), float(hi), bool(c.by_row), float(a),
+                                          float(b), int(n))
 
     def _node_radius(self, node: int) -> float:
         """Radius (px) of the distance transform at a node's skeleton pixel (cached)."""
@@ -265,8 +271,9 @@ class EndPlacer:
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range
-            t_end = hi if abs(cc.t_of(p)[0] - hi) <= abs(cc.t_of(p)[0] - lo) else lo
-            c2, e2 = _line(cc.uv_at(linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
+            tp = cc.t_of(p)[0]
+            t_end = hi if abs(tp - hi) <= abs(tp - lo) else lo
+            c2, e2 = _line(self._curve_uv(cc, t_end, t_end + (12.0 if t_end == lo else -12.0), 12))
         else:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
@@ -489,7 +496,7 @@ class EndPlacer:
             reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):
-            d_near = float(np.mean([at(s) for s in near_p]))
+            d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
             return d_near if abs(d_near - d) > 0.5 else None
         if not near_p and child_ok and reach[child] <= 0:
             return float(at(child))
@@ -548,7 +555,8 @@ class EndPlacer:
         ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
         """
         def right_of(pt):
-            d = np.mean([self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents])
+            ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
+            d = sum(ds) / len(ds)          # (np.mean's value of one or two: the same sum and division)
             return pt - np.array([d, 0.0]), d
         r1, d1 = right_of(xy)
         r2, _ = right_of(xy + 30.0 * e1)

@@ -652,23 +652,24 @@ def walk_whole(mask, uv, bounds):
 
 
 @numba.njit(**_JIT)
-def curve_points(coef, dcoef, t0, ts, lo, hi, by_row, n):
-    """A fitted piece's centre line (n, 2) (x, y) at ``curves.linspace(lo, hi, n)`` (n >= 2; its values:
+def curve_points(coef, dcoef, t0, ts, lo, hi, by_row, a, b, n):
+    """A fitted piece's centre line (n, 2) (x, y) at ``curves.linspace(a, b, n)`` (n >= 2; its values:
     numpy's ``np.linspace`` steps): ``BranchCurve.uv_at`` of a :class:`curves.Poly` centre line
-    (coefficients ``coef``, derivative's ``dcoef``, scaling ``t0``, ``ts``), the same values."""
+    (coefficients ``coef``, derivative's ``dcoef``, scaling ``t0``, ``ts``; span ``lo``..``hi``, carried
+    beyond it along its end slopes), the same values."""
     t = np.empty(n)
-    delta = hi - lo
+    delta = b - a
     div = n - 1
     step = delta / div
     for i in range(n):
-        t[i] = (i / div) * delta + lo if step == 0 else i * step + lo
-    t[n - 1] = hi
+        t[i] = (i / div) * delta + a if step == 0 else i * step + a
+    t[n - 1] = b
     sv = kernels.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, t)
     out = np.empty((n, 2))
-    a, b = (0, 1) if by_row else (1, 0)
+    j, k = (0, 1) if by_row else (1, 0)
     for i in range(n):
-        out[i, a] = sv[i]
-        out[i, b] = t[i]
+        out[i, j] = sv[i]
+        out[i, k] = t[i]
     return out
 
 
@@ -735,7 +736,7 @@ def warm_up() -> None:
     for pts in (np.zeros((3, 2)), np.zeros((0, 2))):
         fork_outline(np.zeros((4, 4), np.uint8), pts, v, v, v, v[::-1].copy(), v, 1.0, 1.0, 1.0, 1.0, True, 1.5,
                      *forkplace.axis_params())
-    curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 2)
+    curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.0, 1.0, 2)
     walk_whole(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     for have in (False, True):
         side_walks(np.zeros((4, 4), np.uint8), f, np.zeros((1, 2)), np.zeros((1, 2)), have, True, f, f, 0.0, 1.0,

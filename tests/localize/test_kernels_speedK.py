@@ -623,16 +623,20 @@ def test_walk_whole_is_the_numpy_steps():
 
 
 def test_curve_points_are_uv_at_linspace():
-    """Random curves (steep and flat, degrees 0-3, spans of 0-300 px, 2-301 points): the same points as
-    BranchCurve.uv_at(curves.linspace(lo, hi, n)), bit for bit."""
+    """Random curves (steep and flat, degrees 0-3, spans of 0-150 px, 2-151 points; and 12 points from an
+    end 12 px in or out): the same points as BranchCurve.uv_at(curves.linspace(a, b, n)), bit for bit."""
     rng = np.random.default_rng(43)
     for trial in range(300):
         c = _random_curve(rng)
         lo, hi = c.t_range
         n = max(2, int(hi - lo) + 1)
         p = c.s_poly
-        got = kernels_forks.curve_points(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, n)
+        got = kernels_forks.curve_points(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, lo, hi, n)
         assert np.array_equal(got, c.uv_at(linspace(lo, hi, n)))
+        a = float(rng.choice([lo, hi]))                # (the child's 12 points next to an end: beyond the span too)
+        b = a + float(rng.choice([-12.0, 12.0]))
+        got = kernels_forks.curve_points(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, a, b, 12)
+        assert np.array_equal(got, c.uv_at(linspace(a, b, 12)))
 
 
 def test_fork_outline_is_the_steps_one_by_one():

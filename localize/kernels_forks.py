@@ -136,14 +136,6 @@ def tls_line(pts):
 
 
 @numba.njit(**_JIT)
-def _median(a):
-    """``np.median`` of a non-empty 1-D array (the same value: the middle order statistics)."""
-    b = np.sort(a)
-    k = len(b) // 2
-    return b[k] if len(b) % 2 else (b[k - 1] + b[k]) / 2
-
-
-@numba.njit(**_JIT)
 def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
     """:func:`parent_axis`' scans of the cross-sections: per section k (``s`` (K,)), from its sample nearest
     ``t = 0`` that is on (within ``middle_max_r`` r + 1) outwards to the first off sample each side
@@ -238,7 +230,7 @@ def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_
         if ok[k]:
             widths[j] = f[k, 2]
             j += 1
-    w = _median(widths)
+    w = kernels._median(widths)
     mids = np.empty((n_ok, 2))
     m = 0
     for k in range(2 * K):
@@ -419,7 +411,7 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
             n_ref += 1
     if n_ref == 0:
         return fail
-    w_end = _median(ref[:n_ref])
+    w_end = kernels._median(ref[:n_ref])
     k = np.empty(n, np.int64)
     nk = 0
     for i in range(n):
@@ -456,11 +448,11 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     res = np.empty(n2)
     for j in range(n2):
         res[j] = y[j] - (a * x[j] + b)
-    med = _median(res)
+    med = kernels._median(res)
     dev = np.empty(n2)
     for j in range(n2):
         dev[j] = abs(res[j] - med)
-    mad = 1.4826 * _median(dev)
+    mad = 1.4826 * kernels._median(dev)
     keep = np.empty(n2, np.bool_)
     n_keep = 0
     for j in range(n2):
@@ -559,7 +551,7 @@ def radius_median(img, scale, pts):
         x = min(max(np.int64(np.rint((pts[i, 0] + 0.5) / scale - 0.5)), 0), w - 1)
         y = min(max(np.int64(np.rint((pts[i, 1] + 0.5) / scale - 0.5)), 0), h - 1)
         vals[i] = img[y, x]
-    return _median(vals)
+    return kernels._median(vals)
 
 
 @numba.njit(**_JIT)

@@ -21,7 +21,7 @@ from appliance.localize.curves import BranchCurve, Poly, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
-from appliance.localize.forkplace import axis_params
+from appliance.localize.forkplace import parent_axis
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
@@ -282,18 +282,21 @@ class EndPlacer:
         # fork (the parent may bend at the fork) or else through both sides
         behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
         xy, outline = None, None
-        if final:               # (before the final round a rough place will do)
-            # against the parent's line behind the fork (or through both sides); the parent's line near
-            # the crotch is pulled towards the child: its axis again from its own cross-sections clear of
-            # the crotch on both sides (forkplace.parent_axis), and the child's outline against it
-            # (compiled: kernels_forks.fork_outline, the steps of _fork_from_child_outline and parent_axis)
-            found, xy_k, cl, el = kernels_forks.fork_outline(
-                np.ascontiguousarray(self.sm.left_mask), np.ascontiguousarray(near[behind], float), c1, e1, c2, e2,
-                np.ascontiguousarray(p, float), float(r_par), float(rad[child]), float(rad[behind]),
-                float(rad[pb if behind == pa else pa]), bool(PARENT_FROM_SECTIONS), float(SECTIONS_MIN_MOVE_PX),
-                *axis_params())
-            if found:
-                xy, outline = xy_k, (cl, el)
+        lines = ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)] if final else []
+        for cl, el in lines:               # (before the final round a rough place will do)
+            xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
+            if xy is not None:
+                outline = (cl, el)
+                break
+        if outline is not None and PARENT_FROM_SECTIONS:
+            # the parent's line near the crotch is pulled towards the child: its axis again from its
+            # own cross-sections clear of the crotch on both sides, and the child's outline against it
+            ax = parent_axis(self.sm.left_mask, xy, outline[1], e2 if np.dot(c2 - xy, e2) >= 0 else -e2,
+                             rad[behind], rad[pb if behind == pa else pa], rad[child])
+            xy2 = None if ax is None else self._fork_from_child_outline(
+                ax[0], ax[1], c2, e2, ax[0] + np.dot(p - ax[0], ax[1]) * ax[1], r_par, rad[child])
+            if xy2 is not None and np.hypot(*(xy2 - xy)) > SECTIONS_MIN_MOVE_PX:     # (within it: noise)
+                xy, outline = xy2, ax
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further

@@ -665,51 +665,6 @@ def curve_points(coef, dcoef, t0, ts, lo, hi, by_row, a, b, n):
     return out
 
 
-@numba.njit(**_JIT)
-def fork_outline(mask, pts_behind, c1, e1, c2, e2, p, r_par, r_child, r_behind, r_ahead, sections, min_move_px,
-                 n_sections, step_r, step_min_px, width_tol, width_tol_px, middle_max_r, same_width, same_width_px,
-                 middle_off_px, max_turn_sin):
-    """``ends.EndPlacer.fork``'s place from the child's outline, compiled: against the parent's line behind
-    the fork (:func:`tls_line` of ``pts_behind`` (N, 2), if N >= 3), else through both sides (``c1``,
-    ``e1``), the first that gives one (:func:`child_outline_fork`; the child's line ``c2``, ``e2``; the
-    junction ``p``); with ``sections``, placed again against the parent's axis from its cross-sections
-    (:func:`parent_axis`, its module's constants after ``min_move_px``) where that moves it by more than
-    ``min_move_px``. Returns (found, xy (2,), the parent line's centroid (2,) and direction (2,)); the
-    same values as those kernels called one by one (the products around them up to rounding)."""
-    zero = np.zeros(2)
-    n_lines = 2 if len(pts_behind) >= 3 else 1
-    found = False
-    xy, cl, el = zero, c1, e1
-    for k in range(n_lines):
-        if k == 0 and n_lines == 2:
-            cl, el = tls_line(pts_behind)
-        else:
-            cl, el = c1, e1
-        t = (p[0] - cl[0]) * el[0] + (p[1] - cl[1]) * el[1]
-        p0 = np.empty(2)
-        p0[0], p0[1] = cl[0] + t * el[0], cl[1] + t * el[1]
-        found, xy = child_outline_fork(mask, cl, el, c2, e2, p0, r_par, r_child)
-        if found:
-            break
-    if not found:
-        return False, zero, zero, zero
-    if sections:
-        out = e2.copy()
-        if (c2[0] - xy[0]) * e2[0] + (c2[1] - xy[1]) * e2[1] < 0:
-            out[0], out[1] = -e2[0], -e2[1]
-        ok, ac, ae = parent_axis(mask, xy, el, out, r_behind, r_ahead, r_child, n_sections, step_r, step_min_px,
-                                 width_tol, width_tol_px, middle_max_r, same_width, same_width_px, middle_off_px,
-                                 max_turn_sin)
-        if ok:
-            t = (p[0] - ac[0]) * ae[0] + (p[1] - ac[1]) * ae[1]
-            p0 = np.empty(2)
-            p0[0], p0[1] = ac[0] + t * ae[0], ac[1] + t * ae[1]
-            f2, xy2 = child_outline_fork(mask, ac, ae, c2, e2, p0, r_par, r_child)
-            if f2 and np.hypot(xy2[0] - xy[0], xy2[1] - xy[1]) > min_move_px:
-                return True, xy2, ac, ae
-    return True, xy, cl, el
-
-
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     f, b, n = np.zeros(1), np.zeros(1, np.bool_), np.ones(1, np.int64)
@@ -725,9 +680,6 @@ def warm_up() -> None:
               1.0, 0.0, 2.5, 1.2, 12, 3.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
-    for pts in (np.zeros((3, 2)), np.zeros((0, 2))):
-        fork_outline(np.zeros((4, 4), np.uint8), pts, v, v, v, v[::-1].copy(), v, 1.0, 1.0, 1.0, 1.0, True, 1.5,
-                     *forkplace.axis_params())
     curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.0, 1.0, 2)
     walk_whole(np.zeros((4, 4), np.uint8), np.zeros((2, 2)), np.array([0, 2], np.int64))
     for have in (False, True):

@@ -112,9 +112,9 @@ def _min_max(a):
 @numba.njit(**_JIT)
 def tls_line(pts):
     """Total-least-squares line through points ``pts`` (N, 2) (x, y; px): centroid (2,) and unit
-    direction (2,) (``ends._line``, ``forkplace._tls``: the centroid as numpy's row-by-row sum, the
-    second moments summed in order, the direction ``0.5 arctan2(2 sxy, sxx - syy)``; equal up to
-    rounding)."""
+    direction (2,) (``ends._line``, and :func:`parent_axis`' fits: the centroid as numpy's row-by-row
+    sum, the second moments summed in order, the direction ``0.5 arctan2(2 sxy, sxx - syy)``; equal up
+    to rounding)."""
     n = pts.shape[0]
     cx, cy = 0.0, 0.0
     for i in range(n):
@@ -192,8 +192,7 @@ def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
 def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_r, step_min_px, width_tol,
                 width_tol_px, middle_max_r, same_width, same_width_px, middle_off_px, max_turn_sin):
     """:func:`forkplace.parent_axis` compiled whole (its arguments, then its module's constants): the
-    parent's axis at a fork from its cross-sections clear of the crotch (:func:`forkplace._sections`'
-    scans). Returns (found, centroid (2,), unit direction (2,)); equal to the numpy steps up to rounding
+    parent's axis at a fork from its cross-sections clear of the crotch (:func:`_sections_k`' scans). Returns (found, centroid (2,), unit direction (2,)); equal to the numpy steps up to rounding
     (the sums of the line fits, the trigonometry)."""
     c0, e0 = np.zeros(2), np.zeros(2)
     sg = 1.0 if e1[0] * out[0] + e1[1] * out[1] >= 0.0 else -1.0
@@ -242,7 +241,7 @@ def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_
         return False, c0, e0
     mids = mids[:m]
     c, ea = tls_line(mids)
-    n_in, n_off = 0, 0
+    n_in = 0
     res_ok = np.empty(m, np.bool_)
     for i in range(m):
         res = abs((mids[i, 0] - c[0]) * -ea[1] + (mids[i, 1] - c[1]) * ea[0])

@@ -15,10 +15,9 @@ import math
 
 import cv2
 import numpy as np
-from numpy.linalg import _umath_linalg
 from appliance.config.schema import MatchConfig
-from appliance.localize import kernels, kernels_tips
-from appliance.localize.curves import BranchCurve, _solve, linspace, median
+from appliance.localize import kernels, kernels_forks, kernels_tips
+from appliance.localize.curves import BranchCurve, Poly, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -26,7 +25,7 @@ from appliance.localize.forkplace import parent_axis
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.matching import StereoMasks
 from appliance.localize.merged_tips import right_cap_tip
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
                                      cap_shapes_offsets, occluder_confirmed, reads_round)
@@ -89,22 +88,19 @@ SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two a
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Total-least-squares line through points (N, 2): centroid and unit direction."""
-    c = pts.sum(0) / len(pts)                 # (the mean, bit for bit, without np.mean's checks)
-    q = pts - c
-    sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
-    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)        # the direction of the largest spread
-    return c, np.array([np.cos(a), np.sin(a)])
+    """Total-least-squares line through points (N, 2): centroid and unit direction (the direction of
+    the largest spread; compiled: :func:`kernels_forks.tls_line`)."""
+    return kernels_forks.tls_line(np.ascontiguousarray(pts, float))
 
 
 def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     """Intersection of the lines c1 + t e1 and c2 + s e2; None when (nearly) parallel."""
-    a = np.array([[e1[0], -e2[0]], [e1[1], -e2[1]]])      # (np.column_stack's array)
-    # (np.linalg.det's and .solve's LAPACK gufuncs called directly: the same values, ~15 us less)
-    if abs(_umath_linalg.det(a, signature="d->d")) < 0.05:
+    e1x, e1y, e2x, e2y = float(e1[0]), float(e1[1]), float(e2[0]), float(e2[1])
+    det = e2x * e1y - e1x * e2y           # (the 2 x 2 system [e1, -e2] t = c2 - c1 by Cramer's rule: as
+    if abs(det) < 0.05:                    # LAPACK's det and solve up to rounding)
         return None
-    t = _solve(a, c2 - c1)
-    return c1 + t[0] * e1
+    bx, by = float(c2[0] - c1[0]), float(c2[1] - c1[1])
+    return c1 + ((e2x * by - bx * e2y) / det) * e1
 
 
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
@@ -188,12 +184,24 @@ class EndPlacer:
             return hit[1]
         if c is not None:
             lo, hi = c.t_range
-            pts = c.uv_at(linspace(lo, hi, max(2, int(hi - lo) + 1)))
+            pts = self._curve_uv(c, lo, hi, max(2, int(hi - lo) + 1))
         else:
             pts = self.g.to_full(self.g.seg_yx[s])
         pts.setflags(write=False)
         self._points_cache[s] = (c, pts)
         return pts
+
+    @staticmethod
+    def _curve_uv(c: BranchCurve, a: float, b: float, n: int) -> np.ndarray:
+        """``c.uv_at(linspace(a, b, n))`` (n >= 2), compiled for a Poly centre line
+        (:func:`kernels_forks.curve_points`, the same points)."""
+        p = c.s_poly
+        if type(p) is not Poly:
+            return c.uv_at(linspace(a, b, n))
+        lo, hi = c.t_range
+        return kernels_forks.curve_points(np.ascontiguousarray(p.coef, float), np.ascontiguousarray(p._deriv.coef, float),
+                                          float(p.t0), float(p.ts), float(lo), float(hi), bool(c.by_row), float(a),
+                                          float(b), int(n))
 
     def _node_radius(self, node: int) -> float:
         """Radius (px) of the distance transform at a node's skeleton pixel (cached)."""
@@ -210,7 +218,13 @@ class EndPlacer:
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:
         c = self.curves.get(s)
-        return c.radius_px if c is not None else float(median(radius_at(self.sm.radius_map, pts)))
+        if c is not None:
+            return c.radius_px
+        rm = self.sm.radius_map           # (compiled: the median of radius_at's values, kernels_forks.radius_median)
+        if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32:
+            return float(kernels_forks.radius_median(np.ascontiguousarray(rm.image), int(rm.scale),
+                                                     np.ascontiguousarray(pts, float)))
+        return float(median(radius_at(rm, pts)))
 
     def fork(self, node: int, final: bool = False, needed: bool = True) -> None:
         """A fork: where the child's centre line meets the parent's, with the parent's disparity.
@@ -232,18 +246,15 @@ class EndPlacer:
             return
         p = self.node_xy[node]
         r = self._node_radius(node)
-        near, rad = {}, {}
+        near, rad, dirs = {}, {}, {}
         for s in segs:                  # (cached: both fork rounds ask)
             c = self.curves.get(s)
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
                 pts = self._near_points(s, p, r)
-                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts))
-            near[s], rad[s] = hit[1], hit[2]
-        dirs = {}
-        for s, pts in near.items():
-            v = pts.sum(0) / len(pts) - p
-            dirs[s] = v / max(np.hypot(*v), 1e-9)
+                v = pts.sum(0) / len(pts) - p           # (the piece's direction from the junction)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), v / max(np.hypot(*v), 1e-9))
+            near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]
         if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
@@ -259,8 +270,9 @@ class EndPlacer:
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range
-            t_end = hi if abs(cc.t_of(p)[0] - hi) <= abs(cc.t_of(p)[0] - lo) else lo
-            c2, e2 = _line(cc.uv_at(linspace(t_end, t_end + (12.0 if t_end == lo else -12.0), 12)))
+            tp = cc.t_of(p)[0]
+            t_end = hi if abs(tp - hi) <= abs(tp - lo) else lo
+            c2, e2 = _line(self._curve_uv(cc, t_end, t_end + (12.0 if t_end == lo else -12.0), 12))
         else:
             c2, e2 = _line(near[child])
         p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
@@ -396,9 +408,9 @@ class EndPlacer:
                                          float(((near[child] - xy) @ out).min()), d, rad[child],
                                          self.sm.f_px, self.sm.offset_px)
         if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
-            pts = self.seg_points(child)
-            dist = np.hypot(*(pts - p).T)
-            agree = self._runs_agree(pts[(dist >= 1.2 * r) & (dist <= 1.2 * r + 60)], d, rad[child])
+            # (compiled: kernels.near_points, the same selection as np.hypot's)
+            pts = kernels.near_points(self.seg_points(child), float(p[0]), float(p[1]), 1.2 * r, 1.2 * r + 60)[0]
+            agree = self._runs_agree(pts, d, rad[child])
         if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
             sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
             agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
@@ -486,7 +498,7 @@ class EndPlacer:
             reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):
-            d_near = float(np.mean([at(s) for s in near_p]))
+            d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
             return d_near if abs(d_near - d) > 0.5 else None
         if not near_p and child_ok and reach[child] <= 0:
             return float(at(child))
@@ -529,25 +541,11 @@ class EndPlacer:
         bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
         """
         mask = self.sm.left_mask if mask is None else mask
-        n = np.array([-e1[1], e1[0]])
-        n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
-        sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
-        if sin_t < 0.2:
-            return None
-        cot = np.dot(e2, e1) / np.dot(e2, n)
-        s0 = float(np.dot(c2 - c1, e1) - np.dot(c2 - c1, n) * cot)     # the child's line on the parent's
-        step = max(1.5 * r_child, 6.0)
-        pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
-        # the four lines' samples and interval middles compiled (kernels.child_outline_pairs: the
+        # (compiled whole: kernels_forks.child_outline_fork; its scans kernels.child_outline_pairs, the
         # values of _line_samples + _interval_middle, the mask read only where the scans look)
-        hs = np.array([h for pair in pairs for h in pair])
-        reach = (4.7 * r_child + 3) / sin_t + 2            # (as _line_samples)
-        i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
-                                                np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
-        if i < 0:
-            return None
-        h1 = pairs[i][0]
-        return c1 + (m1 - (m2 - m1) * h1 / step) * e1
+        found, xy = kernels_forks.child_outline_fork(np.ascontiguousarray(mask), *(np.ascontiguousarray(v, float) for v in (
+            c1, e1, c2, e2, p0)), float(r_par), float(r_child))
+        return xy if found else None
 
     def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.
@@ -559,7 +557,8 @@ class EndPlacer:
         ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
         """
         def right_of(pt):
-            d = np.mean([self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents])
+            ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
+            d = sum(ds) / len(ds)          # (np.mean's value of one or two: the same sum and division)
             return pt - np.array([d, 0.0]), d
         r1, d1 = right_of(xy)
         r2, _ = right_of(xy + 30.0 * e1)
@@ -670,31 +669,12 @@ class EndPlacer:
         least ``min_rows`` and 60 % of the rows with any (rows merged with the parent in the
         right view have none). A piece within ~17 deg of the rows: False.
         """
-        if len(pts) < 2:
-            return False
-        c, e = _line(pts)
-        sin_t = abs(e[1])
-        v = np.arange(np.ceil(pts[:, 1].min()), np.floor(pts[:, 1].max()) + 1)
-        if len(v) < min_rows or sin_t < 0.3:
-            return False
-        rows = v.astype(int)
-        il = self.runs_l.find(rows, c[0] + (v - c[1]) * e[0] / e[1])
-        keep = il >= 0
-        w_l = self.runs_l.span_px[np.maximum(il, 0)]
-        keep &= w_l <= 2.4 * r / sin_t + 3
-        rows, il, w_l = rows[keep], il[keep], w_l[keep]
-        if len(rows) < min_rows:
-            return False
-        c_l = self.runs_l.centre_px[il]
+        # (compiled whole: kernels_forks.runs_agree, the same steps)
+        rl, rr = self.runs_l, self.runs_r
         dmin, dmax = self.sm.d_range_px
-        q, rr = self.runs_r.between(rows, c_l - dmax, c_l - dmin)
-        similar = np.abs(self.runs_r.span_px[rr] - w_l[q]) <= 0.15 * w_l[q] + 1.5
-        q, rr = q[similar], rr[similar]
-        near_d = np.abs(c_l[q] - self.runs_r.centre_px[rr] - d) <= max(1.0, 0.006 * abs(d))
-        qd = q[near_d]                                   # (ascending: distinct rows where they change)
-        n_cand = int(np.count_nonzero(q[1:] != q[:-1])) + 1 if len(q) else 0
-        n_ok = int(np.count_nonzero(qd[1:] != qd[:-1])) + 1 if len(qd) else 0
-        return n_ok >= min_rows and n_ok >= 0.6 * n_cand
+        return kernels_forks.runs_agree(np.ascontiguousarray(pts, float), float(d), float(r), int(min_rows),
+                                        *rl._find_tables, rl.width, rl.span_px, rl.centre_px, rr._centre_keys,
+                                        rr.width, rr.span_px, rr.centre_px, float(dmin), float(dmax))
 
     def _box(self, s: int) -> tuple[float, float, float, float]:
         """Bounding box (u0, v0, u1, v1) of a fitted piece's centre line (cached)."""
@@ -726,29 +706,14 @@ class EndPlacer:
         t_edge, sign = self._walk_out(c, node, whole=True)
         t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
         uv = c.uv_at(t)
-        lo_u, lo_v = (uv.min(0) - 2).tolist()
-        hi_u, hi_v = (uv.max(0) + 2).tolist()
+        # (the scan of all pieces compiled: kernels_forks.hidden_crossings, the same values)
+        row, pieces, table = self._curve_table()
+        cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)
         best = None
-        for s2, c2 in self.curves.items():
-            if s2 == segs[0] or c2.radius_px < 0.8 * c.radius_px:
-                continue
-            # the box's extent along t is the span's own (its first and last samples): a piece
-            # clear of the walk there is skipped before its box is sampled
-            lo, hi = c2.t_range
-            lo_t, hi_t = (lo_v, hi_v) if c2.by_row else (lo_u, hi_u)
-            if min(lo, hi) > hi_t or max(lo, hi) < lo_t:
-                continue
-            u0, v0, u1, v1 = self._box(s2)
-            if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
-                continue
-            ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
-            inside = (ta >= lo - 2) & (ta <= hi + 2)
-            if inside.sum() < 2:
-                continue
-            f = tb - c2.s_at(ta)
-            cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
-            if len(cross) and (best is None or cross[0] < best[0]):
-                best = (int(cross[0]), c2)
+        for j in np.flatnonzero(cross != -1).tolist():
+            k = int(cross[j]) if cross[j] >= 0 else self._hidden_crossing(uv, *pieces[j])
+            if k >= 0 and (best is None or k < best[0]):
+                best = (k, pieces[j][1])
         if best is None:
             return False
         k, c2 = best
@@ -767,6 +732,51 @@ class EndPlacer:
         self.radius[node] = c.radius_px
         self.hidden.discard(int(node))
         return True
+
+    def _curve_table(self) -> tuple[dict, list, tuple]:
+        """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves
+        stay): {piece: row}, the (piece, curve) of each row, and (by_row, t_lo, t_hi, radius, poly,
+        coef, n_coef, dcoef, n_dcoef, t0, ts)."""
+        key = tuple(self.curves.items())
+        hit = getattr(self, "_table_cache", None)       # (made on first use)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        cv = [c for _, c in key]
+        n = len(cv)
+        coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
+        n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        poly = np.zeros(n, bool)
+        t0, ts = np.zeros(n), np.ones(n)
+        for j, c in enumerate(cv):
+            p = c.s_poly
+            if type(p) is Poly and len(p.coef) <= 4:
+                poly[j] = True
+                n_coef[j], n_dcoef[j] = len(p.coef), len(p._deriv.coef)
+                coef[j, :n_coef[j]], dcoef[j, :n_dcoef[j]] = p.coef, p._deriv.coef
+                t0[j], ts[j] = p.t0, p.ts
+        table = (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
+                 np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
+                 poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
+        out = ({s: j for j, (s, _) in enumerate(key)}, key, table)
+        self._table_cache = (key, out)
+        return out
+
+    def _hidden_crossing(self, uv: np.ndarray, s2: int, c2: BranchCurve) -> int:
+        """:func:`kernels_forks.hidden_crossings`' result for one piece ``s2`` whose centre line is not
+        a plain Poly (spliced past an occluder; its span already checked): numpy."""
+        lo_u, lo_v = (uv.min(0) - 2).tolist()
+        hi_u, hi_v = (uv.max(0) + 2).tolist()
+        u0, v0, u1, v1 = self._box(s2)
+        if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
+            return -1
+        lo, hi = c2.t_range
+        ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
+        inside = (ta >= lo - 2) & (ta <= hi + 2)
+        if inside.sum() < 2:
+            return -1
+        f = tb - c2.s_at(ta)
+        cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
+        return int(cross[0]) if len(cross) else -1
 
     def prewalk(self, nodes) -> None:
         """The plain walks (:meth:`_walk_out`: the end's first fitted piece's centre line, followed
@@ -815,15 +825,9 @@ class EndPlacer:
     def _walk_whole(cls, mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:func:`walk_edges`' results read at the nearest whole pixels: each walk's last sample on
         the mask (index), never a crossing (the walk's edge is then that sample + 0.5)."""
-        on = cls._on_mask(uv, mask)
-        starts, ends = bounds[:-1], bounds[1:]
-        off = np.flatnonzero(~on)
-        if len(off):
-            j = np.searchsorted(off, starts)
-            first_off = np.minimum(np.where(j < len(off), off[np.minimum(j, len(off) - 1)], ends), ends)
-        else:
-            first_off = ends.copy()
-        return np.maximum(first_off - 1 - starts, 0), np.zeros(len(starts), bool)
+        # (compiled: kernels_forks.walk_whole, the same indices as _on_mask's pixels)
+        return (kernels_forks.walk_whole(np.ascontiguousarray(mask), np.ascontiguousarray(uv, float),
+                                         np.ascontiguousarray(bounds, np.int64)), np.zeros(len(bounds) - 1, bool))
 
     @staticmethod
     def _walk_t(t: np.ndarray, sign: float, idx: float, crosses: bool) -> float:
@@ -831,22 +835,6 @@ class EndPlacer:
         if crosses:
             return float(t[0] + sign * 0.25 * idx + sign * WALK_EDGE_BIAS)
         return float(t[int(idx)] + sign * 0.5)
-
-    @staticmethod
-    def _on_mask(uv: np.ndarray, mask: np.ndarray) -> np.ndarray:
-        """Whether the pixels nearest points ``uv`` (N, 2) are on ``mask`` (>= 128; off outside)."""
-        uv = np.rint(uv).astype(np.intp)
-        h, w = mask.shape
-        # (a negative coordinate seen unsigned is huge: one comparison per axis; points outside
-        # read a clipped pixel, then count as off)
-        x, y = uv[:, 0], uv[:, 1]
-        inside = x.view(np.uintp) < w
-        inside &= y.view(np.uintp) < h
-        idx = y * w
-        idx += x
-        on = mask.reshape(-1).take(idx, mode="clip") >= 128
-        on &= inside
-        return on
 
     def _walk_out(self, c: BranchCurve, node: int, offset_px: float = 0.0, right: bool = False,
                   whole: bool = False) -> tuple[float, float]:
@@ -893,14 +881,22 @@ class EndPlacer:
         keys = [(offset_px, False), (-offset_px, False)]
         if not offset_px or any(k in done for k in keys):
             return self._walk_out(c, node, offset_px)[0], self._walk_out(c, node, -offset_px)[0]
-        if normal is None:
+        p = c.s_poly
+        if normal is None and type(p) is not Poly:
             ab = c.uv_at(np.concatenate([t + 0.5, t - 0.5]))      # (as _walk_out)
             step = ab[:len(t)] - ab[len(t):]
             step /= np.maximum(np.hypot(step[:, 0], step[:, 1]), 1e-9)[:, None]
             normal = hit[4] = np.column_stack([-step[:, 1], step[:, 0]])
-        n = len(t)
-        idx, crosses = walk_edges(self.sm.left_mask, np.concatenate([uv + offset_px * normal, uv + -offset_px * normal]),
-                                  np.array([0, n, 2 * n]))
+        # (compiled: the normals, both walks' points and their walk_edges, kernels_forks.side_walks)
+        plain, lo, hi, unused = type(p) is Poly, *c.t_range, np.zeros(1)
+        idx, crosses, nrm = kernels_forks.side_walks(
+            np.ascontiguousarray(self.sm.left_mask), np.ascontiguousarray(t, float), np.ascontiguousarray(uv, float),
+            np.zeros((1, 2)) if normal is None else np.ascontiguousarray(normal, float), normal is not None,
+            bool(c.by_row), np.ascontiguousarray(p.coef, float) if plain else unused,
+            np.ascontiguousarray(p._deriv.coef, float) if plain else unused, float(p.t0) if plain else 0.0,
+            float(p.ts) if plain else 1.0, float(lo), float(hi), float(offset_px))
+        if normal is None:
+            hit[4] = nrm
         out = []
         for i, k in enumerate(keys):
             done[k] = (self._walk_t(t, sign, idx[i], crosses[i]), sign)

@@ -11,8 +11,8 @@ next to the fork, clear of the parent, must match at the fork's disparity.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
+from appliance.localize import kernels_forks
 from appliance.localize.texture import patch_depth_fraction, surface_disparity, surface_to_axis
 
 # disparities searched either side of the fork's (px): a crossing branch at another depth finds its
@@ -94,15 +94,7 @@ def passes_through(mask: np.ndarray, c_px: np.ndarray, e: np.ndarray, s_far_px: 
     r_child_px : float
         The child's radius (px).
     """
-    c, e = np.asarray(c_px, float), np.asarray(e, float)
-    n = np.array([-e[1], e[0]])
-    s = np.arange(s_far_px, s_far_px + THROUGH_REACH_PX, 1.0)
-    line = c - s[:, None] * e
-    off = (1.5 * r_child_px + 2.0) * n
-    h, w = mask.shape
-    uv = np.vstack([line, line + off, line - off]).astype(np.float32)
-    val = cv2.remap(mask, uv.reshape(1, -1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                    borderValue=0)[0].reshape(3, -1)
-    band = (val[0] >= 128) & (val[1] < 128) & (val[2] < 128)
-    need = max(6, int(np.ceil(1.5 * r_child_px)))
-    return len(band) >= need and bool((np.convolve(band, np.ones(need, int), "valid") >= need).any())
+    # (compiled: kernels_forks.passes_through, the same samples and reads, stopping at the first run)
+    return kernels_forks.passes_through(np.ascontiguousarray(mask), np.ascontiguousarray(c_px, float),
+                                        np.ascontiguousarray(e, float), float(s_far_px), float(r_child_px),
+                                        THROUGH_REACH_PX)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_forks
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.texture import patch_depth_fraction, surface_to_axis
@@ -66,51 +66,18 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     n_gap = int(abs(t_fork - end))
     if n_gap > max_gap_px:
         return None
-    # the rows from the fork's to span_rows into the span (the first 20 of those also give the width)
-    rows = np.arange(-n_gap, span_rows + 1, dtype=float)
-    rows *= sg
-    rows += end
-    if rows.min() < 0 or len(rows) < min_rows:
-        return None
-    u, d, w_ratio = _carried(c, rows, end)
-    il = runs_l.find(rows, u)
-    i0 = np.maximum(il, 0)
-    w_l = runs_l.span_px.take(i0)
-    c_l = runs_l.centre_px.take(i0)
-    found = il >= 0
-    ref = found[n_gap:n_gap + 20]
-    if not ref.any():
-        return None
-    w_end = float(median(w_l[n_gap:n_gap + 20][ref]))
-    ok = found & (np.abs(w_l - w_end) <= 0.1 * w_end + 1.5)
-    ok &= np.abs(c_l - u) <= 0.15 * w_end + 1.5
-    k = np.flatnonzero(ok)
-    if len(k) < min_rows:
-        return None
-    # the right crossing holding the middle carried from the left one at the fit's disparity, as
-    # wide as the left one seen at the right view's slope (a row whose one edge is ragged or cut in
-    # one view moves its middle)
-    c_l, d, w_l = c_l.take(k), d.take(k), w_l.take(k)
-    ir = runs_r.find(rows.take(k), c_l - d)
-    j0 = np.maximum(ir, 0)
-    cd = c_l - runs_r.centre_px.take(j0)
-    ok = (ir >= 0) & (np.abs(cd - d) <= tol_d_px)
-    ok &= np.abs(runs_r.span_px.take(j0) - w_ratio * w_l) <= width_tol_px
-    k2 = np.flatnonzero(ok)
-    if len(k2) < min_rows:
-        return None
-    k, cd = k.take(k2), cd.take(k2)
-    x, y = rows.take(k) - t_fork, cd
-    fit = _robust_line(x, y, min_rows)
-    if fit is None:
-        return None
-    a, b, keep, mad = fit
-    n_gap_k = int(np.count_nonzero(keep & (k < n_gap)))
-    if n_gap_k == 0 and hi - lo < 2 * span_rows:
+    # the rows from the fork's to span_rows into the span (the first 20 of those also give the width),
+    # the crossings, the checks and the line compiled (kernels_forks.side_near)
+    s_end, slope_s, d_end, slope_d, ratio = _carried(c, end)
+    tl, tr = runs_l._find_tables, runs_r._find_tables
+    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(
+        *tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px,
+        n_gap, int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork), float(tol_d_px),
+        float(width_tol_px), int(min_rows), 3.5)
+    if not ok or (n_gap_k == 0 and hi - lo < 2 * span_rows):
         # (no row past the span: a short span's fit is already a line through these rows)
         return None
-    return SideNear(b, int(np.count_nonzero(keep)), n_gap_k, n_gap,
-                    float(np.abs(x[keep]).min()), mad, a)
+    return SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
 
 
 def line_carry_var(n_rows: float, gap_rows: float) -> float:
@@ -247,11 +214,11 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
     return d_out, score
 
 
-def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """The curve's centre column and disparity (N,) at ``rows`` along its tangent at the span's ``end``
-    (beyond the span: as :meth:`BranchCurve.s_at` / ``d_at`` carry it; on the span's rows next to its
-    end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px), and the
-    ratio of the right view's row crossing width to the left's there.
+def _carried(c: BranchCurve, end: float) -> tuple[float, float, float, float, float]:
+    """The curve's tangent at the span's ``end``: its centre column and slope, its disparity and slope
+    there (beyond the span: as :meth:`BranchCurve.s_at` / ``d_at`` carry it; on the span's rows next to
+    its end within a fraction of a pixel: they only pick the crossings, within 1.5 and 2.5 px), and the
+    ratio of the right view's row crossing width to the left's.
 
     A band of width W at slope s (columns per row) crosses a row over W sqrt(1 + s^2); in the right
     view the centre line is the left one moved by the disparity, so its slope is s - d'(t): a piece
@@ -261,40 +228,8 @@ def _carried(c: BranchCurve, rows: np.ndarray, end: float) -> tuple[np.ndarray, 
     lo, _ = c.t_range
     slope_d = c.d_poly.deriv().at(end) if c.d_end_slopes is None else c.d_end_slopes[0 if end == lo else 1]
     slope_s = c.s_poly.deriv().at(end)
-    dt = rows - end
     ratio = math.hypot(1.0, slope_s - slope_d) / math.hypot(1.0, slope_s) if SIDE_WIDTH_SLOPE else 1.0
-    return c.s_poly.at(end) + slope_s * dt, c.d_poly.at(end) + slope_d * dt, ratio
-
-
-def _line_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
-    """Least-squares line ``y = a x + b`` (closed form); None when ``x`` has no spread."""
-    n = len(x)
-    sx, sy = float(x.sum()), float(y.sum())
-    det = n * float(x @ x) - sx * sx
-    if det <= 0:
-        return None
-    a = (n * float(x @ y) - sx * sy) / det
-    return a, (sy - a * sx) / n
-
-
-def _robust_line(x: np.ndarray, y: np.ndarray, min_n: int, k_mad: float = 3.5):
-    """A line ``y = a x + b`` refitted once without the residuals beyond ``k_mad`` MADs (+ 0.05) of the
-    least-squares one (:func:`curves.robust_fit`'s test, one round). Returns (a, b, inliers (N,), MAD)
-    or None when fewer than ``min_n`` stay."""
-    ab = _line_fit(x, y)
-    if ab is None:
-        return None
-    res = y - (ab[0] * x + ab[1])
-    mad = 1.4826 * float(median(np.abs(res - median(res))))
-    keep = np.abs(res) <= k_mad * (mad + 1e-3) + 0.05
-    n_keep = int(np.count_nonzero(keep))
-    if n_keep < min_n:
-        return None
-    if n_keep < len(x):
-        ab = _line_fit(x[keep], y[keep])
-        if ab is None:
-            return None
-    return ab[0], ab[1], keep, mad
+    return float(c.s_poly.at(end)), float(slope_s), float(c.d_poly.at(end)), float(slope_d), float(ratio)
 
 
 @dataclass(frozen=True)

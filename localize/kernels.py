@@ -960,6 +960,8 @@ def warm_up() -> None:
     _warm_segment()
     from appliance.localize import kernels_tips      # (the tips' kernels, speedT: that module imports this one)
     kernels_tips.warm_up()
+    from appliance.localize import kernels_forks        # (imports this module)
+    kernels_forks.warm_up()
 
 
 # --- match stage (speedm)

@@ -958,6 +958,8 @@ def warm_up() -> None:
     _warm_match()
     _warm_match2()
     _warm_segment()
+    from appliance.localize import kernels_dense     # (its own module: it imports this one)
+    kernels_dense.warm_up()
 
 
 # --- match stage (speedm)

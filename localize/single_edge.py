@@ -12,7 +12,7 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_dense
 from appliance.localize.curves import (
     BranchCurve,
     GroupPolys,
@@ -133,40 +133,11 @@ def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, 
     when fewer than ``need`` rows give samples (or fewer than ``need`` stay within 0.75 px of a line).
     """
     cx = 0.5 * (sm.left_mask.shape[1] - 1)    # the principal point taken at the centre (a few % of the effect)
-    ri = rows.astype(int)
-    il = runs_l.find(ri, u)
-    il = np.where(il >= 0, il, runs_l.find(ri, xc))
-    ok = il >= 0
-    if ok.sum() < need:
-        return None
-    ri, t, u, d, il, half = ri[ok], rows[ok], u[ok], d[ok], il[ok], half[ok]
-    tol = max(3.0, 0.25 * float(half.mean()))
-    edges, ok_side, irs = [], [], []
-    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
-        e_l = edge_l[il]
-        ir = runs_r.find(ri, e_l - d - side * 1.0)
-        good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
-        d_ax = np.full(len(t), np.nan)
-        if good.any():
-            d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
-                                      sm.offset_px)
-        good &= np.abs(d_ax - d) <= 2.0
-        edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
-    if (ok_side[0] | ok_side[1]).sum() < need:
-        return None
-    both = ok_side[0] & ok_side[1]
-    if both.sum() >= 3:                     # the width where both edges show, else the piece's
-        half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
-    ts, ds, cs, rs = [], [], [], []
-    for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
-        ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
-        cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
-    ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
-    d_line, inl = robust_fit(ts, ds, 1)
-    inl &= np.abs(ds - d_line(ts)) <= 0.75
-    if len(np.unique(ts[inl])) < need:
-        return None
-    return ts[inl], ds[inl], cs[inl], rs[inl]
+    f64 = [np.ascontiguousarray(a, float) for a in (rows, xc, u, d, half)]
+    ok, ts, ds, cs, rs = kernels_dense.edge_track(     # (compiled: the same rules, equal up to rounding)
+        runs_l._find_tables, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width, *f64, float(need), float(sm.f_px), cx,
+        float(sm.offset_px))
+    return (ts, ds, cs, rs) if ok else None
 
 
 def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,

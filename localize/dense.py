@@ -35,7 +35,7 @@ from appliance.localize.curves import (
     robust_fit,
     robust_fit_groups,
 )
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_dense
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import at_window_edge_dropped, line_supported, scatter_ok
@@ -43,7 +43,7 @@ from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.rectify import ReadBox
 from appliance.localize.single_edge import (
     carry_over,
@@ -144,6 +144,9 @@ def _degrees(t: np.ndarray, g: np.ndarray, live: np.ndarray) -> np.ndarray:
     return np.array([degree_for(int(n[k]), float(hi[k] - lo[k])) if live[k] else 1 for k in range(ng)])
 
 
+_NO_TAKEN = np.zeros(0, bool)
+
+
 def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
                    angle_deg: dict[int, float], taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
     """Dense row-by-row match of steep segments, all at once: {segment: curve} of those that find enough.
@@ -159,49 +162,17 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
     centres = (segs0, rows, xc, g)
-    alive = np.bincount(g, minlength=len(segs)) >= 4
-    if not alive.any():
-        return {}
-    keep = alive[g]
-    rows, xc, g = rows[keep].astype(int), xc[keep], _regroup(g[keep], alive)
-    segs = np.asarray(segs)[alive]
-    sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs.tolist()])
-    il = runs_l.find(rows, xc)
-    r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
-    ok = il >= 0
-    rows_all, il_all, g_all = rows[ok], il[ok], g[ok]
-    w_l = np.where(ok, runs_l.span_px[np.maximum(il, 0)], np.inf)
-    ok &= w_l <= 1.5 * (2 * r_loc / sin_t[g] + 1) + 2
-    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
-    alive = np.bincount(g, minlength=len(segs)) >= 4
-    # a branch's width varies smoothly along it: rows much narrower (partly occluded) or wider
-    # (merged with a crossing branch) than the trend are not its centre
-    keep = alive[g]
-    rows, il, w_l, g = rows[keep], il[keep], w_l[keep], _regroup(g[keep], alive)
-    keep = alive[g_all]
-    rows_all, il_all, g_all = rows_all[keep], il_all[keep], _regroup(g_all[keep], alive)
-    segs = segs[alive]
+    sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs0])
+    rm = sm.radius_map if isinstance(sm.radius_map, RadiusMap) else RadiusMap(np.asarray(sm.radius_map))
+    # the rows' left crossings, two width tests and the right candidates (compiled: the same rules)
+    seg_idx, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw = kernels_dense.steep_candidates(
+        np.ascontiguousarray(rows, float), np.ascontiguousarray(xc, float), np.ascontiguousarray(g, np.int64), sin_t,
+        runs_l._find_tables, runs_l.span_px, runs_l.centre_px, runs_r._centre_keys, runs_r.centre_px, runs_r.span_px,
+        runs_l.width, rm.image, int(rm.scale), *map(float, sm.d_range_px),
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+    segs = np.asarray(segs0)[seg_idx]
     ng = len(segs)
-    if ng == 0:
-        return {}
-    rf = rows.astype(float)
-    w_fit, _ = robust_fit_groups(rf, w_l, g, ng, np.full(ng, 2), rounds=2)
-    wv = w_fit(g, rf)
-    ok = np.abs(w_l - wv) <= 0.1 * wv + 1.5
-    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
-    n = np.bincount(g, minlength=ng)
-    alive = n >= 4
-    c_l = runs_l.centre_px[il]
-    dmin, dmax = sm.d_range_px
-    q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
-    cd = c_l[q] - runs_r.centre_px[rr]
-    cw = runs_r.span_px[rr]
-    good = (np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5) & alive[g[q]]
-    if taken is not None:
-        good &= ~taken[rr]
-    q, rr, cd, cw = q[good], rr[good], cd[good], cw[good]
-    alive &= np.bincount(g[q], minlength=ng) >= 4
-    if not alive.any():
+    if ng == 0 or not alive.any():
         return {}
     t = rows.astype(float)
     degree = _degrees(t, g, alive)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _median, _readonly, robust_fit_groups, runs_find
+from appliance.localize.kernels import _JIT, _median, _readonly, robust_fit_groups, runs_between, runs_find
 
 
 @numba.njit(**_JIT)
@@ -149,9 +149,169 @@ def edge_track(tab_l, tab_r, edges_l, edges_r, width, rows, xc, u, d, half, need
     return True, ts[keep], ds[keep], cs[keep], rs[keep]
 
 
+@numba.njit(**_JIT)
+def _count(g, ng):
+    """``np.bincount(g, minlength=ng)`` of group ids ``g`` (N,) in [0, ng)."""
+    n = np.zeros(ng, np.int64)
+    for i in range(len(g)):
+        n[g[i]] += 1
+    return n
+
+
+@numba.njit(**_JIT)
+def _renumber(alive):
+    """New ids (G,) of the ``alive`` groups (``np.cumsum(alive) - 1``: -1 before the first)."""
+    out = np.empty(len(alive), np.int64)
+    c = -1
+    for k in range(len(alive)):
+        c += alive[k]
+        out[k] = c
+    return out
+
+
+@numba.njit(**_JIT)
+def steep_candidates(rows, xc, g, sin_all, tab_l, span_l, centre_l, keys_r, centre_r, span_r, width, radius_img,
+                     scale, d_min, d_max, taken):
+    """``dense.fit_steep_many``'s first steps, from the row centres to each row's right candidates.
+
+    Pieces with fewer than 4 rows are dropped (twice: before and after the width test); a row keeps
+    its left crossing (the run at its centre) if that is at most ``1.5 (2 r / sin + 1) + 2`` px wide
+    (r: the radius map's at the centre, nearest pixel); then if within ``0.1 w + 1.5`` px of each
+    piece's width trend (a robust quadratic, 2 rounds). Each kept row's candidates are the right
+    runs of its row whose centre gives a disparity in [d_min, d_max] and whose width is within
+    ``0.1 w + 1.5`` px of the left one's (not ``taken``).
+
+    Parameters
+    ----------
+    rows, xc : (N,) float
+        Rows and centre columns (px) of the pieces' rows, piece ids ``g`` (N,) int64 non-decreasing.
+    sin_all : (G0,) float
+        Each piece's ``max(sin(angle from the rows), 0.2)``.
+    tab_l : tuple of three (R + 1,) int64
+        ``Runs._find_tables`` of the left runs; ``span_l``, ``centre_l`` (R,) their widths and centres, px.
+    keys_r, centre_r, span_r : (R',) float
+        The right runs' centre keys (``Runs._centre_keys``), centres and widths, px.
+    width : int
+        Image width, px. ``radius_img`` (h, w) float32 and ``scale``: the radius map.
+    d_min, d_max : float
+        Working disparity range, px.
+    taken : (R',) bool or (0,) bool
+        Right runs that belong to another piece (none when empty).
+
+    Returns
+    -------
+    seg_idx : (G,) int64
+        The surviving pieces (indices into the input pieces); groups below are numbered over them.
+    rows, il, w_l, g : (M,) int64, int64, float, int64
+        The rows that passed both width tests: row, left run, its width (px), group.
+    rows_all, il_all, g_all : (A,) int64
+        Every row with a left crossing of the surviving pieces (before the width tests).
+    n : (G,) int64
+        Rows per group after the width tests.
+    alive : (G,) bool
+        Groups with at least 4 rows and 4 candidates.
+    c_l : (M,) float
+        Left crossings' centres, px.
+    q, rr : (K,) int64
+        Candidates: row (into the M rows) and right run.
+    cd, cw : (K,) float
+        Their disparity and right width, px.
+    """
+    ng0 = len(sin_all)
+    alive0 = _count(g, ng0) >= 4
+    new0 = _renumber(alive0)
+    m = 0
+    for i in range(len(g)):
+        m += alive0[g[i]]
+    ri, xk, gk = np.empty(m, np.int64), np.empty(m), np.empty(m, np.int64)
+    j = 0
+    for i in range(len(g)):
+        if alive0[g[i]]:
+            ri[j], xk[j], gk[j] = np.int64(rows[i]), xc[i], new0[g[i]]
+            j += 1
+    seg1 = np.flatnonzero(alive0)
+    ng1 = len(seg1)
+    il = runs_find(tab_l[0], tab_l[1], tab_l[2], width, ri, xk)
+    h, w = radius_img.shape
+    ok = np.zeros(m, np.bool_)
+    found = np.zeros(m, np.bool_)
+    for i in range(m):
+        if il[i] < 0:
+            continue
+        found[i] = True
+        x = min(max(np.int64(np.rint((xk[i] + 0.5) / scale - 0.5)), 0), w - 1)
+        y = min(max(np.int64(np.rint((ri[i] + 0.5) / scale - 0.5)), 0), h - 1)
+        r = np.float64(radius_img[y, x])
+        ok[i] = span_l[il[i]] <= 1.5 * (2 * r / sin_all[seg1[gk[i]]] + 1) + 2
+    n1 = np.zeros(ng1, np.int64)
+    for i in range(m):
+        n1[gk[i]] += ok[i]
+    alive1 = n1 >= 4
+    new1 = _renumber(alive1)
+    seg_idx = seg1[alive1]
+    ng = len(seg_idx)
+    n_all, n_ok = 0, 0
+    for i in range(m):
+        if alive1[gk[i]]:
+            n_all += found[i]
+            n_ok += ok[i]
+    rows_all, il_all, g_all = np.empty(n_all, np.int64), np.empty(n_all, np.int64), np.empty(n_all, np.int64)
+    r2, il2, w2, g2 = np.empty(n_ok, np.int64), np.empty(n_ok, np.int64), np.empty(n_ok), np.empty(n_ok, np.int64)
+    a = b = 0
+    for i in range(m):
+        if not alive1[gk[i]]:
+            continue
+        if found[i]:
+            rows_all[a], il_all[a], g_all[a] = ri[i], il[i], new1[gk[i]]
+            a += 1
+        if ok[i]:
+            r2[b], il2[b], w2[b], g2[b] = ri[i], il[i], span_l[il[i]], new1[gk[i]]
+            b += 1
+    # the width trend: rows much narrower (partly occluded) or wider (merged) than it are not the centre
+    t2 = r2.astype(np.float64)
+    starts = np.searchsorted(g2, np.arange(ng + 1))
+    coef, t0, ts, _, _ = robust_fit_groups(t2, w2, starts, np.full(ng, 2, np.int64), np.full(ng, 2, np.int64), 3.5)
+    keep = np.zeros(n_ok, np.bool_)
+    for i in range(n_ok):
+        k = g2[i]
+        x = (t2[i] - t0[k]) / ts[k]
+        wv = ((x * coef[k, 0] + coef[k, 1]) * x + coef[k, 2]) * x + coef[k, 3]
+        keep[i] = abs(w2[i] - wv) <= 0.1 * wv + 1.5
+    sel = np.flatnonzero(keep)
+    r3, il3, w3, g3 = r2[sel], il2[sel], w2[sel], g2[sel]
+    n = _count(g3, ng)
+    alive = n >= 4
+    c_l = np.empty(len(sel))
+    lo, hi = np.empty(len(sel)), np.empty(len(sel))
+    for i in range(len(sel)):
+        c_l[i] = centre_l[il3[i]]
+        lo[i], hi[i] = c_l[i] - d_max, c_l[i] - d_min
+    q, rr = runs_between(keys_r, r3, width, lo, hi)
+    good = np.zeros(len(q), np.bool_)
+    has_taken = len(taken) > 0
+    for i in range(len(q)):
+        wq = w3[q[i]]
+        good[i] = abs(span_r[rr[i]] - wq) <= 0.1 * wq + 1.5 and alive[g3[q[i]]] and not (has_taken and taken[rr[i]])
+    sel = np.flatnonzero(good)
+    q, rr = q[sel], rr[sel]
+    cd, cw = np.empty(len(q)), np.empty(len(q))
+    nq = np.zeros(ng, np.int64)
+    for i in range(len(q)):
+        cd[i] = c_l[q[i]] - centre_r[rr[i]]
+        cw[i] = span_r[rr[i]]
+        nq[g3[q[i]]] += 1
+    for k in range(ng):
+        alive[k] &= nq[k] >= 4
+    return seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
     f = np.zeros(1)
     ro = _readonly(np.zeros((2, 1)))
     edge_track(tab, tab, ro, ro, 4, f, f, f, f, f, 4.0, 1000.0, 0.0, 0.0)
+    r1 = _readonly(np.zeros(1))
+    for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
+        steep_candidates(f, f, np.zeros(1, np.int64), f, tab, r1, r1, r1, r1, r1, 4, np.zeros((1, 1), np.float32), 1,
+                         1.0, 2.0, taken)

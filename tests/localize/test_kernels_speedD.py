@@ -112,3 +112,110 @@ def test_edge_track_is_the_numpy_track():
         np.testing.assert_allclose(got[1], want[1], rtol=0, atol=1e-9)       # px of disparity
         np.testing.assert_allclose(got[2], want[2], rtol=0, atol=1e-9)       # px
     assert n_track >= 15 and n_none >= 5
+
+
+def _candidates_numpy(rows, xc, g, sin_all, runs_l, runs_r, rm, d_range_px, taken):
+    """``dense.fit_steep_many``'s steps from the row centres to the right candidates, as they were in numpy."""
+    from appliance.localize.curves import robust_fit_groups
+    from appliance.localize.dense import _regroup
+    from appliance.localize.radius import radius_at
+    segs = np.arange(len(sin_all))
+    alive = np.bincount(g, minlength=len(segs)) >= 4
+    keep = alive[g]
+    rows, xc, g = rows[keep].astype(int), xc[keep], _regroup(g[keep], alive)
+    segs = segs[alive]
+    sin_t = sin_all[segs]
+    il = runs_l.find(rows, xc)
+    r_loc = radius_at(rm, np.column_stack([xc, rows]))
+    ok = il >= 0
+    rows_all, il_all, g_all = rows[ok], il[ok], g[ok]
+    w_l = np.where(ok, runs_l.span_px[np.maximum(il, 0)], np.inf)
+    ok &= w_l <= 1.5 * (2 * r_loc / sin_t[g] + 1) + 2
+    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
+    alive = np.bincount(g, minlength=len(segs)) >= 4
+    keep = alive[g]
+    rows, il, w_l, g = rows[keep], il[keep], w_l[keep], _regroup(g[keep], alive)
+    keep = alive[g_all]
+    rows_all, il_all, g_all = rows_all[keep], il_all[keep], _regroup(g_all[keep], alive)
+    segs = segs[alive]
+    ng = len(segs)
+    rf = rows.astype(float)
+    w_fit, _ = robust_fit_groups(rf, w_l, g, ng, np.full(ng, 2), rounds=2)
+    wv = w_fit(g, rf)
+    ok = np.abs(w_l - wv) <= 0.1 * wv + 1.5
+    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
+    n = np.bincount(g, minlength=ng)
+    alive = n >= 4
+    c_l = runs_l.centre_px[il]
+    dmin, dmax = d_range_px
+    q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
+    cd = c_l[q] - runs_r.centre_px[rr]
+    cw = runs_r.span_px[rr]
+    good = (np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5) & alive[g[q]]
+    if taken is not None:
+        good &= ~taken[rr]
+    q, rr, cd, cw = q[good], rr[good], cd[good], cw[good]
+    alive &= np.bincount(g[q], minlength=ng) >= 4
+    return segs, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw
+
+
+def test_steep_candidates_are_the_numpy_steps():
+    """Several tilted branches (widths varying, some merged with a crossing branch or cut by an occluder) in
+    both views, pieces of 2 to 150 rows (some off the mask), radius maps at scales 1 and 2, with and
+    without taken right runs: every output the same (bit for bit: the same comparisons and sums)."""
+    from appliance.localize.radius import ridge_radius_map
+    rng = np.random.default_rng(3)
+    seen = 0
+    for trial in range(40):
+        pieces = [(rng.uniform(20, 300), rng.uniform(-0.6, 0.6), int(rng.integers(3, 40)), rng.uniform(15, 50))
+                  for _ in range(int(rng.integers(1, 6)))]
+
+        def draw(img, shift):
+            for x0, slope, w, disp in pieces:
+                for y in range(0, 960, 8):
+                    x = 4 * (x0 + slope * y / 4 - shift * disp)
+                    ww = w * (1 + 0.3 * np.sin(y / 200))
+                    cv2.rectangle(img, (int(x - 2 * ww), y), (int(x + 2 * ww), y + 7), 255, -1)
+            cv2.line(img, (0, int(rng.uniform(0, 960))), (1279, int(rng.uniform(0, 960))), 255, int(rng.integers(8, 60)))
+            if shift and rng.random() < 0.5:
+                cv2.circle(img, (int(rng.uniform(0, 1280)), int(rng.uniform(0, 960))), int(rng.uniform(20, 200)), 0, -1)
+        left, right = _soft(lambda m: draw(m, 0.0)), _soft(lambda m: draw(m, 1.0))
+        runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+        scale = 1 + trial % 2
+        rm = ridge_radius_map(left[::scale, ::scale] if scale > 1 else left, 3 if scale > 1 else 1, scale)
+        rows, xc, g = [], [], []
+        for k, (x0, slope, w, disp) in enumerate(pieces):
+            r = np.arange(rng.uniform(0, 200), rng.uniform(0, 240)).round()[:int(rng.integers(2, 150))]
+            rows.append(r), xc.append(x0 + slope * r + rng.normal(0, 1.0, len(r))), g.append(np.full(len(r), k))
+        rows, xc, g = (np.concatenate(a) for a in (rows, xc, g))
+        sin_all = np.maximum(rng.uniform(0, 1, len(pieces)), 0.2)
+        taken = rng.random(len(runs_r.row)) < 0.2 if trial % 3 == 1 else None
+        want = _candidates_numpy(rows, xc, g, sin_all, runs_l, runs_r, rm, (10.0, 60.0), taken)
+        got = kernels_dense.steep_candidates(rows, xc, g.astype(np.int64), sin_all, runs_l._find_tables,
+                                             runs_l.span_px, runs_l.centre_px, runs_r._centre_keys,
+                                             runs_r.centre_px, runs_r.span_px, runs_l.width, rm.image, rm.scale,
+                                             10.0, 60.0, np.zeros(0, bool) if taken is None else taken)
+        for a, b in zip(want, got):
+            np.testing.assert_array_equal(b, a)
+        seen += bool(want[9].any())
+    assert seen >= 15
+
+
+def test_warm_up_compiles_the_signatures_these_kernels_get():
+    """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
+    from pathlib import Path
+
+    from appliance.calibrate.model import load_calibration
+    from appliance.config import load_config
+    from appliance.localize import Localizer
+    from appliance.synth.truth import load_truth
+
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
+    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
+    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates]
+    before = [len(f.signatures) for f in mine]
+    left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
+    truth = load_truth(fixtures / "scenes" / "truth_03.json")
+    loc.localize(left, right)
+    loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
+    assert [len(f.signatures) for f in mine] == before and all(before)

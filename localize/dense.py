@@ -38,7 +38,16 @@ from appliance.localize.curves import (
 from appliance.localize import kernels, kernels_dense
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
-from appliance.localize.flatfit import at_window_edge_dropped, line_supported, scatter_ok
+from appliance.localize.flatfit import (
+    FEW_LINE_PATCHES,
+    FEW_PATCHES,
+    MAX_FEW_MAD_PX,
+    MAX_LINE_MAD_PX,
+    MIN_LINE_INLIERS,
+    MIN_LINE_SHARE,
+    MIN_LINE_SPREAD,
+    at_window_edge_dropped,
+)
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
@@ -53,13 +62,7 @@ from appliance.localize.single_edge import (
     grow,
 )
 from appliance.localize.subpixel import near_points, refine_runs
-from appliance.localize.texture import (
-    patch_depth_fraction,
-    slant_depth_factor,
-    surface_disparity,
-    surface_disparity_many,
-    surface_to_axis,
-)
+from appliance.localize.texture import surface_disparity, surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
@@ -422,36 +425,26 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
 
 
+_FLAT_LIMITS = np.array([MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES, MAX_LINE_MAD_PX,
+                         FEW_PATCHES, MAX_FEW_MAD_PX], float)
+
+
 def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
                  uv: np.ndarray, found: tuple) -> BranchCurve | None:
     """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
     ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
     g, sm = b.g, b.sm
     d_surf, score = found
-    good = np.isfinite(d_surf) & (score >= 0.6)
-    xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
-    yr = np.rint(uv[:, 1]).astype(int)                 # (a patch at the piece's end may lie past the view's edge)
-    h, w = sm.right_mask.shape
-    on_right = (xr >= 0) & (xr < w) & (yr >= 0) & (yr < h)
-    good &= on_right                                   # the match must land on a branch in the right view
-    good[on_right] &= sm.right_mask[yr[on_right], xr[on_right]] >= 128
-    if good.sum() >= 3:
-        ug, dv = u[good], v_poly.deriv()(u[good])
-        k = patch_depth_fraction(radius, _patch_half_h(radius), dv)
-        d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
-        # texture disparities are noisy: a constant for short pieces, a line for long ones
-        degree = 0 if hi - lo < 100 else 1
-        d_poly, inl_d = robust_fit(ug, d_axis, degree)
-        if SLANT and degree == 1:   # the axis further behind the surface where the branch turns in depth
-            k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
-                                       (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
-            d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
-            d_poly, inl_d = robust_fit(ug, d_axis, degree)
-        if degree == 1 and not line_supported(ug[inl_d], len(u), lo, hi):
-            return None                 # a line through a handful of matches: withheld (flatfit.py)
-        if not scatter_ok((d_axis - d_poly(ug))[inl_d], degree):
-            return None                 # matches scattered over px: ambiguous bark (flatfit.py)
-        return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
+    # compiled: the texture patches' fit (the numpy steps of texture.py and flatfit.py, equal up to rounding)
+    status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(
+        np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
+        np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),
+        float(v_poly.ts), float(radius), _patch_half_h(radius), float(lo), float(hi), float(sm.f_px),
+        float(sm.offset_px), SLANT, _FLAT_LIMITS)
+    if status == 1:
+        return BranchCurve(s, False, (lo, hi), v_poly, Poly(coef[3 - degree:].copy(), t0, ts), radius, n_inl)
+    if status == 2:
+        return None                     # too few patches on the line or scattered over px (flatfit.py)
     for n in g.seg_nodes[s]:
         b.place_pending(n)                # (a provisional fork, made when read)
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)

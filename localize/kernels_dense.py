@@ -305,6 +305,175 @@ def steep_candidates(rows, xc, g, sin_all, tab_l, span_l, centre_l, keys_r, cent
     return seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw
 
 
+@numba.njit(**_JIT)
+def _mean(a):
+    """``a.mean()`` of a 1-D float array: numpy's pairwise sum (8 accumulators) up to 128 values, the same
+    value bit for bit; a plain sum beyond (rounding level; ``kernels._pairwise`` is recursive, which
+    numba's cache cannot link across modules)."""
+    n = len(a)
+    if n < 8 or n > 128:
+        res = 0.0
+        for i in range(n):
+            res += a[i]
+        return res / n
+    r = a[:8].copy()
+    m = n - n % 8
+    for i in range(8, m, 8):
+        for j in range(8):
+            r[j] += a[i + j]
+    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(m, n):
+        res += a[i]
+    return res / n
+
+
+@numba.njit(**_JIT)
+def _horner(coef, t0, ts, t):
+    """:class:`curves.Poly` ``(coef, t0, ts)`` at one parameter ``t`` (its Horner sums)."""
+    x = (t - t0) / ts
+    if len(coef) == 1:
+        return coef[0]
+    y = x * coef[0] + coef[1]
+    for i in range(2, len(coef)):
+        y = y * x + coef[i]
+    return y
+
+
+@numba.njit(**_JIT)
+def _deriv(coef, ts):
+    """:meth:`curves.Poly.deriv`'s coefficients (the same products)."""
+    n = len(coef) - 1
+    if n <= 0:
+        return np.zeros(1)
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = coef[i] * (n - i) / ts
+    return out
+
+
+@numba.njit(**_JIT)
+def _to_axis(d_surf, radius, f_px, offset_px, k):
+    """``texture.surface_to_axis`` of one patch (``k``: its depth fraction)."""
+    return (d_surf - offset_px) / (1.0 + k * radius / f_px) + offset_px
+
+
+@numba.njit(**_JIT)
+def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, half_h, lo, hi, f_px, offset_px,
+                slant, limits):
+    """``dense._flat_finish``'s texture branch: a flat piece's disparity line (or constant) from its
+    patches' surface disparities.
+
+    Patches that matched (finite, score >= 0.6) onto the right mask (>= 128 at the matched pixel)
+    count; with at least 3, their disparities go back onto the axis (``texture.patch_depth_fraction``
+    over the patch's ``2 half_h + 1`` rows at the centre line's slope, ``texture.surface_to_axis``), a
+    robust constant (pieces under 100 px) or line is fitted, and for a line the step is redone with
+    ``texture.slant_depth_factor`` (if ``slant``) and refitted; the fit must pass
+    ``flatfit.line_supported`` and ``flatfit.scatter_ok``.
+
+    Parameters
+    ----------
+    d_surf, score : (N,) float
+        Patches' surface disparities (px) and correlations.
+    u, v : (N,) float
+        Patch centres (px, rectified left view).
+    right_mask : (H, W) uint8
+        Right soft mask.
+    v_coef : (K,) float; v_t0, v_ts : float
+        The centre line v(u) (:class:`curves.Poly`).
+    radius : float; half_h : int
+        Piece radius and the patches' half height, px.
+    lo, hi : float
+        The piece's column span, px.
+    f_px, offset_px : float
+    slant : bool
+    limits : (7,) float
+        ``flatfit``'s MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES,
+        MAX_LINE_MAD_PX, FEW_PATCHES, MAX_FEW_MAD_PX.
+
+    Returns
+    -------
+    status : int
+        0: fewer than 3 patches (the caller's fallback), 1: a curve, 2: withheld (None).
+    coef : (4,) float; t0, ts : float; degree : int
+        The disparity polynomial (``coef[3 - degree:]``), highest power first.
+    n_inl : int
+        Its inlier patches.
+    """
+    n = len(u)
+    h, w = right_mask.shape
+    good = np.zeros(n, np.bool_)
+    for i in range(n):
+        if not (np.isfinite(d_surf[i]) and score[i] >= 0.6):
+            continue
+        xr = np.int64(np.rint(u[i] - d_surf[i]))
+        yr = np.int64(np.rint(v[i]))
+        good[i] = 0 <= xr < w and 0 <= yr < h and right_mask[yr, xr] >= 128
+    idx = np.flatnonzero(good)
+    m = len(idx)
+    coef = np.zeros(4)
+    if m < 3:
+        return 0, coef, 0.0, 1.0, 0, 0
+    dv_coef = _deriv(v_coef, v_ts)
+    ug, ds, dv, k = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    rows = np.empty(2 * half_h + 1)
+    for j in range(m):
+        ug[j], ds[j] = u[idx[j]], d_surf[idx[j]]
+        dv[j] = _horner(dv_coef, v_t0, v_ts, ug[j])
+        cos_a = 1.0 / np.sqrt(1.0 + dv[j] * dv[j])          # patch_depth_fraction: the rows' mean offset
+        for y in range(-half_h, half_h + 1):
+            t = cos_a * y / max(radius, 1e-9)
+            rows[y + half_h] = np.sqrt(max(1.0 - t * t, 0.0))
+        k[j] = _mean(rows)
+    d_axis = np.empty(m)
+    for j in range(m):
+        d_axis[j] = _to_axis(ds[j], radius, f_px, offset_px, k[j])
+    degree = 0 if hi - lo < 100 else 1
+    starts = np.array([0, m], np.int64)
+    deg_a, rounds = np.full(1, degree, np.int64), np.full(1, 3, np.int64)
+    c4, t0, ts, dg, inl = robust_fit_groups(ug, d_axis, starts, deg_a, rounds, 3.5)
+    if slant and degree == 1:           # the axis further behind the surface where the branch turns in depth
+        cx, cy = 0.5 * (w - 1), 0.5 * (h - 1)
+        d_coef = c4[0, 3 - dg[0]:].copy()
+        dd_coef = _deriv(d_coef, ts[0])
+        for j in range(m):
+            vj = _horner(v_coef, v_t0, v_ts, ug[j])
+            dz = max(_horner(d_coef, t0[0], ts[0], ug[j]) - offset_px, 1e-6)
+            r0, r1, r2 = (ug[j] - cx) / f_px, (vj - cy) / f_px, 1.0
+            z = 1.0 / dz
+            dz_du = -_horner(dd_coef, t0[0], ts[0], ug[j]) * z / dz
+            a0, a1, a2 = r0 * dz_du + z / f_px, r1 * dz_du + z * dv[j] / f_px, r2 * dz_du + 0.0
+            rn = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+            n0, n1, n2 = r0 / rn, r1 / rn, r2 / rn
+            cos_t = abs(n0 * a0 + n1 * a1 + n2 * a2) / max(np.sqrt(a0 * a0 + a1 * a1 + a2 * a2), 1e-12)
+            k[j] = k[j] * (n2 / np.sqrt(max(1.0 - cos_t * cos_t, 1e-6)))
+            d_axis[j] = _to_axis(ds[j], radius, f_px, offset_px, k[j])
+        c4, t0, ts, dg, inl = robust_fit_groups(ug, d_axis, starts, deg_a, rounds, 3.5)
+    d_coef = c4[0, 3 - dg[0]:].copy()
+    n_inl = 0
+    u_lo, u_hi = np.inf, -np.inf
+    for j in range(m):
+        if inl[j]:
+            n_inl += 1
+            u_lo, u_hi = min(u_lo, ug[j]), max(u_hi, ug[j])
+    if degree == 1 and (n_inl < max(limits[0], limits[1] * n) or u_hi - u_lo < limits[2] * (hi - lo)):
+        return 2, c4[0], t0[0], ts[0], dg[0], n_inl          # a line through a handful of matches (flatfit)
+    if n_inl:
+        r = np.empty(n_inl)
+        i = 0
+        for j in range(m):
+            if inl[j]:
+                r[i] = d_axis[j] - _horner(d_coef, t0[0], ts[0], ug[j])
+                i += 1
+        med = _median(r)
+        for i in range(n_inl):
+            r[i] = abs(r[i] - med)
+        mad = _median(r)
+        ok = (n_inl > limits[3] or mad <= limits[4]) if degree >= 1 else (n_inl > limits[5] or mad <= limits[6])
+        if not ok:
+            return 2, c4[0], t0[0], ts[0], dg[0], n_inl      # matches scattered over px: ambiguous bark (flatfit)
+    return 1, c4[0], t0[0], ts[0], dg[0], n_inl
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -315,3 +484,6 @@ def warm_up() -> None:
     for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
         steep_candidates(f, f, np.zeros(1, np.int64), f, tab, r1, r1, r1, r1, r1, 4, np.zeros((1, 1), np.float32), 1,
                          1.0, 2.0, taken)
+    f3 = np.zeros(3)
+    flat_finish(f3, f3, f3, f3, np.zeros((2, 2), np.uint8), f3, 0.0, 1.0, 2.0, 1, 0.0, 1.0, 1000.0, 0.0, True,
+                np.zeros(7))

@@ -212,10 +212,81 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates]
+    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")
     loc.localize(left, right)
     loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
     assert [len(f.signatures) for f in mine] == before and all(before)
+
+
+def _flat_texture_numpy(d_surf, score, u, uv, right_mask, v_poly, radius, lo, hi, f_px, offset_px):
+    """``dense._flat_finish``'s texture branch as it was in numpy: (status, d_poly or None, inliers) with
+    status 0 (fewer than 3 patches), 1 (a curve), 2 (withheld)."""
+    from appliance.localize.dense import _patch_half_h
+    from appliance.localize.flatfit import line_supported, scatter_ok
+    from appliance.localize.texture import patch_depth_fraction, slant_depth_factor, surface_to_axis
+    good = np.isfinite(d_surf) & (score >= 0.6)
+    xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)
+    yr = np.rint(uv[:, 1]).astype(int)
+    h, w = right_mask.shape
+    on_right = (xr >= 0) & (xr < w) & (yr >= 0) & (yr < h)
+    good &= on_right
+    good[on_right] &= right_mask[yr[on_right], xr[on_right]] >= 128
+    if good.sum() < 3:
+        return 0, None, 0
+    ug, dv = u[good], v_poly.deriv()(u[good])
+    k = patch_depth_fraction(radius, _patch_half_h(radius), dv)
+    d_axis = surface_to_axis(d_surf[good], radius, f_px, offset_px, k)
+    degree = 0 if hi - lo < 100 else 1
+    d_poly, inl_d = robust_fit(ug, d_axis, degree)
+    if degree == 1:
+        k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, f_px,
+                                   (0.5 * (w - 1), 0.5 * (h - 1)), offset_px)
+        d_axis = surface_to_axis(d_surf[good], radius, f_px, offset_px, k)
+        d_poly, inl_d = robust_fit(ug, d_axis, degree)
+    if degree == 1 and not line_supported(ug[inl_d], len(u), lo, hi):
+        return 2, d_poly, int(inl_d.sum())
+    if not scatter_ok((d_axis - d_poly(ug))[inl_d], degree):
+        return 2, d_poly, int(inl_d.sum())
+    return 1, d_poly, int(inl_d.sum())
+
+
+def test_flat_finish_is_the_numpy_texture_fit():
+    """Flat pieces short (a constant) and long (a line, with the slant step), radii 2-40 px (patches of 3-49
+    rows), disparities turning in depth, noisy and gross matches, patches off the right mask or the view,
+    few patches: the same status and inliers, the same disparity polynomial to 1e-9 px."""
+    from appliance.localize.curves import Poly
+    from appliance.localize.dense import _FLAT_LIMITS, _patch_half_h
+    rng = np.random.default_rng(4)
+    seen = {0: 0, 1: 0, 2: 0}
+    for trial in range(150):
+        lo = rng.uniform(0, 600)
+        hi = lo + rng.choice([rng.uniform(10, 99), rng.uniform(100, 600)])
+        u = np.arange(lo, hi + 1, 6.0)
+        v_poly = Poly(np.concatenate([rng.normal(0, 2, int(rng.integers(0, 3))), [rng.uniform(100, 400)]]),
+                      float(0.5 * (lo + hi)), float(max(0.5 * (hi - lo), 1.0)))
+        uv = np.column_stack([u, v_poly(u)])
+        d_true = rng.uniform(60, 200) + rng.uniform(-0.15, 0.15) * (u - lo)
+        d_surf = d_true + rng.normal(0, rng.choice([0.1, 1.0, 3.0]), len(u))
+        gross = rng.random(len(u)) < rng.uniform(0, 0.5)
+        d_surf[gross] += rng.uniform(-30, 30, gross.sum())
+        d_surf[rng.random(len(u)) < 0.1] = np.nan
+        score = rng.uniform(0.3, 1.0, len(u))
+        right_mask = np.zeros((480, 1100), np.uint8)
+        right_mask[:, int(rng.uniform(0, 300)):] = 200
+        right_mask[:, int(rng.integers(0, 5))::5] = 0              # (columns off the mask)
+        radius, f_px, off = rng.uniform(2, 40), rng.uniform(800, 1600), rng.uniform(-5, 5)
+        want = _flat_texture_numpy(d_surf, score, u, uv, right_mask, v_poly, radius, lo, hi, f_px, off)
+        status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(
+            d_surf, score, u, np.ascontiguousarray(uv[:, 1]), right_mask, v_poly.coef, v_poly.t0, v_poly.ts, radius,
+            _patch_half_h(radius), lo, hi, f_px, off, True, _FLAT_LIMITS)
+        assert status == want[0]
+        seen[status] += 1
+        if status == 0:
+            continue
+        assert n_inl == want[2] and degree == len(want[1].coef) - 1
+        np.testing.assert_allclose(coef[3 - degree:], want[1].coef, rtol=0, atol=1e-9)
+        assert abs(t0 - want[1].t0) <= 1e-9 and abs(ts - want[1].ts) <= 1e-9
+    assert min(seen.values()) >= 10, seen

@@ -32,7 +32,6 @@ from appliance.localize.curves import (
     fit_groups,
     linspace,
     median,
-    robust_fit,
     robust_fit_groups,
 )
 from appliance.localize import kernels, kernels_dense
@@ -86,17 +85,6 @@ def _ends_disparity(graph: SkeletonGraph, curves: dict, d_range_px: tuple[float,
     return xy, d
 
 
-def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.ndarray) -> np.ndarray:
-    """True where a point (N, 2) lies inside a junction region at an end of segment ``s``."""
-    near = np.zeros(len(xy), bool)
-    for node in graph.seg_nodes[s]:
-        if node >= 0 and graph.node_kind[node] == JUNCTION:
-            nxy = graph.to_full(graph.node_yx[node])
-            r = radius_at(radius_map, nxy)[0]
-            near |= np.hypot(*(xy - nxy).T) < 1.6 * r + graph.scale + 1
-    return near
-
-
 def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
     """Group ids (N,) renumbered over the ``alive`` groups (samples of dead groups dropped by the caller)."""
     return (np.cumsum(alive) - 1)[g]
@@ -104,7 +92,7 @@ def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
 
 def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.ndarray, ...]:
     """:func:`centre_guess` by rows of every segment in ``segs`` at once, points inside a junction
-    region at a segment's end (:func:`_near_junction`) left out.
+    region at a segment's end (within 1.6 of its radius + the graph's scale + 1 px of it) left out.
 
     Returns rows (N,) float, centre columns (N,) and piece index into ``segs`` (N,) (non-decreasing):
     the same values as per piece, bit for bit (one np.interp over the pieces side by side, each
@@ -325,32 +313,12 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     return GroupPolys(coef, t0, ts, deg)
 
 
-@functools.lru_cache(maxsize=64)
-def _triu(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.triu_indices(n, 1)`` (cached, read-only: a few sizes recur every frame)."""
-    i, j = np.triu_indices(n, 1)
-    i.flags.writeable = j.flags.writeable = False
-    return i, j
-
-
 def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:
     """Whether a flat piece's coarse texture disparities ``d`` at columns ``u`` (N,) agree: at least half
     of them (and 2) within ``tol_px`` of one value, or, from 4 on, at least half (and 3) within
     ``tol_line_px`` of a line through two of them (a piece's disparity changes along it). One agrees."""
-    n = len(d)
-    if n <= 1:
-        return True
-    need = max(2, -(-n // 2))
-    if int((np.abs(d[:, None] - d[None, :]) <= tol_px).sum(1).max()) >= need:
-        return True
-    if n < 4:
-        return False
-    i, j = _triu(n)
-    du = u[j] - u[i]
-    ok = du != 0
-    slope = (d[j] - d[i])[ok] / du[ok]
-    fit = d[i][ok][:, None] + slope[:, None] * (u[None, :] - u[i][ok][:, None])
-    return bool(ok.any()) and int((np.abs(d[None, :] - fit) <= tol_line_px).sum(1).max()) >= max(3, need)
+    return kernels_dense.coarse_agree(np.ascontiguousarray(u, float), np.ascontiguousarray(d, float), float(tol_px),
+                                      float(tol_line_px))          # (compiled: the same tests)
 
 
 def _patch_half_h(radius_px: float) -> int:
@@ -388,20 +356,17 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
-    keep = ~_near_junction(g, s, np.column_stack([cols, yc]), sm.radius_map)
-    cols, yc = cols[keep].astype(int), yc[keep]
-    if len(cols) < 4:
+    nodes = g.seg_nodes[s]                                                 # (2,): a junction at either end
+    junction = (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    nxy = g.to_full(g.node_yx[np.maximum(nodes, 0)]).astype(float)        # (2, 2) (x, y)
+    thr = 1.6 * radius_at(sm.radius_map, nxy) + g.scale + 1
+    # compiled: the junctions' regions left out, the columns' runs, the robust line and the radius
+    ok, coef, t0, ts, degree, radius, lo, hi = kernels_dense.flat_line(
+        np.ascontiguousarray(cols, float), np.ascontiguousarray(yc, float), junction, nxy, thr,
+        runs_lt._find_tables, runs_lt.centre_px, runs_lt.span_px, runs_lt.width)
+    if not ok:
         return None
-    it = runs_lt.find(cols, yc)
-    ok = it >= 0
-    if ok.sum() < 4:
-        return None
-    t, vc, hgt = cols[ok].astype(float), runs_lt.centre_px[it[ok]], runs_lt.span_px[it[ok]]
-    degree = degree_for(len(t), float(t.max() - t.min()))
-    v_poly, inl = robust_fit(t, vc, degree)
-    slope = v_poly.deriv()(t[inl])
-    radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
-    lo, hi = float(t[inl].min()), float(t[inl].max())
+    v_poly = Poly(coef[3 - degree:].copy(), t0, ts)
     u = np.arange(lo, hi + 1, 6.0)
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), _patch_half_h(radius))

@@ -474,6 +474,113 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
     return 1, c4[0], t0[0], ts[0], dg[0], n_inl
 
 
+@numba.njit(**_JIT)
+def flat_line(cols, yc, junction, nxy, thr, tab_t, centre_t, span_t, width):
+    """``dense._flat_search``'s centre line: a flat piece's rows v(u) from the transposed mask's runs.
+
+    The skeleton's centre ``yc`` at columns ``cols`` (N,) (:func:`single_edge.centre_guess`), points
+    inside a junction region at the piece's ends left out (within ``thr`` of the junction's point
+    ``nxy``, as ``dense._row_centres``), finds each column's run (``Runs.find`` of the transposed runs); with
+    4 or more, a robust polynomial (:func:`curves.degree_for`) through the runs' centres and the
+    radius (the median of the inliers' half heights across the line's slope).
+
+    Parameters
+    ----------
+    cols, yc : (N,) float
+        Columns and the skeleton's centre rows, px.
+    junction : (2,) bool; nxy : (2, 2) float; thr : (2,) float
+        Whether each end is a junction, its point (x, y) and its region's radius, px.
+    tab_t : tuple of three (R + 1,) int64; centre_t, span_t : (R,) float
+        ``Runs._find_tables``, centres and spans of the transposed mask's runs.
+    width : int
+        The transposed mask's width (the image height), px.
+
+    Returns
+    -------
+    ok : bool
+        False where ``_flat_search`` returns None (fewer than 4 points or runs).
+    coef : (4,) float; t0, ts : float; degree : int
+        The centre line v(u) (``coef[3 - degree:]``).
+    radius, lo, hi : float
+        Radius and the inliers' column span, px.
+    """
+    n = len(cols)
+    keep = np.ones(n, np.bool_)
+    m = 0
+    for i in range(n):
+        for k in range(2):
+            if junction[k] and np.hypot(cols[i] - nxy[k, 0], yc[i] - nxy[k, 1]) < thr[k]:
+                keep[i] = False
+        m += keep[i]
+    coef = np.zeros(4)
+    if m < 4:
+        return False, coef, 0.0, 1.0, 0, 0.0, 0.0, 0.0
+    ci, yk = np.empty(m, np.int64), np.empty(m)
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            ci[j], yk[j] = np.int64(cols[i]), yc[i]
+            j += 1
+    it = runs_find(tab_t[0], tab_t[1], tab_t[2], width, ci, yk)
+    idx = np.flatnonzero(it >= 0)
+    k = len(idx)
+    if k < 4:
+        return False, coef, 0.0, 1.0, 0, 0.0, 0.0, 0.0
+    t, vc, hgt = np.empty(k), np.empty(k), np.empty(k)
+    for j in range(k):
+        t[j], vc[j], hgt[j] = np.float64(ci[idx[j]]), centre_t[it[idx[j]]], span_t[it[idx[j]]]
+    span = t.max() - t.min()
+    degree = 1 if k < 12 or span < 40 else (2 if span < 160 else 3)         # (curves.degree_for)
+    c4, t0, ts, dg, inl = robust_fit_groups(t, vc, np.array([0, k], np.int64), np.full(1, degree, np.int64),
+                                            np.full(1, 3, np.int64), 3.5)
+    v_coef = c4[0, 3 - dg[0]:].copy()
+    dv = _deriv(v_coef, ts[0])
+    n_in = 0
+    for j in range(k):
+        n_in += inl[j]
+    ratio = np.empty(n_in)
+    lo, hi = np.inf, -np.inf
+    i = 0
+    for j in range(k):
+        if inl[j]:
+            slope = _horner(dv, t0[0], ts[0], t[j])
+            ratio[i] = 0.5 * hgt[j] / np.sqrt(1 + slope * slope)
+            lo, hi = min(lo, t[j]), max(hi, t[j])
+            i += 1
+    return True, c4[0], t0[0], ts[0], dg[0], _median(ratio), lo, hi
+
+
+@numba.njit(**_JIT)
+def coarse_agree(u, d, tol_px, tol_line_px):
+    """``dense._coarse_agree``: whether a flat piece's coarse texture disparities ``d`` at columns ``u``
+    (N,) agree (half of them, and 2, within ``tol_px`` of one; or from 4 on, half and 3 within
+    ``tol_line_px`` of a line through two of them)."""
+    n = len(d)
+    if n <= 1:
+        return True
+    need = max(2, -(-n // 2))
+    for i in range(n):
+        c = 0
+        for j in range(n):
+            c += abs(d[i] - d[j]) <= tol_px
+        if c >= need:
+            return True
+    if n < 4:
+        return False
+    for i in range(n):
+        for j in range(i + 1, n):
+            du = u[j] - u[i]
+            if du == 0:
+                continue
+            slope = (d[j] - d[i]) / du
+            c = 0
+            for m in range(n):
+                c += abs(d[m] - (d[i] + slope * (u[m] - u[i]))) <= tol_line_px
+            if c >= max(3, need):
+                return True
+    return False
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -487,3 +594,5 @@ def warm_up() -> None:
     f3 = np.zeros(3)
     flat_finish(f3, f3, f3, f3, np.zeros((2, 2), np.uint8), f3, 0.0, 1.0, 2.0, 1, 0.0, 1.0, 1000.0, 0.0, True,
                 np.zeros(7))
+    flat_line(f3, f3, np.zeros(2, np.bool_), np.zeros((2, 2)), np.zeros(2), tab, r1, r1, 4)
+    coarse_agree(f3, f3, 6.0, 2.0)

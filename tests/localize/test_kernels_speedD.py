@@ -212,7 +212,8 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish]
+    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish, kernels_dense.flat_line,
+            kernels_dense.coarse_agree]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")
@@ -290,3 +291,95 @@ def test_flat_finish_is_the_numpy_texture_fit():
         np.testing.assert_allclose(coef[3 - degree:], want[1].coef, rtol=0, atol=1e-9)
         assert abs(t0 - want[1].t0) <= 1e-9 and abs(ts - want[1].ts) <= 1e-9
     assert min(seen.values()) >= 10, seen
+
+
+def _flat_line_numpy(cols, yc, junction, nxy, thr, runs_t):
+    """``dense._flat_search``'s centre line as it was in numpy: None or (v_poly, radius, lo, hi)."""
+    from appliance.localize.curves import degree_for
+    near = np.zeros(len(cols), bool)
+    for k in range(2):
+        if junction[k]:
+            near |= np.hypot(*(np.column_stack([cols, yc]) - nxy[k]).T) < thr[k]
+    cols, yc = cols[~near].astype(int), yc[~near]
+    if len(cols) < 4:
+        return None
+    it = runs_t.find(cols, yc)
+    ok = it >= 0
+    if ok.sum() < 4:
+        return None
+    t, vc, hgt = cols[ok].astype(float), runs_t.centre_px[it[ok]], runs_t.span_px[it[ok]]
+    v_poly, inl = robust_fit(t, vc, degree_for(len(t), float(t.max() - t.min())))
+    slope = v_poly.deriv()(t[inl])
+    return v_poly, float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2))), float(t[inl].min()), float(t[inl].max())
+
+
+def test_flat_line_is_the_numpy_centre_line():
+    """Near-horizontal branches (straight and bent, 2-40 px thick, some cut by gaps) in a mask's columns,
+    pieces of 2-300 columns with junction regions at none, one or both ends: the same None, and the same
+    line (to 1e-9 px), radius and span."""
+    from appliance.localize.graph import JUNCTION  # noqa: F401  (the regions are dense's junctions')
+    rng = np.random.default_rng(5)
+    seen = [0, 0]
+    for trial in range(80):
+        v0, a, b, w = rng.uniform(40, 200), rng.uniform(-0.4, 0.4), rng.uniform(-1e-3, 1e-3), rng.uniform(1, 20)
+
+        def draw(img):
+            for x in range(0, 1280, 8):
+                v = 4 * (v0 + a * x / 4 + b * (x / 4 - 160) ** 2)
+                cv2.rectangle(img, (x, int(v - 2 * w)), (x + 7, int(v + 2 * w)), 255, -1)
+            for _ in range(int(rng.integers(0, 4))):
+                x = int(rng.uniform(0, 1280))
+                cv2.rectangle(img, (x, 0), (x + int(rng.uniform(4, 80)), 959), 0, -1)
+        mask = _soft(draw)
+        runs_t = find_runs(mask.T, soft=True)
+        c0 = rng.uniform(0, 300)
+        cols = np.arange(c0, min(c0 + rng.uniform(2, 300), 319)).round()
+        yc = v0 + a * cols + b * (cols - 160) ** 2 + rng.normal(0, 1, len(cols))
+        junction = rng.random(2) < 0.5
+        nxy = np.array([[cols[0], yc[0]], [cols[-1], yc[-1]]]) if len(cols) else np.zeros((2, 2))
+        thr = rng.uniform(2, 40, 2)
+        want = _flat_line_numpy(cols, yc, junction, nxy, thr, runs_t)
+        ok, coef, t0, ts, degree, radius, lo, hi = kernels_dense.flat_line(
+            cols, yc, junction, nxy, thr, runs_t._find_tables, runs_t.centre_px, runs_t.span_px, runs_t.width)
+        assert ok == (want is not None)
+        seen[ok] += 1
+        if not ok:
+            continue
+        v_poly, r, lo0, hi0 = want
+        assert degree == len(v_poly.coef) - 1 and (lo, hi) == (lo0, hi0)
+        np.testing.assert_allclose(coef[3 - degree:], v_poly.coef, rtol=0, atol=1e-9)
+        assert (t0, ts) == (v_poly.t0, v_poly.ts)
+        assert abs(radius - r) <= 1e-9                      # px
+    assert min(seen) >= 10, seen
+
+
+def _coarse_agree_numpy(u, d, tol_px=6.0, tol_line_px=2.0):
+    """``dense._coarse_agree`` as it was in numpy."""
+    n = len(d)
+    if n <= 1:
+        return True
+    need = max(2, -(-n // 2))
+    if int((np.abs(d[:, None] - d[None, :]) <= tol_px).sum(1).max()) >= need:
+        return True
+    if n < 4:
+        return False
+    i, j = np.triu_indices(n, 1)
+    du = u[j] - u[i]
+    ok = du != 0
+    slope = (d[j] - d[i])[ok] / du[ok]
+    fit = d[i][ok][:, None] + slope[:, None] * (u[None, :] - u[i][ok][:, None])
+    return bool(ok.any()) and int((np.abs(d[None, :] - fit) <= tol_line_px).sum(1).max()) >= max(3, need)
+
+
+def test_coarse_agree_is_the_numpy_test():
+    """1-6 coarse disparities (equal columns included), agreeing, on a line, scattered: the same answer."""
+    rng = np.random.default_rng(6)
+    answers = []
+    for trial in range(3000):
+        n = int(rng.integers(0, 7))
+        u = np.sort(rng.choice([rng.uniform(0, 300, n), rng.integers(0, 3, n).astype(float)]))
+        d = 150 + rng.choice([0.0, 0.3]) * u + rng.normal(0, rng.choice([0.5, 3.0, 30.0]), n)
+        want = _coarse_agree_numpy(u, d)
+        assert kernels_dense.coarse_agree(u, d, 6.0, 2.0) == want
+        answers.append(want)
+    assert 0.2 < np.mean(answers) < 0.9

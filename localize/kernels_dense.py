@@ -11,7 +11,16 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _median, _readonly, robust_fit_groups, runs_between, runs_find
+from appliance.localize.kernels import (
+    _JIT,
+    _median,
+    _readonly,
+    end_slopes_groups,
+    line_vote,
+    robust_fit_groups,
+    runs_between,
+    runs_find,
+)
 
 
 @numba.njit(**_JIT)
@@ -581,6 +590,202 @@ def coarse_agree(u, d, tol_px, tol_line_px):
     return False
 
 
+@numba.njit(**_JIT)
+def _percentile75(a):
+    """``curves.percentile(a, 75)`` (numpy's linear method: the same virtual index and interpolation)."""
+    n = len(a)
+    p = np.sort(a)
+    vi = n * 0.75 + (1 + 0.75 * (1 - 1 - 1)) - 1
+    lo = min(max(np.int64(np.floor(vi)), 0), n - 1)
+    hi = min(lo + 1, n - 1)
+    gamma = vi - np.floor(vi)
+    x, y = p[lo], p[hi]
+    diff = y - x
+    return y - diff * (1 - gamma) if gamma >= 0.5 else x + diff * gamma
+
+
+@numba.njit(**_JIT)
+def _n_distinct(a):
+    """Number of distinct values of a float array (``len(np.unique(a))``, NaN-free)."""
+    if len(a) == 0:
+        return 0
+    p = np.sort(a)
+    n = 1
+    for i in range(1, len(p)):
+        n += p[i] != p[i - 1]
+    return n
+
+
+@numba.njit(**_JIT)
+def _robust(t, y, degree, rounds):
+    """``curves.robust_fit`` of one group: coef (4,) padded, t0, ts, degree, inliers (N,)."""
+    c4, t0, ts, dg, inl = robust_fit_groups(t, y, np.array([0, len(t)], np.int64), np.full(1, degree, np.int64),
+                                            np.full(1, rounds, np.int64), 3.5)
+    return c4[0], t0[0], ts[0], dg[0], inl
+
+
+@numba.njit(**_JIT)
+def _poly4(c4, t0, ts, t):
+    """A padded polynomial (``GroupPolys``' Horner over 4 coefficients) at ``t``."""
+    x = (t - t0) / ts
+    return ((x * c4[0] + c4[1]) * x + c4[2]) * x + c4[3]
+
+
+@numba.njit(**_JIT)
+def edge_consensus_piece(rows, xc, pts, tab_l, edges_l, keys_r, edges_r, width, taken, slopes, d_min, d_max,
+                         radius_img, scale, f_px, cx_px, offset_px, tol_px, min_share, max_gradient):
+    """``single_edge.edge_consensus`` of one piece, from its row centres on: its line d(row) voted from
+    both edges' candidates, checked, moved onto the axis and fitted (the numpy steps; the sums and
+    trigonometry equal up to rounding). The piece's right runs are marked ``taken`` when it gets a curve.
+
+    Parameters
+    ----------
+    rows, xc : (N,) float
+        The piece's rows and the skeleton's centre there (:func:`single_edge.centre_guess`), px.
+    pts : (P, 2) float
+        Its skeleton points (x, y), px (its angle from the rows).
+    tab_l : tuple of three (R + 1,) int64; edges_l : (2, R) float
+        The left runs' ``_find_tables`` and their left/right boundaries, px.
+    keys_r : (R',) float; edges_r : (2, R') float
+        The right runs' centre keys and boundaries, px.
+    width : int
+        Image width, px.
+    taken : (R',) bool
+        Right runs used by other curves (updated).
+    slopes : (S,) float
+        The vote's slopes, px per row.
+    d_min, d_max : float
+        Working disparity range, px.
+    radius_img : (h, w) float32; scale : int
+        The left mask's radius map.
+    f_px, cx_px, offset_px, tol_px, min_share, max_gradient : float
+
+    Returns
+    -------
+    ok : bool
+        Whether the piece gets a curve; then:
+    u_coef, d_coef : (4,) float; u_t0, u_ts, d_t0, d_ts : float; u_deg, d_deg : int
+        Its centre line u(row) and disparity d(row) (padded coefficients).
+    t_lo, t_hi, radius : float
+        The disparity fit's inlier rows' span and the radius, px.
+    n : int
+        Inlier samples.
+    end_slopes : (2,) float
+        ``curves.end_slopes`` of the inliers' disparities.
+    right_runs : (K,) int64
+        The right runs used (sorted, distinct).
+    """
+    e0, i0, z4 = np.zeros(2), np.zeros(0, np.int64), np.zeros(4)
+    fail = (False, z4, 0.0, 1.0, 0, z4, 0.0, 1.0, 0, 0.0, 0.0, 0.0, 0, e0, i0)
+    n = len(rows)
+    ri = np.empty(n, np.int64)
+    for i in range(n):
+        ri[i] = np.int64(rows[i])
+    il = runs_find(tab_l[0], tab_l[1], tab_l[2], width, ri, xc)
+    sel = np.flatnonzero(il >= 0)
+    ri, il = ri[sel], il[sel]
+    m = len(ri)
+    if m < 12:
+        return fail
+    a_l, b_l = np.empty(m), np.empty(m)
+    lo_q, hi_q = np.empty(m), np.empty(m)
+    for i in range(m):
+        a_l[i], b_l[i] = edges_l[0, il[i]], edges_l[1, il[i]]
+        lo_q[i], hi_q[i] = a_l[i] - d_max, b_l[i] - d_min
+    q, rr = runs_between(keys_r, ri, width, lo_q, hi_q)
+    keep = np.flatnonzero(~taken[rr])
+    q, rr = q[keep], rr[keep]
+    nq = len(q)
+    if nq < 12:
+        return fail
+    nc = 2 * nq
+    cand_t, cand_d, cand_q = np.empty(nc), np.empty(nc), np.empty(nc, np.int64)
+    for i in range(nq):
+        cand_t[i] = cand_t[nq + i] = np.float64(ri[q[i]])
+        cand_d[i] = a_l[q[i]] - edges_r[0, rr[i]]
+        cand_d[nq + i] = b_l[q[i]] - edges_r[1, rr[i]]
+        cand_q[i] = cand_q[nq + i] = q[i]
+    tm = np.sum(cand_t) / nc
+    lo, k_s, k_b = line_vote(cand_t, cand_d, slopes, tm, tol_px)
+    on = np.zeros(nc, np.bool_)
+    rows_on = np.zeros(m, np.bool_)
+    for c in range(nc):
+        line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t[c] - tm)
+        on[c] = abs(cand_d[c] - line) <= 1.5 * tol_px
+        if on[c]:
+            rows_on[cand_q[c]] = True
+    need = max(12, min_share * m)
+    if np.sum(rows_on) < need:
+        return fail
+    idx = np.flatnonzero(on)
+    ts, ds = cand_t[idx], cand_d[idx]
+    c4, t0, tsc, dg, inl = _robust(ts, ds, 1, 3)
+    for j in range(len(idx)):
+        inl[j] &= abs(ds[j] - _poly4(c4, t0, tsc, ts[j])) <= tol_px
+    idx = idx[inl]
+    ts, ds = cand_t[idx], cand_d[idx]
+    if _n_distinct(ts) < need:
+        return fail
+    t_min, t_max = ts.min(), ts.max()
+    d0, d1 = _poly4(c4, t0, tsc, t_min), _poly4(c4, t0, tsc, t_max)
+    if min(d0, d1) < 0.95 * d_min or max(d0, d1) > 1.05 * d_max or \
+            abs(d1 - d0) > max_gradient * max(t_max - t_min, 1.0):
+        return fail
+    k = len(idx)
+    w = np.empty(k)
+    side, runs_k = np.empty(k), np.empty(k, np.int64)
+    for j in range(k):
+        c = idx[j]
+        side[j] = -1.0 if c < nq else 1.0
+        runs_k[j] = rr[c % nq]
+        w[j] = max(edges_l[1, il[cand_q[c]]] - edges_l[0, il[cand_q[c]]], edges_r[1, runs_k[j]] - edges_r[0, runs_k[j]])
+    half_px = 0.5 * _percentile75(w)
+    h, wr = radius_img.shape
+    rad = np.empty(n)
+    for i in range(n):
+        x = min(max(np.int64(np.rint((xc[i] + 0.5) / scale - 0.5)), 0), wr - 1)
+        y = min(max(np.int64(np.rint((rows[i] + 0.5) / scale - 0.5)), 0), h - 1)
+        rad[i] = radius_img[y, x]
+    r_px = _median(rad)
+    mx, my = np.sum(pts[:, 0]) / len(pts), np.sum(pts[:, 1]) / len(pts)        # (curves.angle_deg)
+    sxx = syy = sxy = 0.0
+    for i in range(len(pts)):
+        cx_, cy_ = pts[i, 0] - mx, pts[i, 1] - my
+        sxx += cx_ * cx_
+        syy += cy_ * cy_
+        sxy += cx_ * cy_
+    angle = abs(np.degrees(0.5 * np.arctan2(2 * sxy, sxx - syy)))
+    sin_t = max(np.sin(np.radians(angle)), 0.2)
+    if half_px > 2.0 * r_px / sin_t + 2:
+        return fail
+    u, d_ax = np.empty(k), np.empty(k)
+    for j in range(k):
+        e_l = a_l[cand_q[idx[j]]] if side[j] < 0 else b_l[cand_q[idx[j]]]
+        u[j] = e_l - side[j] * half_px
+        d_ax[j] = edge_to_axis_one(u[j], ds[j], half_px, side[j], f_px, cx_px, offset_px)
+    span = t_max - t_min
+    nd = _n_distinct(ts)
+    degree = min(1 if nd < 12 or span < 40 else (2 if span < 160 else 3), 2)          # (curves.degree_for)
+    uc, ut0, uts, udg, _ = _robust(ts, u, degree, 3)
+    dc, dt0, dts, ddg, inl_d = _robust(ts, d_ax, degree, 3)
+    sel = np.flatnonzero(inl_d)
+    t_in, d_in = ts[sel], d_ax[sel]
+    du = _deriv(uc[3 - udg:].copy(), uts)
+    slope = np.empty(len(sel))
+    for j in range(len(sel)):
+        slope[j] = _horner(du, ut0, uts, t_in[j])
+    radius = half_px / np.sqrt(1 + _mean(slope) ** 2)
+    dev = np.empty(n)
+    for i in range(n):
+        dev[i] = abs(_poly4(uc, ut0, uts, rows[i]) - xc[i])
+    if _median(dev) > 0.5 * half_px + 2:
+        return fail                     # not this piece's centre line (another branch's edges)
+    slopes_end = end_slopes_groups(t_in, d_in, np.zeros(len(sel), np.intp), 1, 60.0)[0]
+    used = np.unique(runs_k[sel])
+    taken[used] = True
+    return (True, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_in.min(), t_in.max(), radius, len(sel), slopes_end, used)
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -596,3 +801,5 @@ def warm_up() -> None:
                 np.zeros(7))
     flat_line(f3, f3, np.zeros(2, np.bool_), np.zeros((2, 2)), np.zeros(2), tab, r1, r1, 4)
     coarse_agree(f3, f3, 6.0, 2.0)
+    edge_consensus_piece(f, f, np.zeros((1, 2)), tab, ro, r1, ro, 4, np.zeros(1, np.bool_), f3, 1.0, 2.0,
+                         np.zeros((1, 1), np.float32), 1, 1000.0, 0.0, 0.0, 1.0, 0.5, 0.25)

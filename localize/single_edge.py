@@ -18,18 +18,16 @@ from appliance.localize.curves import (
     GroupPolys,
     Poly,
     Spliced,
-    angle_deg,
     degree_for,
     end_slopes,
     linspace,
     median,
-    percentile,
     robust_fit,
 )
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, JOINT, SkeletonGraph
 from appliance.localize.matching import StereoMasks
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap
 
 
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -331,71 +329,24 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
     dmin, dmax = sm.d_range_px
     cx = 0.5 * (sm.left_mask.shape[1] - 1)
     slopes = np.linspace(-max_gradient, max_gradient, 21)
+    rm = sm.radius_map if isinstance(sm.radius_map, RadiusMap) else RadiusMap(np.asarray(sm.radius_map))
     for s in dead:
         yx = graph.seg_yx[s]
         if len(yx) < 2 or graph.seg_recovered[s]:
             continue
-        rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
+        pts = graph.to_full(yx).astype(float)
+        rows, xc = centre_guess(pts, 1, graph.scale)
         if len(rows) < 24:
             continue
-        ri = rows.astype(int)
-        il = runs_l.find(ri, xc)
-        ok = il >= 0
-        ri, il = ri[ok], il[ok]
-        if len(ri) < 12:
-            continue
-        a_l, b_l = runs_l.left_px[il], runs_l.right_px[il]
-        q, rr = runs_r.between(ri, a_l - dmax, b_l - dmin)
-        keep = ~taken[rr]
-        q, rr = q[keep], rr[keep]
-        if len(q) < 12:
-            continue
-        t = ri[q].astype(float)
-        cand_t = np.concatenate([t, t])                  # (np.concatenate: np.r_'s arrays, cheaper)
-        cand_d = np.concatenate([a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]])
-        cand_q = np.concatenate([q, q])
-        # vote: for each slope within the plausible range, the offsets of the line through each
-        # candidate, in bins of ``tol_px``; the best window of two bins wins
-        tm = float(cand_t.mean())
-        lo, k_s, k_b = kernels.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))     # (S, C) offsets' bins
-        line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
-        sel = np.abs(cand_d - line) <= 1.5 * tol_px
-        if np.count_nonzero(np.bincount(cand_q[sel])) < max(12, min_share * len(ri)):    # (rows with a candidate)
-            continue
-        ts, ds, qs = cand_t[sel], cand_d[sel], cand_q[sel]
-        side = np.concatenate([np.full(len(q), -1.0), np.full(len(q), 1.0)])[sel]
-        runs = np.concatenate([rr, rr])[sel]
-        d_line, inl = robust_fit(ts, ds, 1)
-        inl &= np.abs(ds - d_line(ts)) <= tol_px
-        ts, ds, qs, side, runs = ts[inl], ds[inl], qs[inl], side[inl], runs[inl]
-        if len(np.unique(ts)) < max(12, min_share * len(ri)):
-            continue
-        # the line must be a branch's: inside the working range, and not steeper in depth than a
-        # branch pointing ~15 deg off the line of sight (``max_gradient`` px per row)
-        d_ends = d_line(np.array([ts.min(), ts.max()]))
-        if d_ends.min() < 0.95 * dmin or d_ends.max() > 1.05 * dmax or \
-                abs(d_ends[1] - d_ends[0]) > max_gradient * max(float(ts.max() - ts.min()), 1.0):
-            continue
-        # the half width along the rows: the wider of the two views' crossings, where it is whole,
-        # but not much wider than the left mask's own (a crossing merged with another branch)
-        w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
-        half_px = 0.5 * percentile(w, 75)                  # (np.percentile's value, bit for bit)
-        r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
-        sin_t = max(float(np.sin(np.radians(angle_deg(graph.to_full(yx))))), 0.2)
-        if half_px > 2.0 * r_px / sin_t + 2:
-            continue
-        e_l = np.where(side < 0, a_l[qs], b_l[qs])
-        u = e_l - side * half_px
-        d_ax = edge_to_axis(u, ds, np.full(len(ds), half_px), side, sm.f_px, cx, sm.offset_px)
-        span = float(ts.max() - ts.min())
-        degree = min(degree_for(len(np.unique(ts)), span), 2)
-        u_poly, _ = robust_fit(ts, u, degree)
-        d_poly, inl_d = robust_fit(ts, d_ax, degree)
-        ts = ts[inl_d]
-        radius = half_px / float(np.sqrt(1 + np.mean(u_poly.deriv()(ts)) ** 2))
-        if float(median(np.abs(u_poly(rows) - xc))) > 0.5 * half_px + 2:
-            continue                        # not this piece's centre line (another branch's edges)
-        out[s] = BranchCurve(s, True, (float(ts.min()), float(ts.max())), u_poly, d_poly, radius, len(ts),
-                             end_slopes(ts, d_ax[inl_d]), np.unique(runs[inl_d]))
-        taken[out[s].right_runs] = True
+        # compiled: the vote, the checks, the step onto the axis and the fits (the numpy steps, equal up
+        # to rounding); marks the piece's right runs taken when it gets a curve
+        ok, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_lo, t_hi, radius, n, end, used = kernels_dense.edge_consensus_piece(
+            np.ascontiguousarray(rows, float), np.ascontiguousarray(xc, float), np.ascontiguousarray(pts),
+            runs_l._find_tables, runs_l.bounds_px, runs_r._centre_keys, runs_r.bounds_px, runs_l.width, taken, slopes,
+            float(dmin), float(dmax), rm.image, int(rm.scale), float(sm.f_px), cx, float(sm.offset_px), float(tol_px),
+            float(min_share), float(max_gradient))
+        if ok:
+            out[s] = BranchCurve(s, True, (float(t_lo), float(t_hi)), Poly(uc[3 - udg:].copy(), float(ut0), float(uts)),
+                                 Poly(dc[3 - ddg:].copy(), float(dt0), float(dts)), float(radius), int(n),
+                                 (float(end[0]), float(end[1])), used)
     return out

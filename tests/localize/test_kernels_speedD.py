@@ -213,7 +213,7 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish, kernels_dense.flat_line,
-            kernels_dense.coarse_agree]
+            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")
@@ -383,3 +383,117 @@ def test_coarse_agree_is_the_numpy_test():
         assert kernels_dense.coarse_agree(u, d, 6.0, 2.0) == want
         answers.append(want)
     assert 0.2 < np.mean(answers) < 0.9
+
+
+def _consensus_piece_numpy(rows, xc, pts, runs_l, runs_r, taken, rm, d_range_px, f_px, offset_px, cx,
+                           tol_px=1.0, min_share=0.5, max_gradient=0.25):
+    """``single_edge.edge_consensus``'s steps for one piece as they were in numpy: None or (u_poly, d_poly,
+    t_range, radius, n, end_slopes, right_runs); marks the right runs taken."""
+    from appliance.localize import kernels
+    from appliance.localize.curves import angle_deg, degree_for, end_slopes, percentile
+    from appliance.localize.radius import radius_at
+    dmin, dmax = d_range_px
+    slopes = np.linspace(-max_gradient, max_gradient, 21)
+    ri = rows.astype(int)
+    il = runs_l.find(ri, xc)
+    ok = il >= 0
+    ri, il = ri[ok], il[ok]
+    if len(ri) < 12:
+        return None
+    a_l, b_l = runs_l.left_px[il], runs_l.right_px[il]
+    q, rr = runs_r.between(ri, a_l - dmax, b_l - dmin)
+    keep = ~taken[rr]
+    q, rr = q[keep], rr[keep]
+    if len(q) < 12:
+        return None
+    t = ri[q].astype(float)
+    cand_t = np.concatenate([t, t])
+    cand_d = np.concatenate([a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]])
+    cand_q = np.concatenate([q, q])
+    tm = float(cand_t.mean())
+    lo, k_s, k_b = kernels.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))
+    line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
+    sel = np.abs(cand_d - line) <= 1.5 * tol_px
+    if np.count_nonzero(np.bincount(cand_q[sel])) < max(12, min_share * len(ri)):
+        return None
+    ts, ds, qs = cand_t[sel], cand_d[sel], cand_q[sel]
+    side = np.concatenate([np.full(len(q), -1.0), np.full(len(q), 1.0)])[sel]
+    runs = np.concatenate([rr, rr])[sel]
+    d_line, inl = robust_fit(ts, ds, 1)
+    inl &= np.abs(ds - d_line(ts)) <= tol_px
+    ts, ds, qs, side, runs = ts[inl], ds[inl], qs[inl], side[inl], runs[inl]
+    if len(np.unique(ts)) < max(12, min_share * len(ri)):
+        return None
+    d_ends = d_line(np.array([ts.min(), ts.max()]))
+    if d_ends.min() < 0.95 * dmin or d_ends.max() > 1.05 * dmax or \
+            abs(d_ends[1] - d_ends[0]) > max_gradient * max(float(ts.max() - ts.min()), 1.0):
+        return None
+    w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
+    half_px = 0.5 * percentile(w, 75)
+    r_px = float(median(radius_at(rm, np.column_stack([xc, rows]))))
+    sin_t = max(float(np.sin(np.radians(angle_deg(pts)))), 0.2)
+    if half_px > 2.0 * r_px / sin_t + 2:
+        return None
+    e_l = np.where(side < 0, a_l[qs], b_l[qs])
+    u = e_l - side * half_px
+    d_ax = single_edge.edge_to_axis(u, ds, np.full(len(ds), half_px), side, f_px, cx, offset_px)
+    degree = min(degree_for(len(np.unique(ts)), float(ts.max() - ts.min())), 2)
+    u_poly, _ = robust_fit(ts, u, degree)
+    d_poly, inl_d = robust_fit(ts, d_ax, degree)
+    ts = ts[inl_d]
+    radius = half_px / float(np.sqrt(1 + np.mean(u_poly.deriv()(ts)) ** 2))
+    if float(median(np.abs(u_poly(rows) - xc))) > 0.5 * half_px + 2:
+        return None
+    used = np.unique(runs[inl_d])
+    taken[used] = True
+    return u_poly, d_poly, (float(ts.min()), float(ts.max())), radius, len(ts), end_slopes(ts, d_ax[inl_d]), used
+
+
+def test_edge_consensus_piece_is_the_numpy_steps():
+    """Steep branches cut on alternate sides by occluders in each view (no whole crossing), at a disparity
+    turning in depth, with other branches in the right view and some right runs taken: the same curve or
+    None, the same samples and right runs, the lines to 1e-9 px and the end slopes to 1e-6 px per row."""
+    from appliance.localize.radius import ridge_radius_map
+    rng = np.random.default_rng(7)
+    got_curves = 0
+    for trial in range(60):
+        x0, slope, w = rng.uniform(100, 220), rng.uniform(-0.3, 0.3), rng.uniform(3, 12)
+        disp, grad = rng.uniform(20, 60), rng.uniform(-0.04, 0.04) * (trial % 4 != 0)
+
+        def draw(img, shift):
+            for y in range(0, 960, 8):
+                x = 4 * (x0 + slope * y / 4 - shift * (disp + grad * y / 4))
+                cut = (y // 64) % 2 if shift else (y // 64 + 1) % 2          # alternate sides, each view its own
+                a, b = (x - 4 * w, x + (4 * w if cut else w)) if trial % 2 else (x - (4 * w if cut else w), x + 4 * w)
+                cv2.rectangle(img, (int(a), y), (int(b), y + 7), 255, -1)
+            if shift:
+                cv2.line(img, (int(rng.uniform(0, 1280)), 0), (int(rng.uniform(0, 1280)), 959), 255, 16)
+        left, right = _soft(lambda m: draw(m, 0.0)), _soft(lambda m: draw(m, 1.0))
+        runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+        rm = ridge_radius_map(left)
+        rows = np.arange(rng.uniform(0, 40), rng.uniform(150, 240)).round()
+        xc = x0 + slope * rows + rng.normal(0, 0.5, len(rows))
+        pts = np.column_stack([xc, rows])
+        taken = rng.random(len(runs_r.row)) < (0.05 if trial % 3 == 0 else 0.0)
+        f_px, off, cx = rng.uniform(300, 1500), rng.uniform(-3, 3), 159.5
+        t0 = taken.copy()
+        want = _consensus_piece_numpy(rows, xc, pts, runs_l, runs_r, t0, rm, (10.0, 80.0), f_px, off, cx)
+        t1 = taken.copy()
+        got = kernels_dense.edge_consensus_piece(rows, xc, pts, runs_l._find_tables, runs_l.bounds_px,
+                                                 runs_r._centre_keys, runs_r.bounds_px, runs_l.width, t1,
+                                                 np.linspace(-0.25, 0.25, 21), 10.0, 80.0, rm.image, rm.scale, f_px,
+                                                 cx, off, 1.0, 0.5, 0.25)
+        assert got[0] == (want is not None)
+        np.testing.assert_array_equal(t1, t0)
+        if want is None:
+            continue
+        got_curves += 1
+        ok, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_lo, t_hi, radius, n, end, used = got
+        u_poly, d_poly, t_range, r, n0, end0, used0 = want
+        assert (t_lo, t_hi) == t_range and n == n0 and np.array_equal(used, used0)
+        for c, t_0, t_s, dg, p in ((uc, ut0, uts, udg, u_poly), (dc, dt0, dts, ddg, d_poly)):
+            assert dg == len(p.coef) - 1 and (t_0, t_s) == (p.t0, p.ts)
+            np.testing.assert_allclose(c[3 - dg:], p.coef, rtol=0, atol=1e-9)     # px
+        assert abs(radius - r) <= 1e-9
+        np.testing.assert_allclose(end, end0, rtol=0, atol=1e-6)                  # px per row
+    assert got_curves >= 8

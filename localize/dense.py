@@ -19,6 +19,7 @@ round cap (:mod:`caps`). Forks, tips and bridges are then placed on the curves (
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from appliance.config.schema import MatchConfig
@@ -422,8 +423,8 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
 
 def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None) -> np.ndarray:
     """Samples (N, 3) ordered to run from the ``start`` node's point towards the ``end`` node's."""
-    def dist(a, b):
-        return np.hypot(*(a[:2] - b[:2]))
+    def dist(a, b):                     # (math.hypot of the differences: np.hypot's value, as floats)
+        return math.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1]))
     if start is not None:
         return uvd[::-1] if dist(uvd[-1], start) < dist(uvd[0], start) else uvd
     if end is not None:
@@ -441,15 +442,16 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     ``reach_px``.
     """
     uvd = _oriented(c.uvd(), *ends)
-    ends = [e if e is not None and abs(e[2] - c.d_at(c.t_of(e[:2]))[0]) <= max(2.0, 0.03 * e[2]) else None
-            for e in ends]
+    ax = 1 if c.by_row else 0           # (a point's parameter, c.t_of's, and the curve there, c.d_at's, as floats)
+    ends = [e if e is not None and abs(float(e[2]) - c._at(c.d_poly, float(e[ax]), c.d_end_slopes))
+            <= max(2.0, 0.03 * float(e[2])) else None for e in ends]
     parts = [uvd]
     for k, (e, xy) in enumerate(zip(ends, node_xy)):
         if e is None:
             if xy is None:
                 continue
-            t_n = float(c.t_of(xy)[0])
-            t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
+            t_n = float(xy[ax])
+            t_near = float(uvd[0 if k == 0 else -1, ax])
             if abs(t_n - t_near) < 2:
                 continue
             t = linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]

@@ -29,8 +29,6 @@ from appliance.localize.curves import (
     Poly,
     angle_deg_groups,
     degree_for,
-    end_slopes_groups,
-    fit_groups,
     linspace,
     median,
     robust_fit_groups,
@@ -202,31 +200,18 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     rest = ~used_key[key_all] & alive[g_all]
     te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
                                    runs_l, runs_r, taken)
-    # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
-    ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])   # (np.r_'s, cheaper)
-    o = np.argsort(ga, kind="stable")
-    ta, da, ga = ta[o], da[o], ga[o]
-    has_edges = np.bincount(ge, minlength=ng) > 0
-    sel = has_edges[ga]
-    ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
-    deg2 = _degrees(ts_, gs_, has_edges)
-    inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
-    bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from
     # fitting each alone): to all samples (whole crossings and single edges) of the pieces with edge
-    # samples, to the whole crossings elsewhere. The centre line u(v) is fitted per curve: fitted all at
+    # samples, robustly refitted (in each piece's order), to the whole crossings elsewhere (compiled:
+    # kernels_dense.disparity_refit). The centre line u(v) is fitted per curve: fitted all at
     # once (coefficients ~1e-13 apart) it moved the fork and a tip of an exact drawing in
     # tests/localize/test_ends.py by 1-2 px (docs/localize-speed.md, third pass)
-    own = ~has_edges[gc]
-    sel2 = np.flatnonzero(inl2)
-    td = np.concatenate([tf[own], ts_[sel2]])
-    dd = np.concatenate([df[own], ds_[sel2]])
-    gd = np.concatenate([gc[own], gs_[sel2]])
-    o = np.argsort(gd, kind="stable")
-    td, dd, gd = td[o], dd[o], gd[o]
-    d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
-    slopes = end_slopes_groups(td, dd, gd, ng)
-    bd = np.searchsorted(gd, np.arange(ng + 1))
+    bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
+    coef, t0, ts, deg, slopes, t_lo, t_hi, n_fit = kernels_dense.disparity_refit(
+        np.ascontiguousarray(tf, float), np.ascontiguousarray(df, float), bc, np.ascontiguousarray(te, float),
+        np.ascontiguousarray(de, float), be, np.ascontiguousarray(degree, np.int64))
+    d_polys = GroupPolys(coef, t0, ts, deg)
+    has_edges = be[1:] > be[:-1]
     live = np.flatnonzero(alive).tolist()
     u_polys = []
     for k in live:
@@ -235,16 +220,12 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
     # every curve's radius from its samples' widths across its centre line's slope, all samples at
     # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
-    # Poly's), then each curve's median; each span's ends by one reduceat (min/max: exact)
+    # Poly's), then each curve's median
     sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
     slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
                                                          tf[sel]) if live else np.zeros(0)
     ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
     starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
-    pairs = np.column_stack([bd[live], bd[np.add(live, 1)]]).ravel() if live else np.zeros(0, int)
-    td_pad = np.concatenate([td, [0.0]])                # (each curve's [start, end) pair; the end may be len(td))
-    t_lo = np.minimum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
-    t_hi = np.maximum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
     curves = {}
     for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
@@ -253,8 +234,8 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
         s = int(segs[k])
         radius = float(median(ratio[starts[i]:starts[i + 1]]))
-        curves[s] = BranchCurve(s, True, (float(t_lo[i]), float(t_hi[i])), u_polys[i], d_polys.poly(k), radius,
-                                int(bd[k + 1] - bd[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
+        curves[s] = BranchCurve(s, True, (float(t_lo[k]), float(t_hi[k])), u_polys[i], d_polys.poly(k), radius,
+                                int(n_fit[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
         grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))

@@ -16,6 +16,7 @@ from appliance.localize.kernels import (
     _median,
     _readonly,
     end_slopes_groups,
+    fit_groups,
     line_vote,
     robust_fit_groups,
     runs_between,
@@ -786,6 +787,93 @@ def edge_consensus_piece(rows, xc, pts, tab_l, edges_l, keys_r, edges_r, width, 
     return (True, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_in.min(), t_in.max(), radius, len(sel), slopes_end, used)
 
 
+@numba.njit(**_JIT)
+def disparity_refit(tf, df, bc, te, de, be, degree):
+    """``dense.fit_steep_many``'s final disparity fits, all pieces at once.
+
+    A piece with single-edge samples (``te``, ``de``) has its disparity refitted robustly to all its
+    samples (whole crossings first, then single edges; :func:`curves.degree_for` of them), and keeps
+    the inliers; a piece without keeps its whole crossings (``tf``, ``df``). Each piece's disparity
+    is then a least-squares fit to those (:func:`kernels.fit_groups`), with the straight lines' slopes
+    at its ends (:func:`kernels.end_slopes_groups`).
+
+    Parameters
+    ----------
+    tf, df : (N,) float
+        Whole crossings' rows and disparities (px), piece ``k``'s at ``bc[k]:bc[k + 1]``.
+    te, de : (M,) float
+        Single edges' rows and disparities, piece ``k``'s at ``be[k]:be[k + 1]``.
+    degree : (G,) int64
+        Each piece's degree without single edges.
+
+    Returns
+    -------
+    coef : (G, 4) float; t0, ts : (G,) float; deg : (G,) int64
+        The disparity polynomials (``curves.GroupPolys``).
+    slopes : (G, 2) float
+        Their end slopes (low end, high end), px per row.
+    t_lo, t_hi : (G,) float
+        Rows spanned by the samples fitted (NaN where none), px.
+    n : (G,) int64
+        Samples fitted.
+    """
+    ng = len(degree)
+    has = np.zeros(ng, np.bool_)
+    starts = np.zeros(ng + 1, np.int64)
+    deg2 = np.ones(ng, np.int64)
+    for k in range(ng):
+        has[k] = be[k + 1] > be[k]
+        m = (bc[k + 1] - bc[k] + be[k + 1] - be[k]) if has[k] else 0
+        starts[k + 1] = starts[k] + m
+    ts_, ds_ = np.empty(starts[ng]), np.empty(starts[ng])
+    for k in range(ng):
+        if not has[k]:
+            continue
+        j = starts[k]
+        lo, hi = np.inf, -np.inf
+        for a, b, t, d in ((bc[k], bc[k + 1], tf, df), (be[k], be[k + 1], te, de)):
+            for i in range(a, b):
+                ts_[j], ds_[j] = t[i], d[i]
+                lo, hi = min(lo, t[i]), max(hi, t[i])
+                j += 1
+        n_k, span = starts[k + 1] - starts[k], hi - lo
+        deg2[k] = 1 if n_k < 12 or span < 40 else (2 if span < 160 else 3)      # (curves.degree_for)
+    inl = robust_fit_groups(ts_, ds_, starts, deg2, np.full(ng, 3, np.int64), 3.5)[4]
+    bd = np.zeros(ng + 1, np.int64)
+    for k in range(ng):
+        c = 0
+        if has[k]:
+            for i in range(starts[k], starts[k + 1]):
+                c += inl[i]
+        else:
+            c = bc[k + 1] - bc[k]
+        bd[k + 1] = bd[k] + c
+    td, dd, gd = np.empty(bd[ng]), np.empty(bd[ng]), np.empty(bd[ng], np.intp)
+    fit_deg = np.empty(ng, np.int64)
+    t_lo, t_hi = np.full(ng, np.nan), np.full(ng, np.nan)
+    for k in range(ng):
+        j = bd[k]
+        if has[k]:
+            fit_deg[k] = deg2[k]
+            for i in range(starts[k], starts[k + 1]):
+                if inl[i]:
+                    td[j], dd[j] = ts_[i], ds_[i]
+                    j += 1
+        else:
+            fit_deg[k] = degree[k]
+            for i in range(bc[k], bc[k + 1]):
+                td[j], dd[j] = tf[i], df[i]
+                j += 1
+        for i in range(bd[k], bd[k + 1]):
+            gd[i] = k
+            if i == bd[k]:
+                t_lo[k], t_hi[k] = td[i], td[i]
+            t_lo[k], t_hi[k] = min(t_lo[k], td[i]), max(t_hi[k], td[i])
+    coef, t0, ts, deg = fit_groups(td, dd, bd, fit_deg)
+    slopes = end_slopes_groups(td, dd, gd, ng, 60.0)
+    return coef, t0, ts, deg, slopes, t_lo, t_hi, bd[1:] - bd[:-1]
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -803,3 +891,5 @@ def warm_up() -> None:
     coarse_agree(f3, f3, 6.0, 2.0)
     edge_consensus_piece(f, f, np.zeros((1, 2)), tab, ro, r1, ro, 4, np.zeros(1, np.bool_), f3, 1.0, 2.0,
                          np.zeros((1, 1), np.float32), 1, 1000.0, 0.0, 0.0, 1.0, 0.5, 0.25)
+    b2 = np.array([0, 3], np.int64)
+    disparity_refit(f3, f3, b2, f3, f3, b2, np.ones(1, np.int64))

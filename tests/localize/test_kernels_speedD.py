@@ -213,7 +213,7 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish, kernels_dense.flat_line,
-            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece]
+            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece, kernels_dense.disparity_refit]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")
@@ -497,3 +497,58 @@ def test_edge_consensus_piece_is_the_numpy_steps():
         assert abs(radius - r) <= 1e-9
         np.testing.assert_allclose(end, end0, rtol=0, atol=1e-6)                  # px per row
     assert got_curves >= 8
+
+
+def _refit_numpy(tf, df, gc, te, de, ge, ng, degree):
+    """``dense.fit_steep_many``'s final disparity fits as they were in numpy."""
+    from appliance.localize.curves import end_slopes_groups, fit_groups, robust_fit_groups
+    from appliance.localize.dense import _degrees
+    ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])
+    o = np.argsort(ga, kind="stable")
+    ta, da, ga = ta[o], da[o], ga[o]
+    has_edges = np.bincount(ge, minlength=ng) > 0
+    sel = has_edges[ga]
+    ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
+    deg2 = _degrees(ts_, gs_, has_edges)
+    inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
+    own = ~has_edges[gc]
+    sel2 = np.flatnonzero(inl2)
+    td = np.concatenate([tf[own], ts_[sel2]])
+    dd = np.concatenate([df[own], ds_[sel2]])
+    gd = np.concatenate([gc[own], gs_[sel2]])
+    o = np.argsort(gd, kind="stable")
+    td, dd, gd = td[o], dd[o], gd[o]
+    d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
+    bd = np.searchsorted(gd, np.arange(ng + 1))
+    span = [(td[a:b].min(), td[a:b].max()) if b > a else (np.nan, np.nan) for a, b in zip(bd[:-1], bd[1:])]
+    return d_polys, end_slopes_groups(td, dd, gd, ng), np.array(span).reshape(-1, 2), np.diff(bd)
+
+
+def test_disparity_refit_is_the_numpy_fits():
+    """1-8 pieces of 4-300 rows (degrees 1-3), some with single-edge samples (a few, or many with
+    outliers), some pieces empty: the same polynomials, end slopes, spans and counts, bit for bit."""
+    rng = np.random.default_rng(8)
+    for trial in range(200):
+        ng = int(rng.integers(1, 9))
+        tf, df, gc, te, de, ge = [], [], [], [], [], []
+        degree = rng.integers(1, 4, ng)
+        for k in range(ng):
+            n = int(rng.choice([0, 4, 20, 300])) if trial % 7 else 0
+            r0 = rng.uniform(0, 600)
+            t = np.sort(rng.choice(np.arange(r0, r0 + max(2 * n, 8)), n, replace=False)) if n else np.zeros(0)
+            tf.append(t), df.append(50 + 0.05 * t + rng.normal(0, 0.3, n)), gc.append(np.full(n, k))
+            m = int(rng.choice([0, 0, 3, 40]))
+            t2 = rng.uniform(r0 - 50, r0 + 350, m).round()
+            d2 = 50 + 0.05 * t2 + rng.normal(0, 0.3, m)
+            d2[rng.random(m) < 0.2] += 20
+            order = np.argsort(rng.random(m))                # (edge_samples' order: left edges, then right)
+            te.append(t2[order]), de.append(d2[order]), ge.append(np.full(m, k))
+        tf, df, gc, te, de, ge = (np.concatenate(a) for a in (tf, df, gc, te, de, ge))
+        gc, ge = gc.astype(np.int64), ge.astype(np.int64)
+        polys, slopes, span, n_fit = _refit_numpy(tf, df, gc, te, de, ge, ng, degree)
+        bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
+        coef, t0, ts, deg, sl, t_lo, t_hi, n = kernels_dense.disparity_refit(tf, df, bc, te, de, be,
+                                                                             degree.astype(np.int64))
+        for a, b in ((coef, polys.coef), (t0, polys.t0), (ts, polys.ts), (deg, polys.degree), (sl, slopes),
+                     (t_lo, span[:, 0]), (t_hi, span[:, 1]), (n, n_fit)):
+            np.testing.assert_array_equal(a, b)

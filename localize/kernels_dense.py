@@ -15,6 +15,7 @@ from appliance.localize.kernels import (
     _JIT,
     _median,
     _readonly,
+    _sorted,
     end_slopes_groups,
     fit_groups,
     line_vote,
@@ -22,6 +23,48 @@ from appliance.localize.kernels import (
     runs_between,
     runs_find,
 )
+
+
+@numba.njit(**_JIT)
+def _percentile75(a):
+    """``curves.percentile(a, 75)`` (numpy's linear method: the same virtual index and interpolation)."""
+    n = len(a)
+    p = _sorted(a)
+    vi = n * 0.75 + (1 + 0.75 * (1 - 1 - 1)) - 1
+    lo = min(max(np.int64(np.floor(vi)), 0), n - 1)
+    hi = min(lo + 1, n - 1)
+    gamma = vi - np.floor(vi)
+    x, y = p[lo], p[hi]
+    diff = y - x
+    return y - diff * (1 - gamma) if gamma >= 0.5 else x + diff * gamma
+
+
+@numba.njit(**_JIT)
+def _n_distinct(a):
+    """Number of distinct values of a float array (``len(np.unique(a))``, NaN-free)."""
+    if len(a) == 0:
+        return 0
+    p = _sorted(a)
+    n = 1
+    for i in range(1, len(p)):
+        n += p[i] != p[i - 1]
+    return n
+
+
+@numba.njit(**_JIT)
+def _distinct_ints(a):
+    """``np.unique`` of an int64 array (sorted distinct values)."""
+    if len(a) == 0:
+        return a.copy()
+    p = _sorted(a)
+    out = np.empty(len(p), np.int64)
+    out[0] = p[0]
+    m = 1
+    for i in range(1, len(p)):
+        if p[i] != p[i - 1]:
+            out[m] = p[i]
+            m += 1
+    return out[:m].copy()
 
 
 @numba.njit(**_JIT)
@@ -149,12 +192,7 @@ def edge_track(tab_l, tab_r, edges_l, edges_r, width, rows, xc, u, d, half, need
             inl[i] = abs(ds[i] - line) <= 0.75
             n_in += inl[i]
     keep = np.flatnonzero(inl)
-    t_in = np.sort(ts[keep])
-    distinct = 0
-    for i in range(n_in):
-        if i == 0 or t_in[i] != t_in[i - 1]:
-            distinct += 1
-    if distinct < need:
+    if _n_distinct(ts[keep]) < need:
         return False, e0, e0, e0, i0
     return True, ts[keep], ds[keep], cs[keep], rs[keep]
 
@@ -592,32 +630,6 @@ def coarse_agree(u, d, tol_px, tol_line_px):
 
 
 @numba.njit(**_JIT)
-def _percentile75(a):
-    """``curves.percentile(a, 75)`` (numpy's linear method: the same virtual index and interpolation)."""
-    n = len(a)
-    p = np.sort(a)
-    vi = n * 0.75 + (1 + 0.75 * (1 - 1 - 1)) - 1
-    lo = min(max(np.int64(np.floor(vi)), 0), n - 1)
-    hi = min(lo + 1, n - 1)
-    gamma = vi - np.floor(vi)
-    x, y = p[lo], p[hi]
-    diff = y - x
-    return y - diff * (1 - gamma) if gamma >= 0.5 else x + diff * gamma
-
-
-@numba.njit(**_JIT)
-def _n_distinct(a):
-    """Number of distinct values of a float array (``len(np.unique(a))``, NaN-free)."""
-    if len(a) == 0:
-        return 0
-    p = np.sort(a)
-    n = 1
-    for i in range(1, len(p)):
-        n += p[i] != p[i - 1]
-    return n
-
-
-@numba.njit(**_JIT)
 def _robust(t, y, degree, rounds):
     """``curves.robust_fit`` of one group: coef (4,) padded, t0, ts, degree, inliers (N,)."""
     c4, t0, ts, dg, inl = robust_fit_groups(t, y, np.array([0, len(t)], np.int64), np.full(1, degree, np.int64),
@@ -782,7 +794,7 @@ def edge_consensus_piece(rows, xc, pts, tab_l, edges_l, keys_r, edges_r, width, 
     if _median(dev) > 0.5 * half_px + 2:
         return fail                     # not this piece's centre line (another branch's edges)
     slopes_end = end_slopes_groups(t_in, d_in, np.zeros(len(sel), np.intp), 1, 60.0)[0]
-    used = np.unique(runs_k[sel])
+    used = _distinct_ints(runs_k[sel])
     taken[used] = True
     return (True, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_in.min(), t_in.max(), radius, len(sel), slopes_end, used)
 

@@ -155,7 +155,8 @@ def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, run
             continue
         rows, xc = rows_all[bounds[k]:bounds[k + 1]], xc_all[bounds[k]:bounds[k + 1]]
         lo, hi = c.t_range
-        if not ((rows > hi + 1).sum() >= 8 or (rows < lo - 1).sum() >= 8):
+        n = len(rows)                   # (rows ascending: 8 beyond an end iff the 8th from that end is)
+        if not (n >= 8 and (float(rows[n - 8]) > hi + 1 or float(rows[7]) < lo - 1)):
             continue
         new = []
         cur = c
@@ -172,8 +173,8 @@ def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, run
                 wr, wx = r_s[w0:w0 + step_px], x_s[w0:w0 + step_px]
                 if len(wr) < 8:
                     break
-                o = np.argsort(wr)
-                wr, wx = wr[o], wx[o]
+                if sign < 0:                # (ascending rows, as np.argsort's order)
+                    wr, wx = wr[::-1], wx[::-1]
                 m = _donor_model(cur, wr, reach_px)
                 if m is None or float(median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
                     break

@@ -31,7 +31,6 @@ from appliance.localize.curves import (
     degree_for,
     linspace,
     median,
-    robust_fit_groups,
 )
 from appliance.localize import kernels, kernels_dense
 from appliance.localize.caps import cap_curves
@@ -56,7 +55,6 @@ from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
     edge_consensus,
-    edge_samples,
     grow,
 )
 from appliance.localize.subpixel import near_points, refine_runs
@@ -169,37 +167,15 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     gq = g[q]
     bounds = np.searchsorted(gq, np.arange(ng + 1))
     model = _consensus_lines(t[q], cd, bounds, alive)
-    for k, tol in enumerate((2.0, 0.75)):           # per row, the candidate nearest the model
-        sel = alive[gq]
-        q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
-        res = np.abs(cd - model(gq, t[q]))
-        first = kernels.nearest_per_query(q, res)       # (q non-decreasing: lexsort's picks, the same)
-        chosen = first[res[first] <= tol]
-        alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
-        chosen = chosen[alive[gq[chosen]]]
-        if not alive.any():
-            return {}
-        model, inl = robust_fit_groups(t[q[chosen]], cd[chosen], gq[chosen], ng, degree, rounds=1 if k == 0 else 3)
-    chosen = chosen[inl]
-    gc = gq[chosen]
-    tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
-    wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    # the centre line (1 round), and the width (a line, 2 rounds): rows where the branch is partly hidden
-    # still show one true edge in both views. One call, the widths as groups ng..2ng-1 (the same values
-    # as two calls)
-    uw, uw_inl = robust_fit_groups(np.concatenate([tf, tf]), np.concatenate([cf, w_l[q[chosen]]]),
-                                   np.concatenate([gc, gc + ng]), 2 * ng,
-                                   np.concatenate([degree, np.ones(ng, int)]), rounds=np.repeat([1, 2], ng))
-    u_poly = GroupPolys(uw.coef[:ng], uw.t0[:ng], uw.ts[:ng], uw.degree[:ng])
-    w_poly = GroupPolys(uw.coef[ng:], uw.t0[ng:], uw.ts[ng:], uw.degree[ng:])
-    u_inl = uw_inl[:len(tf)]
-    width = int(rows_all.max()) + 1
-    key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
-    used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)   # (np.isin by a table)
-    used_key[key_used] = True
-    rest = ~used_key[key_all] & alive[g_all]
-    te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
-                                   runs_l, runs_r, taken)
+    # per row, the candidate nearest the model (twice), the centre line and width fitted to the picks
+    # (rows where the branch is partly hidden still show one true edge in both views), and the other
+    # rows' single edges (single_edge.edge_samples); compiled: the same steps
+    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge = kernels_dense.steep_fit(
+        t, alive, n, np.ascontiguousarray(degree, np.int64), q, rr, cd, cw, gq, c_l, w_l, model.coef, model.t0,
+        model.ts, rows_all, il_all, g_all, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+    if not ok:
+        return {}
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from
     # fitting each alone): to all samples (whole crossings and single edges) of the pieces with edge
     # samples, robustly refitted (in each piece's order), to the whole crossings elsewhere (compiled:
@@ -229,7 +205,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     curves = {}
     for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
-        used = rr[chosen[a:b]]
+        used = rc[a:b]
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
         s = int(segs[k])

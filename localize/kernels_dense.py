@@ -19,6 +19,7 @@ from appliance.localize.kernels import (
     end_slopes_groups,
     fit_groups,
     line_vote,
+    nearest_per_query,
     robust_fit_groups,
     runs_between,
     runs_find,
@@ -886,6 +887,166 @@ def disparity_refit(tf, df, bc, te, de, be, degree):
     return coef, t0, ts, deg, slopes, t_lo, t_hi, bd[1:] - bd[:-1]
 
 
+@numba.njit(**_JIT)
+def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_ts, rows_all, il_all, g_all,
+              tab_r, edges_l, edges_r, width, taken):
+    """``dense.fit_steep_many``'s middle steps: each row's candidate nearest the model, twice (the
+    consensus lines, then a robust fit of the picks, 1 round; then 3 rounds), the centre line and the
+    width fitted to the picks, and the single-edge samples of the other rows
+    (``single_edge.edge_samples``).
+
+    Parameters
+    ----------
+    t : (M,) float
+        The rows (px) of the pieces' left crossings; ``alive`` (G,) bool (updated copy returned),
+        ``n`` (G,) rows per piece, ``degree`` (G,) int64.
+    q, rr, cd, cw, gq : (K,)
+        Candidates: row index into ``t``, right run, disparity and right width (px), piece.
+    c_l, w_l : (M,) float
+        Left crossings' centres and widths, px.
+    m_coef, m_t0, m_ts : (G, 4), (G,), (G,) float
+        The consensus lines (``dense._consensus_lines``).
+    rows_all, il_all, g_all : (A,) int64
+        Every row with a left crossing: row, left run, piece.
+    tab_r : ``Runs._find_tables`` of the right runs; ``edges_l``, ``edges_r``: (2, R) boundaries, px.
+    width : int
+        Image width, px. ``taken`` (R',) bool or empty: right runs of other pieces.
+
+    Returns
+    -------
+    ok : bool
+        False where the fit returns no curve (no piece left).
+    alive : (G,) bool
+    tf, df, cf, wf : (C,) float; gc, rc : (C,) int64
+        The picks (per piece, by row): row, disparity, left centre, mean width (px), piece, right run.
+    u_inl : (C,) bool
+        The centre line's inliers.
+    te, de : (E,) float; re, ge : (E,) int64
+        Single-edge samples (per piece, left edges first): row, disparity, right run, piece.
+    """
+    ng = len(alive)
+    alive = alive.copy()
+    coef, t0, ts = m_coef.copy(), m_t0.copy(), m_ts.copy()
+    inl = np.zeros(0, np.bool_)
+    chosen = np.zeros(0, np.int64)
+    z, zi, zb = np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.bool_)
+    for it in range(2):
+        tol = 2.0 if it == 0 else 0.75
+        sel = np.flatnonzero(alive[gq])
+        q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
+        res = np.empty(len(q))
+        for i in range(len(q)):
+            k = gq[i]
+            x = (t[q[i]] - t0[k]) / ts[k]
+            res[i] = abs(cd[i] - (((x * coef[k, 0] + coef[k, 1]) * x + coef[k, 2]) * x + coef[k, 3]))
+        first = nearest_per_query(q, res)
+        cnt = np.zeros(ng, np.int64)
+        m = 0
+        for j in range(len(first)):
+            if res[first[j]] <= tol:
+                first[m] = first[j]
+                cnt[gq[first[j]]] += 1
+                m += 1
+        for k in range(ng):
+            alive[k] &= cnt[k] >= max(4.0, 0.25 * n[k])
+        chosen = np.empty(m, np.int64)
+        c = 0
+        for j in range(m):
+            if alive[gq[first[j]]]:
+                chosen[c] = first[j]
+                c += 1
+        chosen = chosen[:c]
+        if not alive.any():
+            return False, alive, z, z, z, z, zi, zi, zb, z, z, zi, zi
+        tq, dq = np.empty(c), np.empty(c)
+        for j in range(c):
+            tq[j], dq[j] = t[q[chosen[j]]], cd[chosen[j]]
+        starts = np.searchsorted(gq[chosen], np.arange(ng + 1))
+        coef, t0, ts, _, inl = robust_fit_groups(tq, dq, starts, degree, np.full(ng, 1 if it == 0 else 3, np.int64),
+                                                 3.5)
+    chosen = chosen[inl]
+    nc = len(chosen)
+    tf, df, cf, wf = np.empty(nc), np.empty(nc), np.empty(nc), np.empty(nc)
+    gc, rc = np.empty(nc, np.int64), np.empty(nc, np.int64)
+    t2, y2 = np.empty(2 * nc), np.empty(2 * nc)
+    for j in range(nc):
+        i = chosen[j]
+        tf[j], df[j], cf[j] = t[q[i]], cd[i], c_l[q[i]]
+        wf[j] = 0.5 * (w_l[q[i]] + cw[i])
+        gc[j], rc[j] = gq[i], rr[i]
+        t2[j], t2[nc + j] = tf[j], tf[j]
+        y2[j], y2[nc + j] = cf[j], w_l[q[i]]
+    # the centre line (1 round) and the width (a line, 2 rounds) as groups 0..ng-1 and ng..2ng-1
+    bc = np.searchsorted(gc, np.arange(ng + 1))
+    starts = np.concatenate((bc, nc + bc[1:]))
+    deg2, rounds = np.ones(2 * ng, np.int64), np.full(2 * ng, 2, np.int64)
+    deg2[:ng] = degree
+    rounds[:ng] = 1
+    uw, u0, us, _, uw_inl = robust_fit_groups(t2, y2, starts, deg2, rounds, 3.5)
+    u_inl = uw_inl[:nc].copy()
+    # the other rows of the live pieces: single edges (edge_samples)
+    wd = 0
+    for i in range(len(rows_all)):
+        wd = max(wd, rows_all[i])
+    wd += 1
+    top = 0
+    for i in range(len(rows_all)):
+        top = max(top, g_all[i] * wd + rows_all[i])
+    for j in range(nc):
+        top = max(top, gc[j] * wd + np.int64(tf[j]))
+    used = np.zeros(top + 1, np.bool_)
+    for j in range(nc):
+        used[gc[j] * wd + np.int64(tf[j])] = True
+    rest = np.zeros(len(rows_all), np.bool_)
+    for i in range(len(rows_all)):
+        rest[i] = not used[g_all[i] * wd + rows_all[i]] and alive[g_all[i]]
+    idx = np.flatnonzero(rest)
+    nr = len(idx)
+    ri, tr = np.empty(nr, np.int64), np.empty(nr)
+    u, half, d = np.empty(nr), np.empty(nr), np.empty(nr)
+    for j in range(nr):
+        i = idx[j]
+        k = g_all[i]
+        ri[j], tr[j] = rows_all[i], np.float64(rows_all[i])
+        x = (tr[j] - u0[k]) / us[k]
+        u[j] = ((x * uw[k, 0] + uw[k, 1]) * x + uw[k, 2]) * x + uw[k, 3]
+        x = (tr[j] - u0[ng + k]) / us[ng + k]
+        half[j] = 0.5 * (((x * uw[ng + k, 0] + uw[ng + k, 1]) * x + uw[ng + k, 2]) * x + uw[ng + k, 3])
+        x = (tr[j] - t0[k]) / ts[k]
+        d[j] = ((x * coef[k, 0] + coef[k, 1]) * x + coef[k, 2]) * x + coef[k, 3]
+    has_taken = len(taken) > 0
+    okk = np.zeros((2, nr), np.bool_)
+    irs = np.empty((2, nr), np.int64)
+    de2 = np.empty((2, nr))
+    qx = np.empty(nr)
+    for side_k in range(2):
+        side = -1.0 if side_k == 0 else 1.0
+        for j in range(nr):
+            qx[j] = edges_l[side_k, il_all[idx[j]]] - d[j] - side * 1.0
+        irs[side_k] = runs_find(tab_r[0], tab_r[1], tab_r[2], width, ri, qx)
+        for j in range(nr):
+            e_l = edges_l[side_k, il_all[idx[j]]]
+            ir = irs[side_k, j]
+            e_r = edges_r[side_k, max(ir, 0)]
+            de2[side_k, j] = e_l - e_r
+            okk[side_k, j] = abs(e_l - (u[j] + side * half[j])) <= 1.0 and ir >= 0 and abs(e_l - e_r - d[j]) <= 1.0 \
+                and not (has_taken and taken[max(ir, 0)])
+    ne = 0
+    for side_k in range(2):
+        for j in range(nr):
+            ne += okk[side_k, j]
+    te, de = np.empty(ne), np.empty(ne)
+    re, ge = np.empty(ne, np.int64), np.empty(ne, np.int64)
+    e = 0
+    for k in range(ng):                 # per piece (stable), its left edges first (edge_samples' order)
+        for side_k in range(2):
+            for j in range(nr):
+                if okk[side_k, j] and g_all[idx[j]] == k:
+                    te[e], de[e], re[e], ge[e] = tr[j], de2[side_k, j], irs[side_k, j], k
+                    e += 1
+    return True, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -905,3 +1066,6 @@ def warm_up() -> None:
                          np.zeros((1, 1), np.float32), 1, 1000.0, 0.0, 0.0, 1.0, 0.5, 0.25)
     b2 = np.array([0, 3], np.int64)
     disparity_refit(f3, f3, b2, f3, f3, b2, np.ones(1, np.int64))
+    i1, b1, f4 = np.zeros(1, np.int64), np.ones(1, np.bool_), np.zeros((1, 4))
+    for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
+        steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken)

@@ -159,14 +159,14 @@ def _candidates_numpy(rows, xc, g, sin_all, runs_l, runs_r, rm, d_range_px, take
     return segs, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw
 
 
-def test_steep_candidates_are_the_numpy_steps():
-    """Several tilted branches (widths varying, some merged with a crossing branch or cut by an occluder) in
-    both views, pieces of 2 to 150 rows (some off the mask), radius maps at scales 1 and 2, with and
-    without taken right runs: every output the same (bit for bit: the same comparisons and sums)."""
+def _steep_scenes(n_scenes, seed):
+    """Synthetic steep pieces for the fit's kernels: several tilted branches (widths varying, some merged
+    with a crossing branch or cut by an occluder) in both views, pieces of 2 to 150 rows (some off the
+    mask), radius maps at scales 1 and 2, every third scene with taken right runs. Yields
+    ``(rows, xc, g, sin_all, runs_l, runs_r, rm, taken)``."""
     from appliance.localize.radius import ridge_radius_map
-    rng = np.random.default_rng(3)
-    seen = 0
-    for trial in range(40):
+    rng = np.random.default_rng(seed)
+    for trial in range(n_scenes):
         pieces = [(rng.uniform(20, 300), rng.uniform(-0.6, 0.6), int(rng.integers(3, 40)), rng.uniform(15, 50))
                   for _ in range(int(rng.integers(1, 6)))]
 
@@ -190,15 +190,94 @@ def test_steep_candidates_are_the_numpy_steps():
         rows, xc, g = (np.concatenate(a) for a in (rows, xc, g))
         sin_all = np.maximum(rng.uniform(0, 1, len(pieces)), 0.2)
         taken = rng.random(len(runs_r.row)) < 0.2 if trial % 3 == 1 else None
+        yield rows, xc, g.astype(np.int64), sin_all, runs_l, runs_r, rm, taken
+
+
+def _candidates(rows, xc, g, sin_all, runs_l, runs_r, rm, taken):
+    return kernels_dense.steep_candidates(rows, xc, g, sin_all, runs_l._find_tables, runs_l.span_px,
+                                          runs_l.centre_px, runs_r._centre_keys, runs_r.centre_px, runs_r.span_px,
+                                          runs_l.width, rm.image, rm.scale, 10.0, 60.0,
+                                          np.zeros(0, bool) if taken is None else taken)
+
+
+def test_steep_candidates_are_the_numpy_steps():
+    """:func:`_steep_scenes`' pieces, with and without taken right runs: every output the same (bit for
+    bit: the same comparisons and sums)."""
+    seen = 0
+    for rows, xc, g, sin_all, runs_l, runs_r, rm, taken in _steep_scenes(40, 3):
         want = _candidates_numpy(rows, xc, g, sin_all, runs_l, runs_r, rm, (10.0, 60.0), taken)
-        got = kernels_dense.steep_candidates(rows, xc, g.astype(np.int64), sin_all, runs_l._find_tables,
-                                             runs_l.span_px, runs_l.centre_px, runs_r._centre_keys,
-                                             runs_r.centre_px, runs_r.span_px, runs_l.width, rm.image, rm.scale,
-                                             10.0, 60.0, np.zeros(0, bool) if taken is None else taken)
+        got = _candidates(rows, xc, g, sin_all, runs_l, runs_r, rm, taken)
         for a, b in zip(want, got):
             np.testing.assert_array_equal(b, a)
         seen += bool(want[9].any())
     assert seen >= 15
+
+
+def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, rows_all, il_all, g_all, runs_l,
+                     runs_r, taken):
+    """``dense.fit_steep_many``'s middle steps as they were in numpy (the picks, the centre line and width,
+    ``single_edge.edge_samples``)."""
+    from appliance.localize import kernels
+    from appliance.localize.curves import GroupPolys, robust_fit_groups
+    ng = len(alive)
+    alive = alive.copy()
+    for k, tol in enumerate((2.0, 0.75)):
+        sel = alive[gq]
+        q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
+        res = np.abs(cd - model(gq, t[q]))
+        first = kernels.nearest_per_query(q, res)
+        chosen = first[res[first] <= tol]
+        alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
+        chosen = chosen[alive[gq[chosen]]]
+        if not alive.any():
+            return None
+        model, inl = robust_fit_groups(t[q[chosen]], cd[chosen], gq[chosen], ng, degree, rounds=1 if k == 0 else 3)
+    chosen = chosen[inl]
+    gc = gq[chosen]
+    tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
+    wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
+    uw, uw_inl = robust_fit_groups(np.concatenate([tf, tf]), np.concatenate([cf, w_l[q[chosen]]]),
+                                   np.concatenate([gc, gc + ng]), 2 * ng,
+                                   np.concatenate([degree, np.ones(ng, int)]), rounds=np.repeat([1, 2], ng))
+    u_poly = GroupPolys(uw.coef[:ng], uw.t0[:ng], uw.ts[:ng], uw.degree[:ng])
+    w_poly = GroupPolys(uw.coef[ng:], uw.t0[ng:], uw.ts[ng:], uw.degree[ng:])
+    width = int(rows_all.max()) + 1
+    key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
+    used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)
+    used_key[key_used] = True
+    rest = ~used_key[key_all] & alive[g_all]
+    te, de, re, ge = single_edge.edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
+                                              runs_l, runs_r, taken)
+    return alive, tf, df, cf, wf, gc, rr[chosen], uw_inl[:len(tf)], te, de, re, ge
+
+
+def test_steep_fit_is_the_numpy_steps():
+    """:func:`_steep_scenes`' pieces through :func:`kernels_dense.steep_candidates`, the degrees and the
+    consensus lines: the same picks, lines' inliers and single-edge samples, bit for bit."""
+    from appliance.localize.dense import _consensus_lines, _degrees
+    seen = 0
+    for rows, xc, g, sin_all, runs_l, runs_r, rm, taken in _steep_scenes(40, 9):
+        seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw = _candidates(
+            rows, xc, g, sin_all, runs_l, runs_r, rm, taken)
+        if not len(seg_idx) or not alive.any():
+            continue
+        t = r3.astype(float)
+        degree = _degrees(t, g3, alive)
+        gq = g3[q]
+        model = _consensus_lines(t[q], cd, np.searchsorted(gq, np.arange(len(alive) + 1)), alive)
+        want = _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w3, model, rows_all, il_all, g_all,
+                                runs_l, runs_r, taken)
+        got = kernels_dense.steep_fit(t, alive, n, degree.astype(np.int64), q, rr, cd, cw, gq, c_l, w3, model.coef,
+                                      model.t0, model.ts, rows_all, il_all, g_all, runs_r._find_tables,
+                                      runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
+                                      np.zeros(0, bool) if taken is None else taken)
+        assert got[0] == (want is not None)
+        if want is None:
+            continue
+        seen += 1
+        for a, b in zip(want, got[1:]):
+            np.testing.assert_array_equal(b, a)
+    assert seen >= 10
 
 
 def test_warm_up_compiles_the_signatures_these_kernels_get():
@@ -213,7 +292,8 @@ def test_warm_up_compiles_the_signatures_these_kernels_get():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish, kernels_dense.flat_line,
-            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece, kernels_dense.disparity_refit]
+            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece, kernels_dense.disparity_refit,
+            kernels_dense.steep_fit]
     before = [len(f.signatures) for f in mine]
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
     truth = load_truth(fixtures / "scenes" / "truth_03.json")
@@ -317,7 +397,6 @@ def test_flat_line_is_the_numpy_centre_line():
     """Near-horizontal branches (straight and bent, 2-40 px thick, some cut by gaps) in a mask's columns,
     pieces of 2-300 columns with junction regions at none, one or both ends: the same None, and the same
     line (to 1e-9 px), radius and span."""
-    from appliance.localize.graph import JUNCTION  # noqa: F401  (the regions are dense's junctions')
     rng = np.random.default_rng(5)
     seen = [0, 0]
     for trial in range(80):

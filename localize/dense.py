@@ -169,7 +169,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     model = _consensus_lines(t[q], cd, bounds, alive)
     # per row, the candidate nearest the model (twice), the centre line and width fitted to the picks
     # (rows where the branch is partly hidden still show one true edge in both views), and the other
-    # rows' single edges (single_edge.edge_samples); compiled: the same steps
+    # rows' single edges (single_edge.edge_samples' steps, moved into the kernel); compiled: the same steps
     ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge = kernels_dense.steep_fit(
         t, alive, n, np.ascontiguousarray(degree, np.int64), q, rr, cd, cw, gq, c_l, w_l, model.coef, model.t0,
         model.ts, rows_all, il_all, g_all, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width,

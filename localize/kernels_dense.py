@@ -893,7 +893,7 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     """``dense.fit_steep_many``'s middle steps: each row's candidate nearest the model, twice (the
     consensus lines, then a robust fit of the picks, 1 round; then 3 rounds), the centre line and the
     width fitted to the picks, and the single-edge samples of the other rows
-    (``single_edge.edge_samples``).
+    (``single_edge.edge_samples`` as it was).
 
     Parameters
     ----------
@@ -984,7 +984,7 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     rounds[:ng] = 1
     uw, u0, us, _, uw_inl = robust_fit_groups(t2, y2, starts, deg2, rounds, 3.5)
     u_inl = uw_inl[:nc].copy()
-    # the other rows of the live pieces: single edges (edge_samples)
+    # the other rows of the live pieces: single edges
     wd = 0
     for i in range(len(rows_all)):
         wd = max(wd, rows_all[i])

@@ -3,7 +3,7 @@
 An occluder (a leaf, an apple, another branch at another depth) that cuts a steep branch on one
 side leaves rows whose crossings differ between the views: their middles are not the axis', but
 the uncut side's edge is the same outline in both views. This module matches such rows edge by
-edge: on rows of a fitted piece (:func:`edge_samples`), past a fitted piece's span along its own
+edge: on rows of a fitted piece (:func:`kernels_dense.steep_fit`), past a fitted piece's span along its own
 skeleton rows (:func:`grow`), and on pieces that found no curve but continue a matched one
 (:func:`carry_over`); :func:`edge_to_axis` moves one edge's disparity onto the axis (each camera
 sees a thick branch's outline at other surface points).
@@ -15,7 +15,6 @@ import numpy as np
 from appliance.localize import kernels, kernels_dense
 from appliance.localize.curves import (
     BranchCurve,
-    GroupPolys,
     Poly,
     Spliced,
     degree_for,
@@ -276,31 +275,6 @@ def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCu
         out[s] = BranchCurve(s, True, (float(tk.min()), float(tk.max())), u_poly, d_poly, c.radius_px, len(tk),
                              slopes, np.unique(rk[inl_d]))
     return out
-
-
-def edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
-                  d_model: GroupPolys, runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
-    """Disparity samples from single edges, on rows whose crossing is not whole.
-
-    On such a row (of piece ``g``, left run ``il``) the left crossing's edge that lies where the
-    fitted centre line and width put the branch's outline (within 1 px) is a true edge; the
-    same-side edge of the right crossing at the fitted disparity (within 1 px) is its match.
-    Returns rows, disparities, right run indices and pieces, per side (left edges first).
-    """
-    t = rows.astype(float)
-    u, half, d = u_poly(g, t), 0.5 * w_fit(g, t), d_model(g, t)
-    out = []
-    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
-        e_l = edge_l[il]
-        ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
-        e_r = edge_r[np.maximum(ir, 0)]
-        ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
-        if taken is not None:
-            ok &= ~taken[np.maximum(ir, 0)]
-        out.append((t[ok], (e_l - e_r)[ok], ir[ok], g[ok]))
-    te, de, re, ge = (np.concatenate(a) for a in zip(*out))
-    o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
-    return te[o], de[o], re[o], ge[o]
 
 
 def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs,

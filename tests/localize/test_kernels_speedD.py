@@ -213,6 +213,31 @@ def test_steep_candidates_are_the_numpy_steps():
     assert seen >= 15
 
 
+def _edge_samples_numpy(rows, il, g, u_poly, w_fit, d_model, runs_l, runs_r, taken):
+    """``single_edge.edge_samples`` as it was (numpy): disparity samples from single edges, on rows whose
+    crossing is not whole.
+
+    On such a row (of piece ``g``, left run ``il``) the left crossing's edge that lies where the
+    fitted centre line and width put the branch's outline (within 1 px) is a true edge; the
+    same-side edge of the right crossing at the fitted disparity (within 1 px) is its match.
+    Returns rows, disparities, right run indices and pieces, per side (left edges first).
+    """
+    t = rows.astype(float)
+    u, half, d = u_poly(g, t), 0.5 * w_fit(g, t), d_model(g, t)
+    out = []
+    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
+        e_l = edge_l[il]
+        ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
+        e_r = edge_r[np.maximum(ir, 0)]
+        ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
+        if taken is not None:
+            ok &= ~taken[np.maximum(ir, 0)]
+        out.append((t[ok], (e_l - e_r)[ok], ir[ok], g[ok]))
+    te, de, re, ge = (np.concatenate(a) for a in zip(*out))
+    o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
+    return te[o], de[o], re[o], ge[o]
+
+
 def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, rows_all, il_all, g_all, runs_l,
                      runs_r, taken):
     """``dense.fit_steep_many``'s middle steps as they were in numpy (the picks, the centre line and width,
@@ -246,8 +271,8 @@ def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, ro
     used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)
     used_key[key_used] = True
     rest = ~used_key[key_all] & alive[g_all]
-    te, de, re, ge = single_edge.edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
-                                              runs_l, runs_r, taken)
+    te, de, re, ge = _edge_samples_numpy(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
+                                         runs_l, runs_r, taken)
     return alive, tf, df, cf, wf, gc, rr[chosen], uw_inl[:len(tf)], te, de, re, ge
 
 

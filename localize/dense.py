@@ -28,7 +28,6 @@ from appliance.localize.curves import (
     GroupPolys,
     Poly,
     angle_deg_groups,
-    degree_for,
     linspace,
     median,
 )
@@ -123,15 +122,6 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     return rows[keep], xc[keep], g[keep]
 
 
-def _degrees(t: np.ndarray, g: np.ndarray, live: np.ndarray) -> np.ndarray:
-    """:func:`degree_for` of each group's samples (``t`` (N,), group ``g`` (N,)); 1 where not ``live`` (G,)."""
-    ng = len(live)
-    n = np.bincount(g, minlength=ng)
-    lo, hi = np.full(ng, np.inf), np.full(ng, -np.inf)
-    np.minimum.at(lo, g, t), np.maximum.at(hi, g, t)
-    return np.array([degree_for(int(n[k]), float(hi[k] - lo[k])) if live[k] else 1 for k in range(ng)])
-
-
 _NO_TAKEN = np.zeros(0, bool)
 
 
@@ -153,7 +143,8 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs0])
     rm = sm.radius_map if isinstance(sm.radius_map, RadiusMap) else RadiusMap(np.asarray(sm.radius_map))
     # the rows' left crossings, two width tests and the right candidates (compiled: the same rules)
-    seg_idx, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw = kernels_dense.steep_candidates(
+    seg_idx, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw, degree = \
+        kernels_dense.steep_candidates(
         np.ascontiguousarray(rows, float), np.ascontiguousarray(xc, float), np.ascontiguousarray(g, np.int64), sin_t,
         runs_l._find_tables, runs_l.span_px, runs_l.centre_px, runs_r._centre_keys, runs_r.centre_px, runs_r.span_px,
         runs_l.width, rm.image, int(rm.scale), *map(float, sm.d_range_px),
@@ -163,7 +154,6 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     if ng == 0 or not alive.any():
         return {}
     t = rows.astype(float)
-    degree = _degrees(t, g, alive)
     gq = g[q]
     bounds = np.searchsorted(gq, np.arange(ng + 1))
     model = _consensus_lines(t[q], cd, bounds, alive)

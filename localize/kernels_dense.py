@@ -265,6 +265,8 @@ def steep_candidates(rows, xc, g, sin_all, tab_l, span_l, centre_l, keys_r, cent
         Candidates: row (into the M rows) and right run.
     cd, cw : (K,) float
         Their disparity and right width, px.
+    degree : (G,) int64
+        :func:`curves.degree_for` of each live piece's rows (1 elsewhere: ``dense._degrees``).
     """
     ng0 = len(sin_all)
     alive0 = _count(g, ng0) >= 4
@@ -351,7 +353,16 @@ def steep_candidates(rows, xc, g, sin_all, tab_l, span_l, centre_l, keys_r, cent
         nq[g3[q[i]]] += 1
     for k in range(ng):
         alive[k] &= nq[k] >= 4
-    return seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw
+    lo_t, hi_t = np.full(ng, np.inf), np.full(ng, -np.inf)
+    for i in range(len(r3)):
+        lo_t[g3[i]] = min(lo_t[g3[i]], np.float64(r3[i]))
+        hi_t[g3[i]] = max(hi_t[g3[i]], np.float64(r3[i]))
+    degree = np.ones(ng, np.int64)         # (dense._degrees: curves.degree_for of each live piece's rows)
+    for k in range(ng):
+        if alive[k]:
+            span = hi_t[k] - lo_t[k]
+            degree[k] = 1 if n[k] < 12 or span < 40 else (2 if span < 160 else 3)
+    return seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw, degree
 
 
 @numba.njit(**_JIT)

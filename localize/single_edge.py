@@ -232,9 +232,9 @@ def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCu
     spans = np.array([c.t_range for c in donors])
     for s in dead:
         yx = graph.seg_yx[s]
-        if len(yx) < 2 or (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24 or \
-                (graph.node_kind[[n for n in graph.seg_nodes[s] if n >= 0]] == ENDPOINT).any():
-            continue
+        if len(yx) < 2 or any(n >= 0 and graph.node_kind[n] == ENDPOINT for n in graph.seg_nodes[s].tolist()) or \
+                (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24:
+            continue                    # (the same tests; the free end's first: no reductions)
         rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
         if len(rows) < 24:
             continue

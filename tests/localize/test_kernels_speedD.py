@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from appliance.localize import kernels_dense, single_edge
-from appliance.localize.curves import median, robust_fit
+from appliance.localize.curves import degree_for, median, robust_fit
 from appliance.localize.edges import find_runs
 from appliance.localize.matching import StereoMasks
 
@@ -48,6 +48,16 @@ def _edge_track_numpy(rows, xc, u, d, half, runs_l, runs_r, sm, need):
     if len(np.unique(ts[inl])) < need:
         return None
     return ts[inl], ds[inl], cs[inl], rs[inl]
+
+
+def _degrees(t, g, live):
+    """``dense._degrees`` as it was: ``curves.degree_for`` of each group's samples (``t`` (N,), group ``g``
+    (N,)); 1 where not ``live`` (G,)."""
+    ng = len(live)
+    n = np.bincount(g, minlength=ng)
+    lo, hi = np.full(ng, np.inf), np.full(ng, -np.inf)
+    np.minimum.at(lo, g, t), np.maximum.at(hi, g, t)
+    return np.array([degree_for(int(n[k]), float(hi[k] - lo[k])) if live[k] else 1 for k in range(ng)])
 
 
 def _soft(draw) -> np.ndarray:
@@ -209,6 +219,7 @@ def test_steep_candidates_are_the_numpy_steps():
         got = _candidates(rows, xc, g, sin_all, runs_l, runs_r, rm, taken)
         for a, b in zip(want, got):
             np.testing.assert_array_equal(b, a)
+        np.testing.assert_array_equal(got[15], _degrees(want[1].astype(float), want[4], want[9]))
         seen += bool(want[9].any())
     assert seen >= 15
 
@@ -279,10 +290,10 @@ def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, ro
 def test_steep_fit_is_the_numpy_steps():
     """:func:`_steep_scenes`' pieces through :func:`kernels_dense.steep_candidates`, the degrees and the
     consensus lines: the same picks, lines' inliers and single-edge samples, bit for bit."""
-    from appliance.localize.dense import _consensus_lines, _degrees
+    from appliance.localize.dense import _consensus_lines
     seen = 0
     for rows, xc, g, sin_all, runs_l, runs_r, rm, taken in _steep_scenes(40, 9):
-        seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw = _candidates(
+        seg_idx, r3, il3, w3, g3, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw, _ = _candidates(
             rows, xc, g, sin_all, runs_l, runs_r, rm, taken)
         if not len(seg_idx) or not alive.any():
             continue
@@ -606,7 +617,6 @@ def test_edge_consensus_piece_is_the_numpy_steps():
 def _refit_numpy(tf, df, gc, te, de, ge, ng, degree):
     """``dense.fit_steep_many``'s final disparity fits as they were in numpy."""
     from appliance.localize.curves import end_slopes_groups, fit_groups, robust_fit_groups
-    from appliance.localize.dense import _degrees
     ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])
     o = np.argsort(ga, kind="stable")
     ta, da, ga = ta[o], da[o], ga[o]

@@ -19,6 +19,7 @@ round cap (:mod:`caps`). Forks, tips and bridges are then placed on the curves (
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from appliance.config.schema import MatchConfig
@@ -27,40 +28,37 @@ from appliance.localize.curves import (
     GroupPolys,
     Poly,
     angle_deg_groups,
-    degree_for,
-    end_slopes_groups,
-    fit_groups,
     linspace,
     median,
-    robust_fit,
-    robust_fit_groups,
 )
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_dense
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
-from appliance.localize.flatfit import at_window_edge_dropped, line_supported, scatter_ok
+from appliance.localize.flatfit import (
+    FEW_LINE_PATCHES,
+    FEW_PATCHES,
+    MAX_FEW_MAD_PX,
+    MAX_LINE_MAD_PX,
+    MIN_LINE_INLIERS,
+    MIN_LINE_SHARE,
+    MIN_LINE_SPREAD,
+    at_window_edge_dropped,
+)
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.rectify import ReadBox
 from appliance.localize.steepcheck import withheld_segments
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
     edge_consensus,
-    edge_samples,
     grow,
 )
 from appliance.localize.subpixel import near_points, refine_runs
-from appliance.localize.texture import (
-    patch_depth_fraction,
-    slant_depth_factor,
-    surface_disparity,
-    surface_disparity_many,
-    surface_to_axis,
-)
+from appliance.localize.texture import surface_disparity, surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
@@ -84,17 +82,6 @@ def _ends_disparity(graph: SkeletonGraph, curves: dict, d_range_px: tuple[float,
     return xy, d
 
 
-def _near_junction(graph: SkeletonGraph, s: int, xy: np.ndarray, radius_map: np.ndarray) -> np.ndarray:
-    """True where a point (N, 2) lies inside a junction region at an end of segment ``s``."""
-    near = np.zeros(len(xy), bool)
-    for node in graph.seg_nodes[s]:
-        if node >= 0 and graph.node_kind[node] == JUNCTION:
-            nxy = graph.to_full(graph.node_yx[node])
-            r = radius_at(radius_map, nxy)[0]
-            near |= np.hypot(*(xy - nxy).T) < 1.6 * r + graph.scale + 1
-    return near
-
-
 def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
     """Group ids (N,) renumbered over the ``alive`` groups (samples of dead groups dropped by the caller)."""
     return (np.cumsum(alive) - 1)[g]
@@ -102,7 +89,7 @@ def _regroup(g: np.ndarray, alive: np.ndarray) -> np.ndarray:
 
 def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.ndarray, ...]:
     """:func:`centre_guess` by rows of every segment in ``segs`` at once, points inside a junction
-    region at a segment's end (:func:`_near_junction`) left out.
+    region at a segment's end (within 1.6 of its radius + the graph's scale + 1 px of it) left out.
 
     Returns rows (N,) float, centre columns (N,) and piece index into ``segs`` (N,) (non-decreasing):
     the same values as per piece, bit for bit (one np.interp over the pieces side by side, each
@@ -136,13 +123,7 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     return rows[keep], xc[keep], g[keep]
 
 
-def _degrees(t: np.ndarray, g: np.ndarray, live: np.ndarray) -> np.ndarray:
-    """:func:`degree_for` of each group's samples (``t`` (N,), group ``g`` (N,)); 1 where not ``live`` (G,)."""
-    ng = len(live)
-    n = np.bincount(g, minlength=ng)
-    lo, hi = np.full(ng, np.inf), np.full(ng, -np.inf)
-    np.minimum.at(lo, g, t), np.maximum.at(hi, g, t)
-    return np.array([degree_for(int(n[k]), float(hi[k] - lo[k])) if live[k] else 1 for k in range(ng)])
+_NO_TAKEN = np.zeros(0, bool)
 
 
 def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
@@ -160,111 +141,44 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     segs0 = list(segs)
     rows, xc, g = _row_centres(graph, segs, sm.radius_map)
     centres = (segs0, rows, xc, g)
-    alive = np.bincount(g, minlength=len(segs)) >= 4
-    if not alive.any():
-        return {}
-    keep = alive[g]
-    rows, xc, g = rows[keep].astype(int), xc[keep], _regroup(g[keep], alive)
-    segs = np.asarray(segs)[alive]
-    sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs.tolist()])
-    il = runs_l.find(rows, xc)
-    r_loc = radius_at(sm.radius_map, np.column_stack([xc, rows]))
-    ok = il >= 0
-    rows_all, il_all, g_all = rows[ok], il[ok], g[ok]
-    w_l = np.where(ok, runs_l.span_px[np.maximum(il, 0)], np.inf)
-    ok &= w_l <= 1.5 * (2 * r_loc / sin_t[g] + 1) + 2
-    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
-    alive = np.bincount(g, minlength=len(segs)) >= 4
-    # a branch's width varies smoothly along it: rows much narrower (partly occluded) or wider
-    # (merged with a crossing branch) than the trend are not its centre
-    keep = alive[g]
-    rows, il, w_l, g = rows[keep], il[keep], w_l[keep], _regroup(g[keep], alive)
-    keep = alive[g_all]
-    rows_all, il_all, g_all = rows_all[keep], il_all[keep], _regroup(g_all[keep], alive)
-    segs = segs[alive]
+    sin_t = np.array([max(np.sin(np.radians(angle_deg[s])), 0.2) for s in segs0])
+    rm = sm.radius_map if isinstance(sm.radius_map, RadiusMap) else RadiusMap(np.asarray(sm.radius_map))
+    # the rows' left crossings, two width tests and the right candidates (compiled: the same rules)
+    seg_idx, rows, il, w_l, g, rows_all, il_all, g_all, n, alive, c_l, q, rr, cd, cw, degree = \
+        kernels_dense.steep_candidates(
+        np.ascontiguousarray(rows, float), np.ascontiguousarray(xc, float), np.ascontiguousarray(g, np.int64), sin_t,
+        runs_l._find_tables, runs_l.span_px, runs_l.centre_px, runs_r._centre_keys, runs_r.centre_px, runs_r.span_px,
+        runs_l.width, rm.image, int(rm.scale), *map(float, sm.d_range_px),
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+    segs = np.asarray(segs0)[seg_idx]
     ng = len(segs)
-    if ng == 0:
-        return {}
-    rf = rows.astype(float)
-    w_fit, _ = robust_fit_groups(rf, w_l, g, ng, np.full(ng, 2), rounds=2)
-    wv = w_fit(g, rf)
-    ok = np.abs(w_l - wv) <= 0.1 * wv + 1.5
-    rows, il, w_l, g = rows[ok], il[ok], w_l[ok], g[ok]
-    n = np.bincount(g, minlength=ng)
-    alive = n >= 4
-    c_l = runs_l.centre_px[il]
-    dmin, dmax = sm.d_range_px
-    q, rr = runs_r.between(rows, c_l - dmax, c_l - dmin)
-    cd = c_l[q] - runs_r.centre_px[rr]
-    cw = runs_r.span_px[rr]
-    good = (np.abs(cw - w_l[q]) <= 0.1 * w_l[q] + 1.5) & alive[g[q]]
-    if taken is not None:
-        good &= ~taken[rr]
-    q, rr, cd, cw = q[good], rr[good], cd[good], cw[good]
-    alive &= np.bincount(g[q], minlength=ng) >= 4
-    if not alive.any():
+    if ng == 0 or not alive.any():
         return {}
     t = rows.astype(float)
-    degree = _degrees(t, g, alive)
     gq = g[q]
     bounds = np.searchsorted(gq, np.arange(ng + 1))
     model = _consensus_lines(t[q], cd, bounds, alive)
-    for k, tol in enumerate((2.0, 0.75)):           # per row, the candidate nearest the model
-        sel = alive[gq]
-        q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
-        res = np.abs(cd - model(gq, t[q]))
-        first = kernels.nearest_per_query(q, res)       # (q non-decreasing: lexsort's picks, the same)
-        chosen = first[res[first] <= tol]
-        alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
-        chosen = chosen[alive[gq[chosen]]]
-        if not alive.any():
-            return {}
-        model, inl = robust_fit_groups(t[q[chosen]], cd[chosen], gq[chosen], ng, degree, rounds=1 if k == 0 else 3)
-    chosen = chosen[inl]
-    gc = gq[chosen]
-    tf, df, cf = t[q[chosen]], cd[chosen], c_l[q[chosen]]
-    wf = 0.5 * (w_l[q[chosen]] + cw[chosen])
-    # the centre line (1 round), and the width (a line, 2 rounds): rows where the branch is partly hidden
-    # still show one true edge in both views. One call, the widths as groups ng..2ng-1 (the same values
-    # as two calls)
-    uw, uw_inl = robust_fit_groups(np.concatenate([tf, tf]), np.concatenate([cf, w_l[q[chosen]]]),
-                                   np.concatenate([gc, gc + ng]), 2 * ng,
-                                   np.concatenate([degree, np.ones(ng, int)]), rounds=np.repeat([1, 2], ng))
-    u_poly = GroupPolys(uw.coef[:ng], uw.t0[:ng], uw.ts[:ng], uw.degree[:ng])
-    w_poly = GroupPolys(uw.coef[ng:], uw.t0[ng:], uw.ts[ng:], uw.degree[ng:])
-    u_inl = uw_inl[:len(tf)]
-    width = int(rows_all.max()) + 1
-    key_all, key_used = g_all * width + rows_all, gc * width + tf.astype(int)
-    used_key = np.zeros(max(int(key_all.max()), int(key_used.max(initial=0))) + 1, bool)   # (np.isin by a table)
-    used_key[key_used] = True
-    rest = ~used_key[key_all] & alive[g_all]
-    te, de, re, ge = edge_samples(rows_all[rest], il_all[rest], g_all[rest], u_poly, w_poly, model,
-                                   runs_l, runs_r, taken)
-    # pieces with edge samples: the disparity refitted to all their samples, in each piece's order
-    ta, da, ga = np.concatenate([tf, te]), np.concatenate([df, de]), np.concatenate([gc, ge])   # (np.r_'s, cheaper)
-    o = np.argsort(ga, kind="stable")
-    ta, da, ga = ta[o], da[o], ga[o]
-    has_edges = np.bincount(ge, minlength=ng) > 0
-    sel = has_edges[ga]
-    ts_, ds_, gs_ = ta[sel], da[sel], ga[sel]
-    deg2 = _degrees(ts_, gs_, has_edges)
-    inl2 = robust_fit_groups(ts_, ds_, gs_, ng, deg2)[1] if sel.any() else np.zeros(0, bool)
-    bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
+    # per row, the candidate nearest the model (twice), the centre line and width fitted to the picks
+    # (rows where the branch is partly hidden still show one true edge in both views), and the other
+    # rows' single edges (single_edge.edge_samples' steps, moved into the kernel); compiled: the same steps
+    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge = kernels_dense.steep_fit(
+        t, alive, n, np.ascontiguousarray(degree, np.int64), q, rr, cd, cw, gq, c_l, w_l, model.coef, model.t0,
+        model.ts, rows_all, il_all, g_all, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+    if not ok:
+        return {}
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from
     # fitting each alone): to all samples (whole crossings and single edges) of the pieces with edge
-    # samples, to the whole crossings elsewhere. The centre line u(v) is fitted per curve: fitted all at
+    # samples, robustly refitted (in each piece's order), to the whole crossings elsewhere (compiled:
+    # kernels_dense.disparity_refit). The centre line u(v) is fitted per curve: fitted all at
     # once (coefficients ~1e-13 apart) it moved the fork and a tip of an exact drawing in
     # tests/localize/test_ends.py by 1-2 px (docs/localize-speed.md, third pass)
-    own = ~has_edges[gc]
-    sel2 = np.flatnonzero(inl2)
-    td = np.concatenate([tf[own], ts_[sel2]])
-    dd = np.concatenate([df[own], ds_[sel2]])
-    gd = np.concatenate([gc[own], gs_[sel2]])
-    o = np.argsort(gd, kind="stable")
-    td, dd, gd = td[o], dd[o], gd[o]
-    d_polys = fit_groups(td, dd, gd, ng, np.where(has_edges, deg2, degree))
-    slopes = end_slopes_groups(td, dd, gd, ng)
-    bd = np.searchsorted(gd, np.arange(ng + 1))
+    bc, be = (np.searchsorted(a, np.arange(ng + 1)) for a in (gc, ge))
+    coef, t0, ts, deg, slopes, t_lo, t_hi, n_fit = kernels_dense.disparity_refit(
+        np.ascontiguousarray(tf, float), np.ascontiguousarray(df, float), bc, np.ascontiguousarray(te, float),
+        np.ascontiguousarray(de, float), be, np.ascontiguousarray(degree, np.int64))
+    d_polys = GroupPolys(coef, t0, ts, deg)
+    has_edges = be[1:] > be[:-1]
     live = np.flatnonzero(alive).tolist()
     u_polys = []
     for k in live:
@@ -273,26 +187,22 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
     # every curve's radius from its samples' widths across its centre line's slope, all samples at
     # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
-    # Poly's), then each curve's median; each span's ends by one reduceat (min/max: exact)
+    # Poly's), then each curve's median
     sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
     slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
                                                          tf[sel]) if live else np.zeros(0)
     ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
     starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
-    pairs = np.column_stack([bd[live], bd[np.add(live, 1)]]).ravel() if live else np.zeros(0, int)
-    td_pad = np.concatenate([td, [0.0]])                # (each curve's [start, end) pair; the end may be len(td))
-    t_lo = np.minimum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
-    t_hi = np.maximum.reduceat(td_pad, pairs)[::2] if live else np.zeros(0)
     curves = {}
     for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
-        used = rr[chosen[a:b]]
+        used = rc[a:b]
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
         s = int(segs[k])
         radius = float(median(ratio[starts[i]:starts[i + 1]]))
-        curves[s] = BranchCurve(s, True, (float(t_lo[i]), float(t_hi[i])), u_polys[i], d_polys.poly(k), radius,
-                                int(bd[k + 1] - bd[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
+        curves[s] = BranchCurve(s, True, (float(t_lo[k]), float(t_hi[k])), u_polys[i], d_polys.poly(k), radius,
+                                int(n_fit[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
         grow(graph, curves, runs_l, runs_r, sm, centres)
         curves.update(carry_over(graph, [int(s) for s in segs0 if int(s) not in curves], curves, runs_l, runs_r, sm))
@@ -352,32 +262,12 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     return GroupPolys(coef, t0, ts, deg)
 
 
-@functools.lru_cache(maxsize=64)
-def _triu(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.triu_indices(n, 1)`` (cached, read-only: a few sizes recur every frame)."""
-    i, j = np.triu_indices(n, 1)
-    i.flags.writeable = j.flags.writeable = False
-    return i, j
-
-
 def _coarse_agree(u: np.ndarray, d: np.ndarray, tol_px: float = 6.0, tol_line_px: float = 2.0) -> bool:
     """Whether a flat piece's coarse texture disparities ``d`` at columns ``u`` (N,) agree: at least half
     of them (and 2) within ``tol_px`` of one value, or, from 4 on, at least half (and 3) within
     ``tol_line_px`` of a line through two of them (a piece's disparity changes along it). One agrees."""
-    n = len(d)
-    if n <= 1:
-        return True
-    need = max(2, -(-n // 2))
-    if int((np.abs(d[:, None] - d[None, :]) <= tol_px).sum(1).max()) >= need:
-        return True
-    if n < 4:
-        return False
-    i, j = _triu(n)
-    du = u[j] - u[i]
-    ok = du != 0
-    slope = (d[j] - d[i])[ok] / du[ok]
-    fit = d[i][ok][:, None] + slope[:, None] * (u[None, :] - u[i][ok][:, None])
-    return bool(ok.any()) and int((np.abs(d[None, :] - fit) <= tol_line_px).sum(1).max()) >= max(3, need)
+    return kernels_dense.coarse_agree(np.ascontiguousarray(u, float), np.ascontiguousarray(d, float), float(tol_px),
+                                      float(tol_line_px))          # (compiled: the same tests)
 
 
 def _patch_half_h(radius_px: float) -> int:
@@ -415,20 +305,17 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     g, sm = b.g, b.sm
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
-    keep = ~_near_junction(g, s, np.column_stack([cols, yc]), sm.radius_map)
-    cols, yc = cols[keep].astype(int), yc[keep]
-    if len(cols) < 4:
+    nodes = g.seg_nodes[s]                                                 # (2,): a junction at either end
+    junction = (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    nxy = g.to_full(g.node_yx[np.maximum(nodes, 0)]).astype(float)        # (2, 2) (x, y)
+    thr = 1.6 * radius_at(sm.radius_map, nxy) + g.scale + 1
+    # compiled: the junctions' regions left out, the columns' runs, the robust line and the radius
+    ok, coef, t0, ts, degree, radius, lo, hi = kernels_dense.flat_line(
+        np.ascontiguousarray(cols, float), np.ascontiguousarray(yc, float), junction, nxy, thr,
+        runs_lt._find_tables, runs_lt.centre_px, runs_lt.span_px, runs_lt.width)
+    if not ok:
         return None
-    it = runs_lt.find(cols, yc)
-    ok = it >= 0
-    if ok.sum() < 4:
-        return None
-    t, vc, hgt = cols[ok].astype(float), runs_lt.centre_px[it[ok]], runs_lt.span_px[it[ok]]
-    degree = degree_for(len(t), float(t.max() - t.min()))
-    v_poly, inl = robust_fit(t, vc, degree)
-    slope = v_poly.deriv()(t[inl])
-    radius = float(median(0.5 * hgt[inl] / np.sqrt(1 + slope ** 2)))
-    lo, hi = float(t[inl].min()), float(t[inl].max())
+    v_poly = Poly(coef[3 - degree:].copy(), t0, ts)
     u = np.arange(lo, hi + 1, 6.0)
     uv = np.column_stack([u, v_poly(u)])
     half_h = np.full(len(u), _patch_half_h(radius))
@@ -452,36 +339,26 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
 
 
+_FLAT_LIMITS = np.array([MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES, MAX_LINE_MAD_PX,
+                         FEW_PATCHES, MAX_FEW_MAD_PX], float)
+
+
 def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
                  uv: np.ndarray, found: tuple) -> BranchCurve | None:
     """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
     ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
     g, sm = b.g, b.sm
     d_surf, score = found
-    good = np.isfinite(d_surf) & (score >= 0.6)
-    xr = np.rint(u - np.where(np.isnan(d_surf), 0.0, d_surf)).astype(int)     # (np.nan_to_num's: no infinities here)
-    yr = np.rint(uv[:, 1]).astype(int)                 # (a patch at the piece's end may lie past the view's edge)
-    h, w = sm.right_mask.shape
-    on_right = (xr >= 0) & (xr < w) & (yr >= 0) & (yr < h)
-    good &= on_right                                   # the match must land on a branch in the right view
-    good[on_right] &= sm.right_mask[yr[on_right], xr[on_right]] >= 128
-    if good.sum() >= 3:
-        ug, dv = u[good], v_poly.deriv()(u[good])
-        k = patch_depth_fraction(radius, _patch_half_h(radius), dv)
-        d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
-        # texture disparities are noisy: a constant for short pieces, a line for long ones
-        degree = 0 if hi - lo < 100 else 1
-        d_poly, inl_d = robust_fit(ug, d_axis, degree)
-        if SLANT and degree == 1:   # the axis further behind the surface where the branch turns in depth
-            k = k * slant_depth_factor(ug, v_poly(ug), d_poly(ug), d_poly.deriv()(ug), dv, sm.f_px,
-                                       (0.5 * (w - 1), 0.5 * (h - 1)), sm.offset_px)
-            d_axis = surface_to_axis(d_surf[good], radius, sm.f_px, sm.offset_px, k)
-            d_poly, inl_d = robust_fit(ug, d_axis, degree)
-        if degree == 1 and not line_supported(ug[inl_d], len(u), lo, hi):
-            return None                 # a line through a handful of matches: withheld (flatfit.py)
-        if not scatter_ok((d_axis - d_poly(ug))[inl_d], degree):
-            return None                 # matches scattered over px: ambiguous bark (flatfit.py)
-        return BranchCurve(s, False, (lo, hi), v_poly, d_poly, radius, int(inl_d.sum()))
+    # compiled: the texture patches' fit (the numpy steps of texture.py and flatfit.py, equal up to rounding)
+    status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(
+        np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
+        np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),
+        float(v_poly.ts), float(radius), _patch_half_h(radius), float(lo), float(hi), float(sm.f_px),
+        float(sm.offset_px), SLANT, _FLAT_LIMITS)
+    if status == 1:
+        return BranchCurve(s, False, (lo, hi), v_poly, Poly(coef[3 - degree:].copy(), t0, ts), radius, n_inl)
+    if status == 2:
+        return None                     # too few patches on the line or scattered over px (flatfit.py)
     for n in g.seg_nodes[s]:
         b.place_pending(n)                # (a provisional fork, made when read)
     ends = np.array([b.uvd[n][[0, 2]] for n in g.seg_nodes[s] if n >= 0 and n in b.uvd]).reshape(-1, 2)
@@ -494,8 +371,8 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
 
 def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None) -> np.ndarray:
     """Samples (N, 3) ordered to run from the ``start`` node's point towards the ``end`` node's."""
-    def dist(a, b):
-        return np.hypot(*(a[:2] - b[:2]))
+    def dist(a, b):                     # (math.hypot of the differences: np.hypot's value, as floats)
+        return math.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1]))
     if start is not None:
         return uvd[::-1] if dist(uvd[-1], start) < dist(uvd[0], start) else uvd
     if end is not None:
@@ -513,15 +390,16 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     ``reach_px``.
     """
     uvd = _oriented(c.uvd(), *ends)
-    ends = [e if e is not None and abs(e[2] - c.d_at(c.t_of(e[:2]))[0]) <= max(2.0, 0.03 * e[2]) else None
-            for e in ends]
+    ax = 1 if c.by_row else 0           # (a point's parameter, c.t_of's, and the curve there, c.d_at's, as floats)
+    ends = [e if e is not None and abs(float(e[2]) - c._at(c.d_poly, float(e[ax]), c.d_end_slopes))
+            <= max(2.0, 0.03 * float(e[2])) else None for e in ends]
     parts = [uvd]
     for k, (e, xy) in enumerate(zip(ends, node_xy)):
         if e is None:
             if xy is None:
                 continue
-            t_n = float(c.t_of(xy)[0])
-            t_near = float(c.t_of(uvd[0 if k == 0 else -1, :2])[0])
+            t_n = float(xy[ax])
+            t_near = float(uvd[0 if k == 0 else -1, ax])
             if abs(t_n - t_near) < 2:
                 continue
             t = linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]

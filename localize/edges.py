@@ -53,6 +53,11 @@ class Runs:
         return _frozen(self.right_px - self.left_px)
 
     @cached
+    def bounds_px(self) -> np.ndarray:
+        """(2, R) ``left_px`` and ``right_px`` stacked (for the kernels)."""
+        return _frozen(np.stack([self.left_px, self.right_px]))
+
+    @cached
     def _start_keys(self) -> np.ndarray:
         return _frozen(self.row * self.width + self.x0)
 

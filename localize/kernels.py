@@ -962,6 +962,8 @@ def warm_up() -> None:
     kernels_tips.warm_up()
     from appliance.localize import kernels_forks        # (imports this module)
     kernels_forks.warm_up()
+    from appliance.localize import kernels_dense     # (its own module: it imports this one)
+    kernels_dense.warm_up()
 
 
 # --- match stage (speedm)

@@ -3,7 +3,7 @@
 An occluder (a leaf, an apple, another branch at another depth) that cuts a steep branch on one
 side leaves rows whose crossings differ between the views: their middles are not the axis', but
 the uncut side's edge is the same outline in both views. This module matches such rows edge by
-edge: on rows of a fitted piece (:func:`edge_samples`), past a fitted piece's span along its own
+edge: on rows of a fitted piece (:func:`kernels_dense.steep_fit`), past a fitted piece's span along its own
 skeleton rows (:func:`grow`), and on pieces that found no curve but continue a matched one
 (:func:`carry_over`); :func:`edge_to_axis` moves one edge's disparity onto the axis (each camera
 sees a thick branch's outline at other surface points).
@@ -12,24 +12,21 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_dense
 from appliance.localize.curves import (
     BranchCurve,
-    GroupPolys,
     Poly,
     Spliced,
-    angle_deg,
     degree_for,
     end_slopes,
     linspace,
     median,
-    percentile,
     robust_fit,
 )
 from appliance.localize.edges import Runs
 from appliance.localize.graph import ENDPOINT, JOINT, SkeletonGraph
 from appliance.localize.matching import StereoMasks
-from appliance.localize.radius import radius_at
+from appliance.localize.radius import RadiusMap
 
 
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
@@ -133,40 +130,11 @@ def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, 
     when fewer than ``need`` rows give samples (or fewer than ``need`` stay within 0.75 px of a line).
     """
     cx = 0.5 * (sm.left_mask.shape[1] - 1)    # the principal point taken at the centre (a few % of the effect)
-    ri = rows.astype(int)
-    il = runs_l.find(ri, u)
-    il = np.where(il >= 0, il, runs_l.find(ri, xc))
-    ok = il >= 0
-    if ok.sum() < need:
-        return None
-    ri, t, u, d, il, half = ri[ok], rows[ok], u[ok], d[ok], il[ok], half[ok]
-    tol = max(3.0, 0.25 * float(half.mean()))
-    edges, ok_side, irs = [], [], []
-    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
-        e_l = edge_l[il]
-        ir = runs_r.find(ri, e_l - d - side * 1.0)
-        good = (np.abs(e_l - (u + side * half)) <= tol) & (ir >= 0)
-        d_ax = np.full(len(t), np.nan)
-        if good.any():
-            d_ax[good] = edge_to_axis(u[good], e_l[good] - edge_r[ir[good]], half[good], side, sm.f_px, cx,
-                                      sm.offset_px)
-        good &= np.abs(d_ax - d) <= 2.0
-        edges.append((e_l, d_ax)), ok_side.append(good), irs.append(ir)
-    if (ok_side[0] | ok_side[1]).sum() < need:
-        return None
-    both = ok_side[0] & ok_side[1]
-    if both.sum() >= 3:                     # the width where both edges show, else the piece's
-        half = half * float(median((edges[1][0] - edges[0][0])[both] / (2 * half[both])))
-    ts, ds, cs, rs = [], [], [], []
-    for side, (e_l, dd), good, ir in zip((-1.0, 1.0), edges, ok_side, irs):
-        ts.append(t[good]), ds.append(dd[good]), rs.append(ir[good])
-        cs.append(np.where(both, 0.5 * (edges[0][0] + edges[1][0]), e_l - side * half)[good])
-    ts, ds, cs, rs = (np.concatenate(a) for a in (ts, ds, cs, rs))
-    d_line, inl = robust_fit(ts, ds, 1)
-    inl &= np.abs(ds - d_line(ts)) <= 0.75
-    if len(np.unique(ts[inl])) < need:
-        return None
-    return ts[inl], ds[inl], cs[inl], rs[inl]
+    f64 = [np.ascontiguousarray(a, float) for a in (rows, xc, u, d, half)]
+    ok, ts, ds, cs, rs = kernels_dense.edge_track(     # (compiled: the same rules, equal up to rounding)
+        runs_l._find_tables, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width, *f64, float(need), float(sm.f_px), cx,
+        float(sm.offset_px))
+    return (ts, ds, cs, rs) if ok else None
 
 
 def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
@@ -186,7 +154,8 @@ def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, run
             continue
         rows, xc = rows_all[bounds[k]:bounds[k + 1]], xc_all[bounds[k]:bounds[k + 1]]
         lo, hi = c.t_range
-        if not ((rows > hi + 1).sum() >= 8 or (rows < lo - 1).sum() >= 8):
+        n = len(rows)                   # (rows ascending: 8 beyond an end iff the 8th from that end is)
+        if not (n >= 8 and (float(rows[n - 8]) > hi + 1 or float(rows[7]) < lo - 1)):
             continue
         new = []
         cur = c
@@ -203,8 +172,8 @@ def grow(graph: SkeletonGraph, curves: dict[int, BranchCurve], runs_l: Runs, run
                 wr, wx = r_s[w0:w0 + step_px], x_s[w0:w0 + step_px]
                 if len(wr) < 8:
                     break
-                o = np.argsort(wr)
-                wr, wx = wr[o], wx[o]
+                if sign < 0:                # (ascending rows, as np.argsort's order)
+                    wr, wx = wr[::-1], wx[::-1]
                 m = _donor_model(cur, wr, reach_px)
                 if m is None or float(median(np.abs(m[0] - wx))) > 0.5 * c.radius_px + 2:
                     break
@@ -263,9 +232,9 @@ def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCu
     spans = np.array([c.t_range for c in donors])
     for s in dead:
         yx = graph.seg_yx[s]
-        if len(yx) < 2 or (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24 or \
-                (graph.node_kind[[n for n in graph.seg_nodes[s] if n >= 0]] == ENDPOINT).any():
-            continue
+        if len(yx) < 2 or any(n >= 0 and graph.node_kind[n] == ENDPOINT for n in graph.seg_nodes[s].tolist()) or \
+                (int(yx[:, 0].max()) - int(yx[:, 0].min()) + 1) * graph.scale < 24:
+            continue                    # (the same tests; the free end's first: no reductions)
         rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
         if len(rows) < 24:
             continue
@@ -308,31 +277,6 @@ def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCu
     return out
 
 
-def edge_samples(rows: np.ndarray, il: np.ndarray, g: np.ndarray, u_poly: GroupPolys, w_fit: GroupPolys,
-                  d_model: GroupPolys, runs_l: Runs, runs_r: Runs, taken: np.ndarray | None):
-    """Disparity samples from single edges, on rows whose crossing is not whole.
-
-    On such a row (of piece ``g``, left run ``il``) the left crossing's edge that lies where the
-    fitted centre line and width put the branch's outline (within 1 px) is a true edge; the
-    same-side edge of the right crossing at the fitted disparity (within 1 px) is its match.
-    Returns rows, disparities, right run indices and pieces, per side (left edges first).
-    """
-    t = rows.astype(float)
-    u, half, d = u_poly(g, t), 0.5 * w_fit(g, t), d_model(g, t)
-    out = []
-    for side, edge_l, edge_r in ((-1.0, runs_l.left_px, runs_r.left_px), (1.0, runs_l.right_px, runs_r.right_px)):
-        e_l = edge_l[il]
-        ir = runs_r.find(rows, e_l - d - side * 1.0)            # a pixel just inside the right edge
-        e_r = edge_r[np.maximum(ir, 0)]
-        ok = (np.abs(e_l - (u + side * half)) <= 1.0) & (ir >= 0) & (np.abs(e_l - e_r - d) <= 1.0)
-        if taken is not None:
-            ok &= ~taken[np.maximum(ir, 0)]
-        out.append((t[ok], (e_l - e_r)[ok], ir[ok], g[ok]))
-    te, de, re, ge = (np.concatenate(a) for a in zip(*out))
-    o = np.argsort(ge, kind="stable")                    # per piece, its left edges first
-    return te[o], de[o], re[o], ge[o]
-
-
 def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCurve], runs_l: Runs,
                    runs_r: Runs, sm: StereoMasks, tol_px: float = 1.0,
                    min_share: float = 0.5, max_gradient: float = 0.25) -> dict[int, BranchCurve]:
@@ -360,71 +304,24 @@ def edge_consensus(graph: SkeletonGraph, dead: list[int], curves: dict[int, Bran
     dmin, dmax = sm.d_range_px
     cx = 0.5 * (sm.left_mask.shape[1] - 1)
     slopes = np.linspace(-max_gradient, max_gradient, 21)
+    rm = sm.radius_map if isinstance(sm.radius_map, RadiusMap) else RadiusMap(np.asarray(sm.radius_map))
     for s in dead:
         yx = graph.seg_yx[s]
         if len(yx) < 2 or graph.seg_recovered[s]:
             continue
-        rows, xc = centre_guess(graph.to_full(yx), 1, graph.scale)
+        pts = graph.to_full(yx).astype(float)
+        rows, xc = centre_guess(pts, 1, graph.scale)
         if len(rows) < 24:
             continue
-        ri = rows.astype(int)
-        il = runs_l.find(ri, xc)
-        ok = il >= 0
-        ri, il = ri[ok], il[ok]
-        if len(ri) < 12:
-            continue
-        a_l, b_l = runs_l.left_px[il], runs_l.right_px[il]
-        q, rr = runs_r.between(ri, a_l - dmax, b_l - dmin)
-        keep = ~taken[rr]
-        q, rr = q[keep], rr[keep]
-        if len(q) < 12:
-            continue
-        t = ri[q].astype(float)
-        cand_t = np.concatenate([t, t])                  # (np.concatenate: np.r_'s arrays, cheaper)
-        cand_d = np.concatenate([a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]])
-        cand_q = np.concatenate([q, q])
-        # vote: for each slope within the plausible range, the offsets of the line through each
-        # candidate, in bins of ``tol_px``; the best window of two bins wins
-        tm = float(cand_t.mean())
-        lo, k_s, k_b = kernels.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))     # (S, C) offsets' bins
-        line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
-        sel = np.abs(cand_d - line) <= 1.5 * tol_px
-        if np.count_nonzero(np.bincount(cand_q[sel])) < max(12, min_share * len(ri)):    # (rows with a candidate)
-            continue
-        ts, ds, qs = cand_t[sel], cand_d[sel], cand_q[sel]
-        side = np.concatenate([np.full(len(q), -1.0), np.full(len(q), 1.0)])[sel]
-        runs = np.concatenate([rr, rr])[sel]
-        d_line, inl = robust_fit(ts, ds, 1)
-        inl &= np.abs(ds - d_line(ts)) <= tol_px
-        ts, ds, qs, side, runs = ts[inl], ds[inl], qs[inl], side[inl], runs[inl]
-        if len(np.unique(ts)) < max(12, min_share * len(ri)):
-            continue
-        # the line must be a branch's: inside the working range, and not steeper in depth than a
-        # branch pointing ~15 deg off the line of sight (``max_gradient`` px per row)
-        d_ends = d_line(np.array([ts.min(), ts.max()]))
-        if d_ends.min() < 0.95 * dmin or d_ends.max() > 1.05 * dmax or \
-                abs(d_ends[1] - d_ends[0]) > max_gradient * max(float(ts.max() - ts.min()), 1.0):
-            continue
-        # the half width along the rows: the wider of the two views' crossings, where it is whole,
-        # but not much wider than the left mask's own (a crossing merged with another branch)
-        w = np.maximum(runs_l.span_px[il[qs]], runs_r.span_px[runs])
-        half_px = 0.5 * percentile(w, 75)                  # (np.percentile's value, bit for bit)
-        r_px = float(median(radius_at(sm.radius_map, np.column_stack([xc, rows]))))
-        sin_t = max(float(np.sin(np.radians(angle_deg(graph.to_full(yx))))), 0.2)
-        if half_px > 2.0 * r_px / sin_t + 2:
-            continue
-        e_l = np.where(side < 0, a_l[qs], b_l[qs])
-        u = e_l - side * half_px
-        d_ax = edge_to_axis(u, ds, np.full(len(ds), half_px), side, sm.f_px, cx, sm.offset_px)
-        span = float(ts.max() - ts.min())
-        degree = min(degree_for(len(np.unique(ts)), span), 2)
-        u_poly, _ = robust_fit(ts, u, degree)
-        d_poly, inl_d = robust_fit(ts, d_ax, degree)
-        ts = ts[inl_d]
-        radius = half_px / float(np.sqrt(1 + np.mean(u_poly.deriv()(ts)) ** 2))
-        if float(median(np.abs(u_poly(rows) - xc))) > 0.5 * half_px + 2:
-            continue                        # not this piece's centre line (another branch's edges)
-        out[s] = BranchCurve(s, True, (float(ts.min()), float(ts.max())), u_poly, d_poly, radius, len(ts),
-                             end_slopes(ts, d_ax[inl_d]), np.unique(runs[inl_d]))
-        taken[out[s].right_runs] = True
+        # compiled: the vote, the checks, the step onto the axis and the fits (the numpy steps, equal up
+        # to rounding); marks the piece's right runs taken when it gets a curve
+        ok, uc, ut0, uts, udg, dc, dt0, dts, ddg, t_lo, t_hi, radius, n, end, used = kernels_dense.edge_consensus_piece(
+            np.ascontiguousarray(rows, float), np.ascontiguousarray(xc, float), np.ascontiguousarray(pts),
+            runs_l._find_tables, runs_l.bounds_px, runs_r._centre_keys, runs_r.bounds_px, runs_l.width, taken, slopes,
+            float(dmin), float(dmax), rm.image, int(rm.scale), float(sm.f_px), cx, float(sm.offset_px), float(tol_px),
+            float(min_share), float(max_gradient))
+        if ok:
+            out[s] = BranchCurve(s, True, (float(t_lo), float(t_hi)), Poly(uc[3 - udg:].copy(), float(ut0), float(uts)),
+                                 Poly(dc[3 - ddg:].copy(), float(dt0), float(dts)), float(radius), int(n),
+                                 (float(end[0]), float(end[1])), used)
     return out

@@ -24,7 +24,7 @@ def test_flat_piece_with_patches_past_the_views_edge_is_not_an_index_error():
     from appliance.localize.dense import _flat_finish
 
     h, w = 96, 128
-    sm = SimpleNamespace(right_mask=np.full((h, w), 255, np.uint8))
+    sm = SimpleNamespace(right_mask=np.full((h, w), 255, np.uint8), f_px=1000.0, offset_px=0.0)   # (as StereoMasks)
     b = SimpleNamespace(sm=sm, g=SimpleNamespace(seg_nodes={0: [-1, -1]}), uvd={}, place_pending=lambda n: None)
     u = np.arange(10.0, 110.0, 10.0)
     uv = np.stack([u, np.linspace(90.0, 97.0, len(u))], 1)          # the last patches' rows past row 95

@@ -1,10 +1,13 @@
 """Localization accuracy on rendered scenes with exact truth: improved vs the paper vs OpenCV SGBM.
 
     python benchmarks/localize_accuracy.py [--extra N] [--masks true|colour|both] [--soft-truth] [--json OUT]
-        [--pictures DIR]
+        [--pictures DIR] [--ss N]
 
 Scenes: fixtures/scenes (4) plus ``--extra`` more rendered with seeds 100.. (cached in
 out/localize_scenes). Rig f ~1450 px, b ~120 mm, 1280x960, branches 500-1500 mm away.
+``--ss N`` renders with N x N supersamples per pixel instead of the fixtures' 2 x 2 (finer anti-aliasing,
+the same scenes, sensor noise and gains), cached in out/localize_scenes_ssN; the 4 fixture scenes are
+then rendered again too (scene seeds 0-3, as ``fixtures/make_fixtures.py`` made them).
 Methods, each scored with :func:`appliance.synth.evaluate.score_result` (features matched in the
 left image within 5 px, same kind):
 
@@ -44,34 +47,52 @@ REPO = Path(__file__).resolve().parents[1]
 BANDS_MM = [(500, 750), (750, 1000), (1000, 1250), (1250, 1500)]
 
 
-def scenes(extra: int, seeds: range | None = None) -> list[tuple[str, Path, Path, Path]]:
+def scene_cache(ss: int) -> Path:
+    """The directory of the scenes rendered with ``ss`` x ``ss`` supersamples per pixel: out/localize_scenes
+    for the default 2 (the cache every earlier figure used), out/localize_scenes_ss<ss> otherwise."""
+    return REPO / "out" / ("localize_scenes" if ss == 2 else f"localize_scenes_ss{ss}")
+
+
+def cached_scene(seed: int, cache: Path, ss: int = 2, tag: str | None = None) -> tuple[Path, Path, Path]:
+    """(left, right, truth json) of scene ``seed`` rendered with ``ss`` supersamples in ``cache``, rendered
+    (and timed) if missing; ``tag`` names the files (default: the seed)."""
+    from appliance.synth.rig import default_rig
+    from appliance.synth.scene import make_scene, render
+    from appliance.synth.truth import save_truth
+
+    tag = str(seed) if tag is None else tag
+    stem = cache / f"truth_{tag}"
+    left, right = cache / f"left_{tag}.png", cache / f"right_{tag}.png"
+    if not (stem.with_suffix(".json").exists() and left.exists() and right.exists()
+            and "cover_left" in np.load(stem.with_suffix(".npz")).files):   # (older caches: no soft masks)
+        cache.mkdir(parents=True, exist_ok=True)
+        print(f"rendering scene {seed} (ss {ss}) ...", flush=True)
+        t0 = time.perf_counter()
+        l_img, r_img, truth = render(make_scene(seed), default_rig(), seed=seed, ss=ss)
+        cv2.imwrite(str(left), l_img)
+        cv2.imwrite(str(right), r_img)
+        save_truth(truth, stem)
+        print(f"rendered scene {seed} (ss {ss}) in {time.perf_counter() - t0:.1f} s", flush=True)
+    return left, right, stem.with_suffix(".json")
+
+
+def scenes(extra: int, seeds: range | None = None, ss: int = 2) -> list[tuple[str, Path, Path, Path]]:
     """(name, left, right, truth json) of the fixture scenes and ``extra`` rendered ones (seeds 100..);
-    with ``seeds``, of those rendered seeds alone (a hold-out scored on its own)."""
+    with ``seeds``, of those rendered seeds alone (a hold-out scored on its own). With ``ss`` other than
+    the fixtures' 2, the fixture scenes (seeds 0-3) are rendered with ``ss`` supersamples as well."""
     out = []
+    cache = scene_cache(ss)
     fx = REPO / "fixtures" / "scenes"
     if seeds is None:
         for t in sorted(fx.glob("truth_*.json")):
             nn = t.stem.split("_")[1]
-            out.append((f"fixture {nn}", fx / f"left_{nn}.png", fx / f"right_{nn}.png", t))
+            if ss == 2:
+                out.append((f"fixture {nn}", fx / f"left_{nn}.png", fx / f"right_{nn}.png", t))
+            else:
+                out.append((f"fixture {nn}", *cached_scene(int(nn), cache, ss, tag=f"fixture_{nn}")))
         seeds = range(100, 100 + extra)
-    if len(seeds):
-        from appliance.synth.rig import default_rig
-        from appliance.synth.scene import make_scene, render
-        from appliance.synth.truth import save_truth
-
-        cache = REPO / "out" / "localize_scenes"
-        cache.mkdir(parents=True, exist_ok=True)
-        for seed in seeds:
-            stem = cache / f"truth_{seed}"
-            left, right = cache / f"left_{seed}.png", cache / f"right_{seed}.png"
-            if not (stem.with_suffix(".json").exists() and left.exists() and right.exists()
-                    and "cover_left" in np.load(stem.with_suffix(".npz")).files):   # (older caches: no soft masks)
-                print(f"rendering scene {seed} ...", flush=True)
-                l_img, r_img, truth = render(make_scene(seed), default_rig(), seed=seed)
-                cv2.imwrite(str(left), l_img)
-                cv2.imwrite(str(right), r_img)
-                save_truth(truth, stem)
-            out.append((f"seed {seed}", left, right, stem.with_suffix(".json")))
+    for seed in seeds:
+        out.append((f"seed {seed}", *cached_scene(seed, cache, ss)))
     return out
 
 
@@ -161,6 +182,17 @@ def _seed_range(text: str) -> range:
     return r
 
 
+def _supersamples(text: str) -> int:
+    """``--ss``: a whole number >= 1."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: at least 1 supersample per pixel")
+    return n
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--extra", type=int, default=0, help="render this many more scenes (seeds 100..)")
@@ -172,6 +204,9 @@ def main() -> int:
     ap.add_argument("--json", type=Path, help="write pooled scores here")
     ap.add_argument("--pictures", type=Path, metavar="DIR",
                     help="write how the improved variant scored on each scene here (synth.show.draw_score)")
+    ap.add_argument("--ss", type=_supersamples, default=2, metavar="N",
+                    help="render with N x N supersamples per pixel (default 2, the fixtures'); "
+                         "other N: cached in out/localize_scenes_ssN, fixture scenes rendered again")
     a = ap.parse_args()
     if a.pictures:
         a.pictures.mkdir(parents=True, exist_ok=True)
@@ -182,7 +217,7 @@ def main() -> int:
     per_method: dict[str, list] = {}
     times: dict[str, list] = {}
     axes: dict[str, list] = {}
-    for name, lp, rp, tp in scenes(a.extra, a.seeds):
+    for name, lp, rp, tp in scenes(a.extra, a.seeds, a.ss):
         left, right, truth = cv2.imread(str(lp)), cv2.imread(str(rp)), load_truth(tp)
         for mode in mask_modes:
             exact = truth.exact_masks(soft=a.soft_truth)

@@ -22,13 +22,18 @@ def fft_noise(shape: tuple[int, int], rng: np.random.Generator, beta: float = 2.
     return ((n - n.mean()) / (n.std() + 1e-12)).astype(np.float32)
 
 
-def lookup(tex: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def lookup(tex: np.ndarray, u: np.ndarray, v: np.ndarray, max_rows: int = 32000) -> np.ndarray:
     """Bilinear, wrapping lookup of ``tex`` (rows, cols[, C]) at texel coordinates ``u`` (col), ``v`` (row).
 
-    ``u``, ``v`` : ndarray (N,). Returns (N,) or (N, C) float32.
+    ``u``, ``v`` : ndarray (N,). Returns (N,) or (N, C) float32. The points go to ``cv2.remap`` as rows
+    of 1024, at most ``max_rows`` rows per call (remap's maps must stay under 32767 rows: more than
+    ~33 M points, e.g. a render with 8 x 8 supersamples, are looked up in pieces; the same values).
     """
     n = np.size(u)
     width = 1024
+    if n > max_rows * width:
+        u, v, step = np.ravel(u), np.ravel(v), max_rows * width
+        return np.concatenate([lookup(tex, u[i:i + step], v[i:i + step], max_rows) for i in range(0, n, step)])
     rows = max(1, -(-n // width))
     mx = np.zeros(rows * width, np.float32)
     my = np.zeros(rows * width, np.float32)

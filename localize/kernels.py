@@ -45,37 +45,65 @@ _JIT = dict(cache=_cacheable(), nogil=True)
 
 
 @numba.njit(**_JIT)
-def _pairwise(a, lo, n):
-    """numpy's pairwise sum of ``a[lo:lo + n]`` (float64 reduce inner loop: blocks of 8 accumulators,
-    halves above 128), the same value bit for bit."""
+def _pairwise_block(a, lo, n):
+    """numpy's pairwise sum of ``a[lo:lo + n]``, n <= 128 (one block: 8 accumulators)."""
     if n < 8:
         res = 0.0
         for i in range(lo, lo + n):
             res += a[i]
         return res
-    if n <= 128:
-        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-        m = n - n % 8
-        i = 8
-        while i < m:
-            r0 += a[lo + i]
-            r1 += a[lo + i + 1]
-            r2 += a[lo + i + 2]
-            r3 += a[lo + i + 3]
-            r4 += a[lo + i + 4]
-            r5 += a[lo + i + 5]
-            r6 += a[lo + i + 6]
-            r7 += a[lo + i + 7]
-            i += 8
-        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        while i < n:
-            res += a[lo + i]
-            i += 1
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise(a, lo, n2) + _pairwise(a, lo + n2, n - n2)
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    m = n - n % 8
+    i = 8
+    while i < m:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(**_JIT)
+def _pairwise(a, lo, n):
+    """numpy's pairwise sum of ``a[lo:lo + n]`` (float64 reduce inner loop: blocks of 8 accumulators, halves
+    rounded down to 8 above 128), the same value bit for bit; walked with a stack, not recursion: numba does
+    not link a recursive kernel into a cached one of another module, nor reload it reliably."""
+    seg_lo, seg_n, state = np.empty(64, np.int64), np.empty(64, np.int64), np.empty(64, np.int64)
+    vals = np.empty(64)
+    sp, vp = 1, 0
+    seg_lo[0], seg_n[0], state[0] = lo, n, 0
+    while sp > 0:
+        l0, n0, st = seg_lo[sp - 1], seg_n[sp - 1], state[sp - 1]
+        if n0 <= 128:
+            sp -= 1
+            vals[vp] = _pairwise_block(a, l0, n0)
+            vp += 1
+            continue
+        n2 = n0 // 2
+        n2 -= n2 % 8
+        if st == 0:                             # the first half
+            state[sp - 1] = 1
+            seg_lo[sp], seg_n[sp], state[sp] = l0, n2, 0
+            sp += 1
+        elif st == 1:                           # then the second
+            state[sp - 1] = 2
+            seg_lo[sp], seg_n[sp], state[sp] = l0 + n2, n0 - n2, 0
+            sp += 1
+        else:                                   # their sum
+            sp -= 1
+            vp -= 1
+            vals[vp - 1] = vals[vp - 1] + vals[vp]
+    return vals[0]
 
 
 @numba.njit(**_JIT)

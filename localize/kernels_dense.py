@@ -14,6 +14,7 @@ import numpy as np
 from appliance.localize.kernels import (
     _JIT,
     _median,
+    _pairwise,
     _readonly,
     _sorted,
     end_slopes_groups,
@@ -367,24 +368,8 @@ def steep_candidates(rows, xc, g, sin_all, tab_l, span_l, centre_l, keys_r, cent
 
 @numba.njit(**_JIT)
 def _mean(a):
-    """``a.mean()`` of a 1-D float array: numpy's pairwise sum (8 accumulators) up to 128 values, the same
-    value bit for bit; a plain sum beyond (rounding level; ``kernels._pairwise`` is recursive, which
-    numba's cache cannot link across modules)."""
-    n = len(a)
-    if n < 8 or n > 128:
-        res = 0.0
-        for i in range(n):
-            res += a[i]
-        return res / n
-    r = a[:8].copy()
-    m = n - n % 8
-    for i in range(8, m, 8):
-        for j in range(8):
-            r[j] += a[i + j]
-    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    for i in range(m, n):
-        res += a[i]
-    return res / n
+    """``a.mean()`` of a 1-D float array (numpy's pairwise sum: the same value bit for bit)."""
+    return _pairwise(a, 0, len(a)) / len(a)
 
 
 @numba.njit(**_JIT)

@@ -4,7 +4,7 @@ code they replace."""
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels_forks
+from appliance.localize import kernels, kernels_forks
 from appliance.localize.curves import BranchCurve, Poly, Spliced, linspace
 
 
@@ -387,11 +387,11 @@ def test_side_near_kernel_is_the_numpy_steps_up_to_rounding():
 
 
 def test_pairwise_is_numpys_sum_bit_for_bit():
-    """kernels_forks._pairwise (the line fits' plain sums) against ndarray.sum on 1-400 random values."""
+    """kernels._pairwise (the line fits' sums, walked with a stack) against ndarray.sum on 1-400 random values."""
     rng = np.random.default_rng(17)
     for n in [*range(1, 400), 1000, 4097]:
         a = rng.normal(0, 100, n)
-        assert kernels_forks._pairwise(a, 0, n) == a.sum()
+        assert kernels._pairwise(a, 0, n) == a.sum()
 
 
 def _runs_agree_numpy(runs_l, runs_r, d_range, pts, d, r, min_rows=3):

@@ -355,7 +355,7 @@ def test_cap_row_scale_takes_a_cap_rows_circle_back_to_the_caps_centre():
     # a sphere's centre C seen by a rectified pair (baseline along x); the epipolar plane of each row
     # through the sphere cuts it in a circle around the foot of C on that plane: its disparity, scaled,
     # is C's
-    from appliance.localize.ends import cap_row_scale
+    from appliance.localize.tipends import cap_row_scale
 
     f, b, cy = 1460.0, 120.0, 479.5
     for c in (np.array([80.0, -330.0, 1000.0]), np.array([-200.0, 280.0, 700.0]), np.array([0.0, 40.0, 1400.0])):
@@ -443,7 +443,8 @@ def test_a_curve_carried_to_a_fork_counts_the_rows_past_its_span():
     from types import SimpleNamespace
 
     from appliance.localize.curves import BranchCurve, Poly
-    from appliance.localize.ends import CHILD_CARRY_PX, EndPlacer
+    from appliance.localize.ends import EndPlacer
+    from appliance.localize.forkends import CHILD_CARRY_PX
 
     c = BranchCurve(0, True, (695.0, 718.0), Poly.constant(300.0), Poly.constant(250.0), 9.0, 24)
     placer = SimpleNamespace(curves={0: c})

@@ -107,7 +107,7 @@ def test_an_oblique_side_turning_in_depth_is_read_at_each_views_slope():
 def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
     # a drawn Y at 30 deg: the child's blob keeps the upper side's fit ~50 rows short of the fork;
     # that side is read from its own rows there, and the fork keeps the parent's disparity
-    import appliance.localize.ends as ends
+    import appliance.localize.forkends as forkends
     from appliance.config import load_config
     from appliance.localize import Localizer
 
@@ -120,7 +120,7 @@ def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
         read.append(out)
         return out
 
-    monkeypatch.setattr(ends, "side_disparity_near", spy)
+    monkeypatch.setattr(forkends, "side_disparity_near", spy)
     calib = ideal_rig()
     left, right, ml, mr, fork, d = y_pair(calib, 1000.0, 30.0)
     res = Localizer(calib, load_config().localize).localize(left, right, mask_left=ml, mask_right=mr)

@@ -76,7 +76,7 @@ def test_bilinear_reads_are_cv2_remaps():
     level off); the walks then follow those values."""
     import cv2
     import numba
-    from appliance.localize.ends import walk_edges
+    from appliance.localize.walks import walk_edges
 
     @numba.njit
     def read(img, xy):

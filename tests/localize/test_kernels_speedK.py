@@ -93,7 +93,7 @@ def test_hidden_crossings_is_the_numpy_loop():
 
 
 def _line_numpy(pts):
-    """ends._line's former numpy steps."""
+    """forkends._line's former numpy steps."""
     c = pts.sum(0) / len(pts)
     q = pts - c
     sxx, syy, sxy = float(np.dot(q[:, 0], q[:, 0])), float(np.dot(q[:, 1], q[:, 1])), float(np.dot(q[:, 0], q[:, 1]))
@@ -485,8 +485,8 @@ def test_radius_median_is_radius_ats_median():
 
 
 def test_intersect_is_lapacks_up_to_rounding():
-    """ends._intersect (Cramer's rule) against numpy's det and solve: the same None, the point within 1e-9 px."""
-    from appliance.localize.ends import _intersect
+    """forkends._intersect (Cramer's rule) against numpy's det and solve: the same None, the point within 1e-9 px."""
+    from appliance.localize.forkends import _intersect
     rng = np.random.default_rng(29)
     for _ in range(1000):
         c1, c2 = rng.uniform(0, 1000, 2), rng.uniform(0, 1000, 2)
@@ -556,7 +556,7 @@ def test_side_walks_is_the_numpy_steps_bit_for_bit():
     (with the normals made by the kernel and given to it)."""
     import cv2
 
-    from appliance.localize.ends import walk_edges
+    from appliance.localize.walks import walk_edges
     rng = np.random.default_rng(37)
     n_cross = 0
     for trial in range(200):

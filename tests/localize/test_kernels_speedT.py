@@ -8,10 +8,11 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from appliance.localize import caps, ends, kernels, kernels_tips, tips
+from appliance.localize import caps, kernels, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
-from appliance.localize.ends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, EndPlacer, cap_row_scale
+from appliance.localize.ends import EndPlacer
+from appliance.localize.tipends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, cap_row_scale
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
                                      split_row_disparity)
 
@@ -369,7 +370,7 @@ def test_kernels_take_tips_constants():
     """The constants the kernels repeat are tips.py's."""
     assert kernels_tips.CAP_WIDTH_BACK == tips.CAP_WIDTH_BACK
     assert kernels_tips.ROUND_BACK == 1.0 - np.sqrt(0.51) == 1.0 - math.sqrt(0.51)
-    assert ends.END_RUN_CUT_PX == 2.0 and len(CAP_SPLIT_PX) == 2
+    assert END_RUN_CUT_PX == 2.0 and len(CAP_SPLIT_PX) == 2
 
 
 def test_warm_up_compiles_the_signatures_the_tips_kernels_get():

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from appliance.localize.ends import EndPlacer, walk_edges
+from appliance.localize.ends import EndPlacer
+from appliance.localize.walks import walk_edges
 
 
 def _cap_coverage(shape, centre, direction, r_px, end_px, n_sub=4):

@@ -1,0 +1,644 @@
+"""Forks placed on the fitted branch curves (:class:`ForkPlacing`, a part of :class:`ends.EndPlacer`).
+
+A fork is where the child's centre line meets the parent's axis, with the parent's disparity there
+(its sides' own crossings or bark texture next to the crotch), and is reported only if the child's
+own disparity agrees (else two branches merely cross in the image). A hidden end whose centre line
+runs on into a thicker piece at the same disparity is a fork too (:meth:`ForkPlacing.hidden_fork`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from appliance.localize import kernels, kernels_forks
+from appliance.localize.curves import BranchCurve, Poly, linspace
+from appliance.localize.forkchild import child_texture_agrees, passes_through
+from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
+from appliance.localize.forkplace import parent_axis
+
+# a hidden end's centre line meeting a piece at less than this is that branch running on behind
+# the occluder (bent), not a child meeting its parent
+HIDDEN_FORK_MIN_DEG = 20.0
+
+# the right view's outline of a child must tell its disparity from the parent's to this (px)
+OUTLINE_MAX_D_PX = 4.0
+
+# a child without a curve within this of the rows (sine; the matcher's 20 deg of flat pieces) shows
+# its depth by its bark texture only: checked there (forkchild.child_texture_agrees)
+FLAT_CHILD_SIN = math.sin(math.radians(20.0))
+
+# a flat parent side at a fork takes its disparity from its bark texture next to the fork
+# (forkdisp.flat_side_near) where that moves its curve's by more than this (px)
+FLAT_NEAR = True
+FLAT_NEAR_MIN_PX = 0.25
+
+# ... with the parent's radius at the fork between its two sides' (a tapering branch: ForkPlacing._radius_at_fork)
+FLAT_TAPER = True
+
+# a fork whose two steep parent sides differ by more than this (px; less than the clear
+# disagreement's 2 px) takes their mean weighted by how well each side's line is known there
+# (forkdisp.weigh_sides) instead of the plain mean
+SIDES_WEIGHTED = True
+SIDES_WEIGHT_PX = 0.5
+
+# a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
+# the two and the child's right outline's disparity (if within the outline check's tolerance of
+# the nearer side); the outline within 1 px of the parent's confirms the fork
+FLAT_PICK = True
+FLAT_SIDES_DIFFER_PX = 0.5
+
+# a flat parent whose two sides disagree at a fork, the child's curve carried further than this to
+# it (px), takes the side its child's right outline agrees with (within this, px) and the outline
+CHILD_CARRY_PX = 12.0
+SIDE_OUTLINE_PX = 0.5
+
+# a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
+# from the flat parent's disparity at its end next to the fork (px), discredits that outline
+CHILD_DEPTH_PX = 6.0
+
+# a fork placed from the child's outline is placed again against the parent's axis from its own
+# cross-sections clear of the crotch (forkplace.parent_axis)
+PARENT_FROM_SECTIONS = True
+SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two agree within their noise)
+
+
+def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Total-least-squares line through points (N, 2): centroid and unit direction (the direction of
+    the largest spread; compiled: :func:`kernels_forks.tls_line`)."""
+    return kernels_forks.tls_line(np.ascontiguousarray(pts, float))
+
+
+def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
+    """Intersection of the lines c1 + t e1 and c2 + s e2; None when (nearly) parallel."""
+    e1x, e1y, e2x, e2y = float(e1[0]), float(e1[1]), float(e2[0]), float(e2[1])
+    det = e2x * e1y - e1x * e2y           # (the 2 x 2 system [e1, -e2] t = c2 - c1 by Cramer's rule: as
+    if abs(det) < 0.05:                    # LAPACK's det and solve up to rounding)
+        return None
+    bx, by = float(c2[0] - c1[0]), float(c2[1] - c1[1])
+    return c1 + ((e2x * by - bx * e2y) / det) * e1
+
+
+def _agree(d1: float, d2: float) -> bool:
+    """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
+    return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
+
+
+
+class ForkPlacing:
+    """:class:`ends.EndPlacer`'s forks (its state: ``curves``, ``uvd``, ``hidden``, the graph ``g``, the
+    masks ``sm``)."""
+
+    def fork(self, node: int, final: bool = False, needed: bool = True) -> None:
+        """A fork: where the child's centre line meets the parent's, with the parent's disparity.
+
+        The parent is the pair of pieces that continue each other (most opposite directions;
+        the clearly thinnest piece is never a parent). The fork is reported only if the
+        child's own disparity there agrees with the parent's: otherwise the pieces merely
+        cross in the image (at different depths), and only if the child's outline leaving the
+        parent is clear in the left view. Until ``final`` a fork waits for a fitted
+        parent. A provisional (not ``final``) place that is not ``needed`` before the final
+        round (no piece of the node gains a curve in between) is placed only if the final
+        round finds no place, keeping it as placing it first would.
+        """
+        if not final and not needed:
+            self._deferred.add(node)
+            return
+        segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
+        if len(segs) < 3:
+            return
+        p = self.node_xy[node]
+        r = self._node_radius(node)
+        near, rad, dirs = {}, {}, {}
+        for s in segs:                  # (cached: both fork rounds ask)
+            c = self.curves.get(s)
+            hit = self._near_cache.get((node, s))
+            if hit is None or hit[0] is not c:
+                pts = self._near_points(s, p, r)
+                v = pts.sum(0) / len(pts) - p           # (the piece's direction from the junction)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), v / max(np.hypot(*v), 1e-9))
+            near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
+        thin = min(segs, key=rad.get)
+        rest = [s for s in segs if s != thin]
+        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
+            pa, pb = rest
+        else:
+            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+        children = [s for s in segs if s not in (pa, pb)]
+        child = max(children, key=lambda s: (s in self.curves, rad[s]))
+        parents = [s for s in (pa, pb) if s in self.curves]
+        if not parents and not final:
+            return
+        c1, e1 = _line(np.concatenate([near[pa], near[pb]]))      # (np.vstack's, of 2-D arrays)
+        if child in self.curves:             # the child's own fitted centre line where it starts
+            cc = self.curves[child]
+            lo, hi = cc.t_range
+            tp = cc.t_of(p)[0]
+            t_end = hi if abs(tp - hi) <= abs(tp - lo) else lo
+            c2, e2 = _line(self._curve_uv(cc, t_end, t_end + (12.0 if t_end == lo else -12.0), 12))
+        else:
+            c2, e2 = _line(near[child])
+        p0 = c1 + np.dot(p - c1, e1) * e1                # the junction on the parent's line
+        r_par = max(rad[pa], rad[pb])
+        # the child's outline where it leaves the parent, against the parent's line behind the
+        # fork (the parent may bend at the fork) or else through both sides
+        behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
+        xy, outline = None, None
+        lines = ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)] if final else []
+        for cl, el in lines:               # (before the final round a rough place will do)
+            xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
+            if xy is not None:
+                outline = (cl, el)
+                break
+        if outline is not None and PARENT_FROM_SECTIONS:
+            # the parent's line near the crotch is pulled towards the child: its axis again from its
+            # own cross-sections clear of the crotch on both sides, and the child's outline against it
+            ax = parent_axis(self.sm.left_mask, xy, outline[1], e2 if np.dot(c2 - xy, e2) >= 0 else -e2,
+                             rad[behind], rad[pb if behind == pa else pa], rad[child])
+            xy2 = None if ax is None else self._fork_from_child_outline(
+                ax[0], ax[1], c2, e2, ax[0] + np.dot(p - ax[0], ax[1]) * ax[1], r_par, rad[child])
+            if xy2 is not None and np.hypot(*(xy2 - xy)) > SECTIONS_MIN_MOVE_PX:     # (within it: noise)
+                xy, outline = xy2, ax
+        if xy is None:
+            # the skeleton junction lies where the child's outline leaves the parent's, ahead of
+            # the fork in the child's direction: the fork slides back along the parent further
+            # than ahead
+            xy = _intersect(c1, e1, c2, e2)
+            if xy is None:
+                xy = p0
+            else:
+                ahead = np.sign(np.dot(c2 - p0, e1)) or 1.0
+                shift = min(max(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale)),
+                            0.5 * r_par + 2 * self.g.scale)          # (np.clip of one value, without its overhead)
+                xy = p0 + ahead * shift * e1
+        at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
+
+        def passes(s):              # a curve's disparity at the fork's row/column is its own there
+            c = self.curves[s]
+            return np.hypot(*(c.uv_at(c.t_of(xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
+        parents = [s for s in parents if passes(s)]
+        child_ok = child in self.curves and passes(child)
+        # a side whose fit stops short of the fork is read again from its own crossings nearest it
+        # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
+        # without the child's outline is withheld whatever its disparity (below): not read
+        side_near, flat_read = {}, set()
+        for s in parents if final and outline is not None else ():
+            c = self.curves[s]
+            if c.by_row:
+                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
+            elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
+                v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
+                                   self.sm.f_px, self.sm.offset_px,
+                                   radius_px=self._radius_at_fork(parents, xy) if FLAT_TAPER else None)
+                # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
+                if v is not None:
+                    flat_read.add(s)
+                    if abs(v.d_px - at(s)) <= FLAT_NEAR_MIN_PX:
+                        v = None
+            else:
+                v = None
+            if v is not None:
+                side_near[s] = v
+        if side_near:
+            at_curve = at
+            at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
+        d_par = [at(s) for s in parents]
+        sides = None                    # (the two sides' disparities where they clearly disagree)
+        if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
+            # the parent's two sides clearly disagree at the fork (one side's fit is off there):
+            # the middle of the three pieces' disparities
+            sides = d_par
+            d_par = [float(sorted([*d_par, at(child)])[1])]      # (the median of three, as np.median)
+        if parents:
+            d = float(sum(d_par) / len(d_par))    # (np.mean's sums of one or two values, bit for bit)
+        elif child_ok:
+            d = float(at(child))
+        else:
+            if final and node in self._deferred:
+                self._deferred.discard(node)
+                self.fork(node)                   # the provisional place stands
+            elif final:
+                self.place_pending(node)          # (if not made yet: it stands)
+            return
+        agree = seen_right = False
+        if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
+            # a flat parent's disparity (from its texture) may be a px or two off; the child's
+            # outline leaving it in the right view tells the fork's own (along the rows)
+            d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
+            # (unless the child's own disparity agrees with the parent's: the two views' outline
+            # places may be a px or two apart, as with noisy masks)
+            if d_out is None:
+                pass
+            elif sides is not None and self._carried_px(child, xy) > CHILD_CARRY_PX \
+                    and min(abs(v - d_out) for v in sides) <= SIDE_OUTLINE_PX:
+                # the median above took the child's curve carried far to the fork (its end slope
+                # carried tens of rows): the side that the right outline confirms (seed 151's fork,
+                # +2.5 px from the child's carried curve)
+                d, agree = 0.5 * (min(sides, key=lambda v: abs(v - d_out)) + d_out), True
+            elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
+                    and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
+                # the two sides' textures next to the fork disagree: the outline's disparity too, if
+                # within the outline check's tolerance of one (each view's outline place is ~1 px off)
+                # (picking the nearer side alone was worse: the outline's place is noisy)
+                if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
+                    d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
+            elif FLAT_TAPER and len(d_par) == 2 and all(s in flat_read for s in parents):
+                # the two sides' textures next to the fork agree: two measurements of the parent there,
+                # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
+                # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
+                seen_right = abs(d_out - d) <= 3.0
+            elif FLAT_PICK and abs(d_out - d) <= 1.0:
+                seen_right = True       # the child's outline in the right view leaves the parent there too
+            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+                if child not in self.curves:            # (checked again: recheck_outline_forks)
+                    self._from_outline[int(node)] = (child, d)
+                d, agree = d_out, True
+        from_outline = agree
+        self.uvd[node] = np.array([xy[0], xy[1], d])
+        self.radius[node] = rad[child]
+        agree = agree or seen_right or child_ok and _agree(at(child), d)
+        # the disparity the fork takes from the pieces whose fits reach it, if it agrees (below); a
+        # provisional place (no outline) is hidden whatever agrees: its checks run only when that
+        # disparity would differ (the same results, the work skipped otherwise)
+        d_known = self._known_disparity(parents, child, child_ok, xy, d, at, side_near) \
+            if parents and not from_outline else None
+        out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
+        if parents and not agree and outline is not None:     # the child's outline in the right view
+            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
+        if parents and not agree and outline is not None and child not in self.curves \
+                and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
+            agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,
+                                         float(((near[child] - xy) @ out).min()), d, rad[child],
+                                         self.sm.f_px, self.sm.offset_px)
+        if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
+            # (compiled: kernels.near_points, the same selection as np.hypot's)
+            pts = kernels.near_points(self.seg_points(child), float(p[0]), float(p[1]), 1.2 * r, 1.2 * r + 60)[0]
+            agree = self._runs_agree(pts, d, rad[child])
+        if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
+            sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
+            agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
+        if agree and d_known is not None:
+            self.uvd[node][2] = d_known
+        elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and abs(d_par[0] - d_par[1]) > SIDES_WEIGHT_PX \
+                and all(self.curves[s].by_row for s in parents):
+            # the two steep sides disagree beyond their rows' noise (the checks above took their mean):
+            # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
+            self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
+        if not parents or not agree or outline is None:
+            # (without the child's outline the fork's place is only the slide back along the
+            # parent, mostly 10-100 px off: withheld)
+            self.hidden.add(int(node))
+        else:
+            self.hidden.discard(int(node))
+
+    def _radius_at_fork(self, parents: list, xy: np.ndarray) -> float | None:
+        """The parent's radius (px) at the fork ``xy`` (2,) from its two sides' (each its span's mean,
+        taken at the span's middle): a branch tapers along its length, so the distal side's radius is
+        smaller than at the fork and the proximal one's larger; linear between the two middles by their
+        distances in the image. None with fewer than two fitted sides (the side's own stands)."""
+        if len(parents) != 2:
+            return None
+        (ra, da), (rb, db) = ((self.curves[s].radius_px,
+                               float(np.hypot(*(self.curves[s].uv_at(np.array([0.5 * sum(self.curves[s].t_range)]))[0]
+                                                - xy)))) for s in parents)
+        return taper_radius(ra, da, rb, db)
+
+    def recheck_outline_forks(self) -> None:
+        """Forks on a flat parent whose disparity the right outline of a child without a curve
+        set (:meth:`fork`) take the parent's own back where the child has since gained a stub's
+        curve (caps.py) more than ``CHILD_DEPTH_PX`` from the parent's at its end next to the
+        fork: a child pointing steeply in depth, whose right outline leaves the parent where the
+        child is already nearer or further (seed 145's fork: +1.3 px from the outline, the
+        parent's texture +0.3)."""
+        for node, (child, d_par) in self._from_outline.items():
+            c = self.curves.get(child)
+            if c is None or node not in self.uvd:
+                continue
+            lo, hi = c.t_range
+            t = float(c.t_of(self.node_xy[node])[0])
+            d_child = float(c.d_at(hi if abs(t - hi) <= abs(t - lo) else lo)[0])
+            if abs(d_child - d_par) > CHILD_DEPTH_PX:
+                self.uvd[node][2] = d_par
+
+    def _carried_px(self, s: int, xy: np.ndarray) -> float:
+        """How far (in its parameter: rows or columns) piece ``s``'s curve is carried past its
+        fitted span to reach ``xy`` (2,); 0 inside it."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = float(c.t_of(xy)[0])
+        return max(lo - t, t - hi, 0.0)
+
+    def defer_forks(self, nodes) -> None:
+        """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their
+        place: :meth:`place_pending`, by a flat piece's ends or a final round that finds no place),
+        with the curves as they are now: the same places as making them now. The final round
+        replaces every other one whole (place, radius, hidden), so those are never made."""
+        self._pending.update(int(n) for n in nodes)
+        self._pending_curves = dict(self.curves)
+
+    def place_pending(self, node: int) -> None:
+        """Make ``node``'s provisional fork now if it is still pending (:meth:`defer_forks`)."""
+        if node not in self._pending:
+            return
+        self._pending.discard(node)
+        now, self.curves = self.curves, self._pending_curves
+        try:
+            self.fork(node)
+        finally:
+            self.curves = now
+
+    def _known_disparity(self, parents: list, child: int, child_ok: bool, xy: np.ndarray, d: float,
+                         at, near=None) -> float | None:
+        """The disparity (px) an agreed fork at ``xy`` (placed at disparity ``d``) takes from the pieces
+        whose fits reach it (a piece fitted on a few rows and carried far past them is barely known
+        there), where the others move it by more than half a pixel (within that, both sides' means
+        average out the crotch's bias on each), or, when none reaches it, from the one carried
+        clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
+        the fork; ``near``: {piece: :class:`forkdisp.SideNear`} of the sides read from their own crossings
+        nearest the fork (known there if one lies within 12 px)."""
+        reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
+            reach[s] = min(reach[s], v.nearest_px - 12.0)
+        near_p = [s for s in parents if reach[s] <= 0]
+        if near_p and len(near_p) < len(parents):
+            d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
+            return d_near if abs(d_near - d) > 0.5 else None
+        if not near_p and child_ok and reach[child] <= 0:
+            return float(at(child))
+        if not near_p:
+            # none reaches it: the one carried clearly least far (12 px less than any other)
+            cand = sorted((reach[s], s) for s in (*parents, *([child] if child_ok else [])))
+            if len(cand) >= 2 and cand[0][0] < cand[1][0] - 12.0:
+                d_best = float(at(cand[0][1]))
+                return d_best if abs(d_best - d) > 0.5 else None
+        return None
+
+    def _side_rows(self, s: int, xy: np.ndarray, near=None) -> tuple[float, float]:
+        """How a steep parent side's disparity at the fork ``xy`` (2,) is known: (rows, rows past the
+        nearest) of its own crossings read nearest the fork (``near``: a :class:`forkdisp.SideNear`),
+        or else of its fitted span and how far its curve is carried (:func:`forkdisp.weigh_sides`)."""
+        if near is not None:
+            return float(near.n_rows), float(near.nearest_px)
+        lo, hi = self.curves[s].t_range
+        return hi - lo, self._carried_px(s, xy)
+
+    def _reach(self, s: int, xy: np.ndarray) -> float:
+        """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,
+        beyond what its span vouches for (half the span, at least 12): <= 0 when it is known there."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = c.t_of(xy)[0]
+        return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
+
+    def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
+                                 mask: np.ndarray | None = None) -> np.ndarray | None:
+        """The fork from the child's outline where it leaves the parent: None when unclear.
+
+        Lines parallel to the parent's axis (``c1``, ``e1``), just clear of the parent's outline
+        on the child's side, cross the child in an interval whose middle is the child's axis
+        (its two edges are parallel); the middles on two such lines give the child's axis, whose
+        crossing with the parent's axis is the fork. The child's line (``c2``, ``e2``) only
+        tells which crossing is the child's. Intervals not as wide as the child seen at that
+        angle (hidden by a leaf, merged with something) make a pair of lines unclear; a pair
+        further out is tried then. The intervals' ends are where the mask's coverage (0-255,
+        bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
+        """
+        mask = self.sm.left_mask if mask is None else mask
+        # (compiled whole: kernels_forks.child_outline_fork; its scans kernels.child_outline_pairs, the
+        # values of _line_samples + _interval_middle, the mask read only where the scans look)
+        found, xy = kernels_forks.child_outline_fork(np.ascontiguousarray(mask), *(np.ascontiguousarray(v, float) for v in (
+            c1, e1, c2, e2, p0)), float(r_par), float(r_child))
+        return xy if found else None
+
+    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
+        """Whether the child's outline in the right view leaves the parent at the fork too.
+
+        The parent's axis in the right view is the left one moved by its disparity; the fork
+        found there from the child's right outline must be the left fork moved by the parent's
+        disparity (within 1.6 px or 0.9 %: each view's place is ~1 px off): a child at another
+        depth crosses the parent elsewhere. A child so near the rows that a depth difference of
+        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
+        """
+        def right_of(pt):
+            ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
+            d = sum(ds) / len(ds)          # (np.mean's value of one or two: the same sum and division)
+            return pt - np.array([d, 0.0]), d
+        r1, d1 = right_of(xy)
+        r2, _ = right_of(xy + 30.0 * e1)
+        er = (r2 - r1) / max(np.hypot(*(r2 - r1)), 1e-9)
+        tol = max(1.6, 0.009 * d1)
+        # a child at another depth by D px crosses the parent D |e2_y| / sin(angle) px further
+        # along it in the right view: a child near the rows (a crossing branch) moves too little
+        if tol * abs(er[0] * e2[1] - er[1] * e2[0]) > OUTLINE_MAX_D_PX * abs(e2[1]):
+            return False
+        xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
+                                             self.sm.right_mask)
+        return xy_r is not None and np.hypot(*(xy_r - r1)) <= tol
+
+    def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
+        """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the
+        rows) from the child's outline in the right view: the fork found there on the parent's
+        axis (the left one moved by ``d``, along the rows) lies on the same row, moved by the
+        fork's own disparity. None when unclear or not on the row (1 px)."""
+        if abs(e1[0]) < 0.9:
+            return None
+        r1 = xy - np.array([d, 0.0])
+        xy_r = self._fork_from_child_outline(r1, e1, c2 - np.array([d, 0.0]), e2, r1, r_par, r_child,
+                                             self.sm.right_mask)
+        if xy_r is None or abs(xy_r[1] - xy[1]) > 1.0:
+            return None
+        return float(xy[0] - xy_r[0])
+
+    @staticmethod
+    def _child_crossings(lines: list, e, r_child: float, sin_t: float, mask: np.ndarray) -> list:
+        """Middles (parameter s along each line ``base + s e``, for each ``(base, s_c)`` of ``lines``)
+        of the ``mask`` interval at or nearest to ``s_c``, where it is as wide as a piece of radius
+        ``r_child`` crossed at sine ``sin_t``; else None. The mask is read once for all lines."""
+        return [ForkPlacing._interval_middle(*sv, r_child, sin_t)
+                for sv in ForkPlacing._line_samples(lines, e, r_child, sin_t, mask)]
+
+    @staticmethod
+    def _line_samples(lines: list, e, r_child: float, sin_t: float, mask: np.ndarray) -> list:
+        """:meth:`_child_crossings`' samples: for each ``(base, s_c)`` of ``lines``, the parameters
+        ``s`` (1 px apart, around ``s_c``), the ``mask`` along ``base + s e`` there (bilinear; one
+        read for all lines: each point's value is its own) and ``s_c``."""
+        reach = (4.7 * r_child + 3) / sin_t + 2          # the interval nearest s_c, whole, if as wide
+        ss = [np.arange(s_c - reach, s_c + reach, 1.0) for _, s_c in lines]
+        n = [len(s) for s in ss]
+        s_all = np.concatenate(ss)
+        uv = np.repeat(np.array([base for base, _ in lines]), n, axis=0) + s_all[:, None] * e
+        val = ForkPlacing._bilinear(mask, uv)
+        out, i0 = [], 0
+        for (_, s_c), s in zip(lines, ss):
+            out.append((s, val[i0:i0 + len(s)], s_c))
+            i0 += len(s)
+        return out
+
+    @staticmethod
+    def _bilinear(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        """``img`` (H, W) uint8 at points ``uv`` (N, 2) (x, y), bilinear (1/32 px); 0 outside."""
+        m = uv.astype(np.float32)
+        parts = [cv2.remap(img, m[i:i + 16384].reshape(1, -1, 2), None, cv2.INTER_LINEAR,    # (OpenCV maps up
+                           borderMode=cv2.BORDER_CONSTANT, borderValue=0)[0]                 # to 32767 wide)
+                 for i in range(0, max(len(m), 1), 16384)]
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    @staticmethod
+    def _interval_middle(s: np.ndarray, val: np.ndarray, s_c: float, r_child: float, sin_t: float) -> float | None:
+        """Middle of the interval of ``val`` >= 128 (mask coverage 0-255 at the evenly spaced samples
+        ``s``) nearest ``s_c``, its ends interpolated to where the coverage crosses 128, if it is as
+        wide as the child crossed at ``sin_t``."""
+        ds = s[1] - s[0]
+        ic = int(np.rint((s_c - s[0]) / ds))
+        w = int(2 * r_child / sin_t / ds)
+        lo_i, hi_i = max(ic - w, 0), min(ic + w + 1, len(s))
+        if lo_i >= hi_i:
+            return None
+        # (scans of the samples as Python ints, from the middle outwards: the same samples as
+        # searching the lists of all "on" and "off" indices, ~4 against ~16 us a call)
+        vals = val.tolist()
+        c = min(max(ic, lo_i), hi_i - 1)           # the nearest "on" sample to s_c in the window
+        k = None                                    # (at equal distances the one before)
+        for dd in range(max(c - lo_i, hi_i - 1 - c) + 1):
+            if c - dd >= lo_i and vals[c - dd] >= 128:
+                k = c - dd
+                break
+            if c + dd < hi_i and vals[c + dd] >= 128:
+                k = c + dd
+                break
+        if k is None:
+            return None
+        a = k - 1                                   # the last sample off before k
+        while a >= 0 and vals[a] >= 128:
+            a -= 1
+        b = k + 1                                   # the first off after k
+        while b < len(vals) and vals[b] >= 128:
+            b += 1
+        if a < 0 or b == len(vals):
+            return None
+        va, vb = float(vals[a]), float(vals[b])
+        lo = s[a] + ds * (128.0 - va) / max(float(vals[a + 1]) - va, 1e-9)
+        hi = s[b] - ds * (128.0 - vb) / max(float(vals[b - 1]) - vb, 1e-9)
+        if abs((hi - lo) * sin_t - 2 * r_child) > 0.8 * r_child + 2:
+            return None
+        return 0.5 * (lo + hi)
+
+    def _runs_agree(self, pts: np.ndarray, d: float, r: float, min_rows: int = 3) -> bool:
+        """Whether a piece's own row crossings at points ``pts`` (N, 2) have disparity ``d``.
+
+        On each row of the points the left crossing (not wider than a piece of radius ``r``
+        across that row) is compared with the right crossings of a similar width in the
+        working range; rows where one of them lies within :func:`_agree` of ``d`` must be at
+        least ``min_rows`` and 60 % of the rows with any (rows merged with the parent in the
+        right view have none). A piece within ~17 deg of the rows: False.
+        """
+        # (compiled whole: kernels_forks.runs_agree, the same steps)
+        rl, rr = self.runs_l, self.runs_r
+        dmin, dmax = self.sm.d_range_px
+        return kernels_forks.runs_agree(np.ascontiguousarray(pts, float), float(d), float(r), int(min_rows),
+                                        *rl._find_tables, rl.width, rl.span_px, rl.centre_px, rr._centre_keys,
+                                        rr.width, rr.span_px, rr.centre_px, float(dmin), float(dmax))
+
+    def _box(self, s: int) -> tuple[float, float, float, float]:
+        """Bounding box (u0, v0, u1, v1) of a fitted piece's centre line (cached)."""
+        box = self._box_cache.get(s)
+        if box is None:
+            c = self.curves[s]
+            uv = c.uv_at(linspace(*c.t_range, 8))
+            box = self._box_cache[s] = (*uv.min(0).tolist(), *uv.max(0).tolist())
+        return box
+
+    def hidden_fork(self, node: int, reach_px: float = 80.0) -> bool:
+        """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
+
+        The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
+        line of a fitted piece at least as thick, at ``HIDDEN_FORK_MIN_DEG`` or more (at a
+        shallower angle it is the branch itself running on, bent, behind the occluder); if the
+        end's own disparity carried along agrees there with that piece's (:func:`_agree`), the
+        crossing is the fork (with the parent's disparity) and the end is placed there.
+        Returns whether it was.
+        """
+        if node not in self.hidden:
+            return False
+        segs = [s for s in self.incident[node] if s in self.curves]
+        if not segs:
+            return False
+        c = self.curves[segs[0]]
+        # (from the whole-pixel walk's end: its 1 px steps and checks were set with it; the sub-pixel
+        # one only moves their grid, and flips borderline crossings, docs/localize-softmask.md)
+        t_edge, sign = self._walk_out(c, node, whole=True)
+        t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
+        uv = c.uv_at(t)
+        # (the scan of all pieces compiled: kernels_forks.hidden_crossings, the same values)
+        row, pieces, table = self._curve_table()
+        cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)
+        best = None
+        for j in np.flatnonzero(cross != -1).tolist():
+            k = int(cross[j]) if cross[j] >= 0 else self._hidden_crossing(uv, *pieces[j])
+            if k >= 0 and (best is None or k < best[0]):
+                best = (k, pieces[j][1])
+        if best is None:
+            return False
+        k, c2 = best
+        xy = uv[k]
+        t2 = c2.t_of(xy)[0]
+        e2 = c2.uv_at(t2 + 1.0)[0] - c2.uv_at(t2 - 1.0)[0]
+        e1 = uv[min(k + 1, len(uv) - 1)] - uv[max(k - 1, 0)]
+        sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0]) / max(np.hypot(*e1) * np.hypot(*e2), 1e-9)
+        if sin_t < np.sin(np.radians(HIDDEN_FORK_MIN_DEG)):
+            return False
+        d_par = float(c2.d_at(c2.t_of(xy))[0])
+        d_child = float(c.d_at(c.t_of(xy))[0])
+        if not _agree(d_child, d_par):
+            return False
+        self.uvd[node] = np.array([xy[0], xy[1], d_par])
+        self.radius[node] = c.radius_px
+        self.hidden.discard(int(node))
+        return True
+
+    def _curve_table(self) -> tuple[dict, list, tuple]:
+        """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves
+        stay): {piece: row}, the (piece, curve) of each row, and (by_row, t_lo, t_hi, radius, poly,
+        coef, n_coef, dcoef, n_dcoef, t0, ts)."""
+        key = tuple(self.curves.items())
+        hit = getattr(self, "_table_cache", None)       # (made on first use)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        cv = [c for _, c in key]
+        n = len(cv)
+        coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
+        n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        poly = np.zeros(n, bool)
+        t0, ts = np.zeros(n), np.ones(n)
+        for j, c in enumerate(cv):
+            p = c.s_poly
+            if type(p) is Poly and len(p.coef) <= 4:
+                poly[j] = True
+                n_coef[j], n_dcoef[j] = len(p.coef), len(p._deriv.coef)
+                coef[j, :n_coef[j]], dcoef[j, :n_dcoef[j]] = p.coef, p._deriv.coef
+                t0[j], ts[j] = p.t0, p.ts
+        table = (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
+                 np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
+                 poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
+        out = ({s: j for j, (s, _) in enumerate(key)}, key, table)
+        self._table_cache = (key, out)
+        return out
+
+    def _hidden_crossing(self, uv: np.ndarray, s2: int, c2: BranchCurve) -> int:
+        """:func:`kernels_forks.hidden_crossings`' result for one piece ``s2`` whose centre line is not
+        a plain Poly (spliced past an occluder; its span already checked): numpy."""
+        lo_u, lo_v = (uv.min(0) - 2).tolist()
+        hi_u, hi_v = (uv.max(0) + 2).tolist()
+        u0, v0, u1, v1 = self._box(s2)
+        if u0 > hi_u or v0 > hi_v or u1 < lo_u or v1 < lo_v:
+            return -1
+        lo, hi = c2.t_range
+        ta, tb = (uv[:, 1], uv[:, 0]) if c2.by_row else (uv[:, 0], uv[:, 1])
+        inside = (ta >= lo - 2) & (ta <= hi + 2)
+        if inside.sum() < 2:
+            return -1
+        f = tb - c2.s_at(ta)
+        cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
+        return int(cross[0]) if len(cross) else -1
+

@@ -1,0 +1,402 @@
+"""Tips placed on the fitted branch curves (:class:`TipPlacing`, a part of :class:`ends.EndPlacer`).
+
+A tip is where the centre line leaves the mask, one radius back (the round cap), with the disparity
+of the cap's own outline; an end that the right view's outline ends elsewhere (an occluder's edge),
+with something nearer just beyond it, or running out of either view, is not a tip.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from appliance.localize import kernels_tips
+from appliance.localize.curves import BranchCurve
+from appliance.localize.merged_tips import right_cap_tip
+from appliance.localize.texture import nearer_in_front
+from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
+                                     cap_shapes_offsets, occluder_confirmed, reads_round)
+from appliance.localize.walks import WALK_EDGE_BIAS
+
+# a tip's end in the right view may lie this far (px, along the branch) from the left view's:
+# steep pieces (disparity from the outline; a round cap ends on the same rectified row in both views,
+# and the sub-pixel walks leave no rounding between them: 2 px with whole-pixel walks), flat pieces
+# (from the texture: looser)
+END_SHIFT_STEEP_PX = 1.5
+END_SHIFT_FLAT_PX = 6.0
+
+# a flat tip's right run of another length than the left's (cut or merged elsewhere along the piece
+# in that view) still gives the end's disparity within this of the prior (px) if the ends agree
+END_RUN_CUT_PX = 2.0
+
+# a flat tip on a piece without texture (its disparity carried from its fork) keeps its run end's
+# disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
+CARRIED_D_PX = 2.0
+CARRIED_D_PER_PX = 0.1
+
+# a steep tip whose cap rows' two edges (both the cap's) give disparities apart by a median within
+# this (px), most rows alike, has no depth of its own: one view's outline is wider by a few px all
+# across the cap (a colour mask taking in background on one side); a larger split is one side
+# merged with another branch in one view, which split_row_disparity resolves, and so is a smaller
+# one (something touching the cap, 3 px nearer: test_a_tip_touched_on_one_side...)
+CAP_SPLIT_PX = (4.0, 8.0)
+CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
+
+
+def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
+    """Factor (N,) taking the disparity of the middle of a round cap's crossing of each rectified
+    row in ``rows`` (N,) to the disparity of the cap's centre C, seen on row ``row_c``.
+
+    A row's epipolar plane cuts the cap (a sphere around C) in a circle around the foot of C on
+    that plane, and both views' crossings of the row project that circle's centre, not C: off C's
+    row the foot lies nearer (or further) by the fraction ``v (v - v_C) / (1 + v^2)`` of the depth,
+    ``v = (row - cy) / f`` (rows further from the image's middle row than C's are nearer). The
+    principal point's row may be taken at the image's middle (a small share of the effect).
+    """
+    v = (np.asarray(rows, float) - cy_px) / f_px
+    return 1.0 - v * (v - (row_c - cy_px) / f_px) / (1.0 + v * v)
+
+
+
+class TipPlacing:
+    """:class:`ends.EndPlacer`'s tips (its state: ``curves``, ``uvd``, ``radius``, ``hidden``, the masks
+    ``sm``)."""
+
+    def tip(self, node: int) -> None:
+        """A tip: the end of the mask along the centre line, less the round cap (its own radius).
+
+        An end is hidden, not a tip (kept as the piece's end but flagged in ``self.hidden``),
+        when the right view's outline ends elsewhere along the branch than the left's (an
+        occluder's edge, not the branch's own cap), or when something at the branch's depth
+        or nearer lies just beyond it.
+        """
+        self.tips([node])
+
+    def tips(self, nodes) -> None:
+        """:meth:`tip` of several ends (each placed and checked on its own); the round-cap checks of
+        the ends that reach them read the mask together (:func:`tips.cap_shapes_offsets`: each end's
+        values as alone), before the probes beyond them (both only hide an end: the order does not
+        matter); a tip that passes them all moves onto its cap's centre (:meth:`_place_on_cap`)."""
+        ends = []
+        for node in nodes:
+            end = self._tip_place(node)
+            if end is not None:
+                ends.append((node, *end))
+        if not ends:
+            return
+        shapes, offsets = cap_shapes_offsets(self.sm.left_mask, [end[1:4] for end in ends])
+        for (node, uv_edge, out, r, edge_bias_px), shape, offset in zip(ends, shapes, offsets):
+            if not reads_round(shape):            # an occluder's edge ends it (tips.cap_shape)
+                self.hidden.add(int(node))
+                continue
+            half = max(4, int(round(r)))
+            probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)   # the square patch clear of the cap
+            if nearer_in_front(self.sm.left_gray, self.sm.right_gray, probe[None], self.uvd[node][2:3],
+                               np.array([half]), self.sm.d_range_px[1]) and \
+                    occluder_confirmed(self.sm, uv_edge, out, self.uvd[node][2], half):
+                self.hidden.add(int(node))
+                continue
+            self._place_on_cap(node, uv_edge, out, r, edge_bias_px, shape, offset)
+
+    def _place_on_cap(self, node: int, uv_edge: np.ndarray, out: np.ndarray, r: float, edge_bias_px: float | None,
+                      shape: list | None, offset_px: float) -> None:
+        """Move a tip that passed its checks onto its round cap's centre (:func:`tips.cap_centre`,
+        from the round-cap readings ``shape`` and the width's middle ``offset_px``): the cap's own
+        radius (a tapering branch's piece radius ``r`` is ~10 % (p95 ~40 %) larger) back from
+        where the centre line leaves the mask (the half-coverage crossing: the walk's edge
+        ``uv_edge`` lies ``edge_bias_px`` past it), and across the line where the branch's width
+        is not centred on it; the tip's radius becomes the cap's. Its disparity stays (the cap's
+        rows, the run end). A tip whose width is read up to the view's edge keeps its place (the
+        width may be cut there), and so does one the move alone would take within the features'
+        edge margin (dense.match_dense: like the checks, that test sees the place it had), or a
+        cap cut by the view's edge (``edge_bias_px`` None: placed from its chord)."""
+        centre = None if edge_bias_px is None else cap_centre(shape, offset_px, r)
+        if centre is None:
+            return
+        back, across, rho = centre
+        normal = np.array([-out[1], out[0]])
+        uv = uv_edge - out * (edge_bias_px + back) + normal * across
+        p = uv_edge - out * (CAP_WIDTH_BACK * r)
+        sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)   # (cut: last pixel + 0.5)
+        h, w = self.sm.left_mask.shape
+        if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
+            return
+        margin = VIEW_EDGE_PX + self.g.scale
+        old = self.uvd[node]
+        if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
+            return
+        self.uvd[node][:2] = uv
+        self.radius[node] = rho
+
+    def _tip_place(self, node: int) -> tuple | None:
+        """:meth:`tip` up to its round-cap check: the end placed (one piece radius back from the
+        walk's edge), hidden where its checks so far say; ``(uv_edge, out, r, edge_bias_px)`` for
+        the rest where it is not (yet) hidden, else None (``edge_bias_px``: how far the walk's edge
+        lies past the half-coverage crossing, px; None for a cap cut by the view's edge, whose
+        placement from its chord stands)."""
+        segs = [s for s in self.incident[node] if s in self.curves]
+        if not segs:
+            return None
+        c = self.curves[segs[0]]
+        t_edge, sign = self._walk_out(c, node)
+        uv_edge = c.uv_at(t_edge)[0]
+        step = c.uv_at(t_edge + sign)[0] - uv_edge
+        speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
+        out = step / speed
+        r = max(c.radius_px, 1.0)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        bx, by = round(ex + 2.5 * ox), round(ey + 2.5 * oy)        # (np.rint's in Python floats: halves to even)
+        h, w = self.sm.left_mask.shape
+        if not (0 <= bx < w and 0 <= by < h) or (self.sm.valid_left is not None and not self.sm.valid_left[by, bx]):
+            back = self._cap_cut_by_edge(c, uv_edge, out, r)
+            if back is None:
+                return None                          # the branch leaves the view: no tip seen
+            edge_bias_px = None                      # (placed from the chord: stays)
+        else:
+            back = r
+            edge_bias_px = WALK_EDGE_BIAS * speed
+        # (placed one piece radius back for the checks below; a tip that passes them all is moved
+        # onto its cap's centre in tips())
+        uv = uv_edge - out * back
+        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(float(uv[1] if c.by_row else uv[0]))[0]])   # (c.t_of's t)
+        self.radius[node] = c.radius_px
+        cap_behind = False
+        if not c.by_row:
+            # a flat piece's disparity comes from its texture: the tip stands only if the end of
+            # its row run is found in the right view too; it takes the run end's (its outline is
+            # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
+            # row by row
+            d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
+            if d_end is None and c.segment in self.cap_segments:
+                d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
+            elif d_end is None and r > 2.0:
+                # the run end is this tip's only depth of its own: a centre line inclined to the
+                # rows leaves the cap where the row's own run may end sooner, read it further inside
+                d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r, 0.5 * r)
+            if d_end is None or not self._carried_agrees(c, node, d_end):
+                self.hidden.add(int(node))
+                return None
+            if abs(d_end - self.uvd[node][2]) <= 2.0:
+                self.uvd[node][2] = d_end
+            elif self._end_outline_agrees(uv_edge, out, d_end, r):
+                # an occluder's edge lies in front of the branch it cuts: an end further away
+                # than the texture says is the cap's own (the texture's is off, and so is the
+                # end shift below, measured with it)
+                cap_behind = d_end < self.uvd[node][2]
+                self.uvd[node][2] = d_end
+            # else the right run's end is not the cap's (something touches it there): the texture's stands
+        if not self._seen_right(self.uvd[node], r):
+            self.hidden.add(int(node))                # hidden in the right view: no depth of its own
+            return None
+        # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
+        # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
+        t_right, _ = self._walk_out(c, node, right=True)
+        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
+                c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
+            # the left cap cut by a thing in front of it, whole in the right view: placed from there
+            # (merged_tips.py; its own checks of the right view's cap stand for those below)
+            uvd = right_cap_tip(self, c, t_edge, t_right, sign) if c.by_row else None
+            if uvd is None:
+                self.hidden.add(int(node))
+            else:
+                self.uvd[node] = uvd
+            return None
+        if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
+            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
+            if d_cap is not None and np.isnan(d_cap):
+                self.hidden.add(int(node))
+                return None
+            if d_cap is not None:
+                self.uvd[node][2] = d_cap
+        if not self._beyond_in_right_view(uv_edge, out, self.uvd[node][2]):
+            self.hidden.add(int(node))                # the right view's edge cuts the cap: no end seen there
+            return None
+        if self.cfg.oblique_end_ratio > 0:
+            # a round cap ends alike on both sides of the axis; a leaf's or an apple's outline
+            # usually cuts the branch obliquely (in both views alike when the leaf sits on the
+            # branch): such an end is hidden, not a tip. The sides are 0.4 radius off the axis
+            # (further out, a tapering tip or a radius a little too large ends a side early)
+            t_a, t_b = self._walk_sides(c, node, 0.4 * r)
+            if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
+                t_a, t_b = self._sides_about_middle(c, node, uv_edge, out, r, sign, abs(t_a - t_b) * speed / r, (t_a, t_b))
+            if abs(t_a - t_b) * speed > self.cfg.oblique_end_ratio * r:
+                self.hidden.add(int(node))
+                return None
+        return uv_edge, out, r, edge_bias_px
+
+    def _sides_about_middle(self, c: BranchCurve, node: int, uv_edge: np.ndarray, out: np.ndarray, r: float,
+                            sign: float, split: float, sides: tuple) -> tuple:
+        """The oblique test's two sides (walk parameters) read again about the middle of the
+        branch's width 1.5 radii behind the end (:func:`tips.cap_shapes_offsets`) rather than the
+        fitted centre line, which a fit over the whole piece often leaves 20-60 % of the radius off
+        it there. On a round cap the sides 0.4 r about a line ``m`` r off its middle end
+        ``sqrt(1 - (|m| - 0.4)^2) - sqrt(1 - (|m| + 0.4)^2)`` radii apart: only a ``split`` (the
+        first reading, in radii) that this offset can explain, within the test's own ratio, is read
+        again (an occluder's oblique edge ends the sides further apart); else ``sides`` stand."""
+        mid = float(cap_shapes_offsets(self.sm.left_mask, [(uv_edge, out, r)])[1][0]) / r
+        if not np.isfinite(mid) or abs(mid) > 0.6:
+            return sides
+        m = abs(mid)
+        expected = math.sqrt(1.0 - (m - 0.4) ** 2) - math.sqrt(max(1.0 - (m + 0.4) ** 2, 0.0))
+        if split > expected + self.cfg.oblique_end_ratio:
+            return sides
+        return (self._walk_out(c, node, sign * mid * r + 0.4 * r)[0], self._walk_out(c, node, sign * mid * r - 0.4 * r)[0])
+
+    def _carried_agrees(self, c: BranchCurve, node: int, d_end: float) -> bool:
+        """Whether a flat tip's run-end disparity ``d_end`` (px) may stand on a piece without texture.
+
+        A flat piece whose bark gave no disparity carries its end node's (a fork's) to the tip
+        (``n_samples == 0``, not a cap curve of tips.py). The run end is picked nearest that prior,
+        so when the junction is two branches merely crossing in the image (another depth) the end
+        found is another branch's. Such an end must lie within ``CARRIED_D_PX`` plus
+        ``CARRIED_D_PER_PX`` per px the prior was carried (a branch inclined in depth); else the
+        tip has no depth of its own and is withheld.
+        """
+        if c.n_samples > 0 or c.segment in self.cap_segments:
+            return True
+        others = [n for n in self.g.seg_nodes[c.segment] if n >= 0 and n != node and n in self.uvd]
+        if not others:
+            return True
+        carried = min(float(np.hypot(*(self.uvd[n][:2] - self.uvd[node][:2]))) for n in others)
+        return bool(abs(d_end - self.uvd[node][2]) <= CARRIED_D_PX + CARRIED_D_PER_PX * carried)
+
+    def _wider_on_right(self, c: BranchCurve, t_edge: float, sign: float, r: float) -> bool:
+        """Whether the right view shows a clearly wider branch just past a steep piece's left
+        end, where the piece would run on (another branch touching the tip in the right view
+        only, rather than the piece itself going on behind an occluder in the left view).
+        """
+        rows = np.rint(t_edge + sign * np.arange(1.0, max(2 * r, 4.0))).astype(int)
+        rows = rows[(rows >= 0) & (rows < self.sm.right_mask.shape[0])]
+        if len(rows) == 0:
+            return False
+        lo, hi = c.t_range
+        ds = c.s_poly.deriv()(np.minimum(np.maximum(rows, lo), hi))       # (np.clip's)
+        slope = float(np.hypot(1.0, ds.sum() / len(ds)))             # (the mean: np.mean's sum and division)
+        ir = self.runs_r.find(rows, c.s_at(rows) - c.d_at(rows))
+        wide = (ir >= 0) & (self.runs_r.span_px[np.maximum(ir, 0)] > 1.6 * 2 * r * slope + 2)
+        return bool(np.count_nonzero(wide) / len(wide) >= 0.8)
+
+    def _cap_cut_by_edge(self, c: BranchCurve, uv_edge: np.ndarray, out: np.ndarray, r: float) -> float | None:
+        """A steep piece that runs to the edge of the view: the distance (px) from its last
+        row back to the centre of its round cap when the cap's chord there is clearly narrower
+        than the branch (the cap is cut by the edge); None when the branch runs on out of view.
+        """
+        if not c.by_row:
+            return None
+        inner = uv_edge - out
+        row = int(np.rint(inner[1]))
+        if not 0 <= row < self.sm.left_mask.shape[0]:
+            return None
+        i = self.runs_l.find(np.array([row]), np.array([inner[0]]))[0]
+        if i < 0:
+            return None
+        chord = self.runs_l.span_px[i] * abs(out[1])
+        if chord >= 1.6 * r:
+            return None
+        return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
+
+    def _cap_disparity(self, c: BranchCurve, t_edge: float, uv_edge: np.ndarray, out: np.ndarray, sign: float,
+                       d_prior: float, r: float) -> float | None:
+        """Disparity of a steep piece's tip from the rows across its round cap.
+
+        Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
+        the end along the centre line) in a circle; the middles of the left and right crossings
+        of that row both project that circle's centre, a point within the cap, whose depth
+        :func:`cap_row_scale` takes back to the cap's centre. Only the cap's own outline counts:
+        a crossing's edge is the cap's where it lies on the outward side of ``P`` (across the
+        centre line through ``P``); behind it the outline is the piece's body, whose depth is
+        another (on an oblique piece one edge of a row is the cap's and the other the body's).
+        A row with both edges on the cap gives its middle, a row with one its edge's disparity
+        less the outline's silhouette offset (:func:`tips.silhouette_offset_px`, for the row's
+        circle), and a row whose edges disagree (:func:`tips.split_row_disparity`: one cut or
+        merged in one view only) the nearest of the two and the middle to the agreeing rows. A
+        run ending at the view's edge gives no edge there. Median over the rows, within 2.5 px
+        of ``d_prior``; None with fewer than 3 rows. ``uv_edge``, ``out``: where the centre line
+        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
+        """
+        sm = self.sm
+        h, w = sm.left_mask.shape
+        p = uv_edge - out * r                                # the cap's centre (the tip)
+        a = max(int(np.ceil(min(p[1] - r, t_edge))), 0)
+        b = min(int(np.floor(max(p[1] + r, t_edge))), h - 1)
+        rows = np.arange(a, b + 1)
+        rows = rows[(np.abs(rows - p[1]) <= r) & (sign * (t_edge - rows) >= -0.5)]
+        if len(rows) < 3:
+            return None
+        # (the rows' runs, edges, silhouette offsets, split rows and median: one kernel)
+        rl, rr, valid_l, valid_r = TipPlacing._tip_tables(self)
+        status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
+                                               float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
+                                               h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE)
+        return None if status == 0 else float(d)
+
+    def _tip_tables(self) -> tuple:
+        """The mask runs' and the valid areas' tables the tips' kernels take (:func:`kernels_tips.runs_tables`),
+        made once per placer (again if its runs are replaced)."""
+        # (read through getattr: the tests' stand-in placers and masks carry only what they use)
+        key = (self.runs_l, self.runs_r, getattr(self.sm, "valid_left", None), getattr(self.sm, "valid_right", None))
+        hit = self.__dict__.get("_tip_k")
+        if hit is None or any(x is not y for x, y in zip(hit[0], key)):
+            hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
+                                       kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
+        return hit[1]
+
+    def _beyond_in_right_view(self, uv_edge: np.ndarray, out: np.ndarray, d: float) -> bool:
+        """Whether the right view sees the pixel just past the cap's end (``uv_edge``, left px, moved by
+        disparity ``d``) along its row: a cap whose end lies at or past the right view's left or right
+        edge shows there only the edge, whatever rows are read. (A cap cut by the top or bottom edge
+        is cut on the same rows in both views: the rows left still give its disparity.)"""
+        u, v = np.rint(uv_edge + out - np.array([d, 0.0])).astype(int)
+        h, w = self.sm.right_mask.shape
+        if not 0 <= u < w:
+            return False
+        valid = self.sm.valid_right
+        if valid is None:
+            return True
+        row = valid[min(max(v, 0), h - 1)]
+        return bool(row[u]) or not row.any()
+
+    def _seen_right(self, uvd: np.ndarray, r: float) -> bool:
+        """Whether the right mask has branch within half a radius of the point's right position."""
+        m = self.sm.right_mask
+        u, v = float(uvd[0] - uvd[2]), float(uvd[1])          # (Python floats: round() halves to even, as numpy)
+        k = max(1, int(round(0.5 * r)))
+        y0, y1 = round(v) - k, round(v) + k + 1
+        x0, x1 = round(u) - k, round(u) + k + 1
+        if y0 < 0 or x0 < 0 or y1 > m.shape[0] or x1 > m.shape[1]:
+            return False
+        return bool(m[y0:y1, x0:x1].max() >= 128)
+
+    def _end_disparity(self, uv_edge: np.ndarray, out: np.ndarray, d_prior: float, r: float = 0.0,
+                       inside_px: float = 1.0) -> float | None:
+        """Disparity of the end of a flat piece: the end of its row run in both views.
+
+        The round cap's silhouette ends one image radius beyond the cap centre in both views,
+        so the run ends are corresponding points. Right runs of a similar length ending in the
+        disparity range are candidates; the one nearest ``d_prior`` wins. With the radius ``r``
+        (px), the median over the rows within half a radius of the axis (at least 3 within 1 px
+        of the axis row's): on 28 rendered scenes the median error of such tips drops by a third
+        to a half (docs/localize-subpixel.md). The row's left run is the one ``inside_px`` back
+        along the row from ``uv_edge``.
+        """
+        sm = self.sm
+        h, w = sm.left_mask.shape
+        rl, rr, _, valid_r = TipPlacing._tip_tables(self)
+        ok, d = kernels_tips.end_disparity(rl, rr, valid_r, float(uv_edge[0]), float(uv_edge[1]), float(out[0]),
+                                           float(out[1]), float(d_prior), float(r), float(inside_px),
+                                           float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
+                                           END_RUN_CUT_PX)
+        return float(d) if ok else None
+
+    def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:
+        """Whether a flat piece's end has the same outline in both views at disparity ``d``.
+
+        On the rows across the end (0.6 radius each side of the centre line) the left run's end
+        and the right run's end (moved by ``d``) must agree within 1.2 px on at least 80 % of at
+        least 3 rows: a round cap ends alike in both views; a right run that runs on into
+        something touching the cap (another branch) ends elsewhere on some rows.
+        """
+        rl, rr, _, _ = TipPlacing._tip_tables(self)
+        return bool(kernels_tips.end_outline_agrees(rl, rr, float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(d),
+                                                    float(r), self.sm.left_mask.shape[0]))
+

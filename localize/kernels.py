@@ -78,6 +78,8 @@ def _pairwise(a, lo, n):
     """numpy's pairwise sum of ``a[lo:lo + n]`` (float64 reduce inner loop: blocks of 8 accumulators, halves
     rounded down to 8 above 128), the same value bit for bit; walked with a stack, not recursion: numba does
     not link a recursive kernel into a cached one of another module, nor reload it reliably."""
+    if n <= 128:                                # (one block: no stack)
+        return _pairwise_block(a, lo, n)
     seg_lo, seg_n, state = np.empty(64, np.int64), np.empty(64, np.int64), np.empty(64, np.int64)
     vals = np.empty(64)
     sp, vp = 1, 0

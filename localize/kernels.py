@@ -1645,5 +1645,6 @@ def blocks_disc_colour(mask, bgr, gy, gx, comp, n_comp, factor, dy, dx):
 def _warm_segment() -> None:
     """:func:`warm_up`'s part for :func:`blocks_hold_disc` and :func:`blocks_disc_colour`."""
     i = np.zeros(1, np.int64)
-    blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, i, i)
-    blocks_disc_colour(np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8), i, i, i, 1, 4, i, i)
+    ro = _readonly(np.zeros(1, np.int64))        # (the disc's offsets: segment._disc_offsets' cached, read-only)
+    blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, ro, ro)
+    blocks_disc_colour(np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8), i, i, i, 1, 4, ro, ro)

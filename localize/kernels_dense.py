@@ -13,6 +13,7 @@ import numpy as np
 
 from appliance.localize.kernels import (
     _JIT,
+    _horner,
     _median,
     _pairwise,
     _readonly,
@@ -373,18 +374,6 @@ def _mean(a):
 
 
 @numba.njit(**_JIT)
-def _horner(coef, t0, ts, t):
-    """:class:`curves.Poly` ``(coef, t0, ts)`` at one parameter ``t`` (its Horner sums)."""
-    x = (t - t0) / ts
-    if len(coef) == 1:
-        return coef[0]
-    y = x * coef[0] + coef[1]
-    for i in range(2, len(coef)):
-        y = y * x + coef[i]
-    return y
-
-
-@numba.njit(**_JIT)
 def _deriv(coef, ts):
     """:meth:`curves.Poly.deriv`'s coefficients (the same products)."""
     n = len(coef) - 1
@@ -463,7 +452,7 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
     rows = np.empty(2 * half_h + 1)
     for j in range(m):
         ug[j], ds[j] = u[idx[j]], d_surf[idx[j]]
-        dv[j] = _horner(dv_coef, v_t0, v_ts, ug[j])
+        dv[j] = _horner(dv_coef, (ug[j] - v_t0) / v_ts)
         cos_a = 1.0 / np.sqrt(1.0 + dv[j] * dv[j])          # patch_depth_fraction: the rows' mean offset
         for y in range(-half_h, half_h + 1):
             t = cos_a * y / max(radius, 1e-9)
@@ -481,11 +470,11 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
         d_coef = c4[0, 3 - dg[0]:].copy()
         dd_coef = _deriv(d_coef, ts[0])
         for j in range(m):
-            vj = _horner(v_coef, v_t0, v_ts, ug[j])
-            dz = max(_horner(d_coef, t0[0], ts[0], ug[j]) - offset_px, 1e-6)
+            vj = _horner(v_coef, (ug[j] - v_t0) / v_ts)
+            dz = max(_horner(d_coef, (ug[j] - t0[0]) / ts[0]) - offset_px, 1e-6)
             r0, r1, r2 = (ug[j] - cx) / f_px, (vj - cy) / f_px, 1.0
             z = 1.0 / dz
-            dz_du = -_horner(dd_coef, t0[0], ts[0], ug[j]) * z / dz
+            dz_du = -_horner(dd_coef, (ug[j] - t0[0]) / ts[0]) * z / dz
             a0, a1, a2 = r0 * dz_du + z / f_px, r1 * dz_du + z * dv[j] / f_px, r2 * dz_du + 0.0
             rn = np.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             n0, n1, n2 = r0 / rn, r1 / rn, r2 / rn
@@ -507,7 +496,7 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
         i = 0
         for j in range(m):
             if inl[j]:
-                r[i] = d_axis[j] - _horner(d_coef, t0[0], ts[0], ug[j])
+                r[i] = d_axis[j] - _horner(d_coef, (ug[j] - t0[0]) / ts[0])
                 i += 1
         med = _median(r)
         for i in range(n_inl):
@@ -588,7 +577,7 @@ def flat_line(cols, yc, junction, nxy, thr, tab_t, centre_t, span_t, width):
     i = 0
     for j in range(k):
         if inl[j]:
-            slope = _horner(dv, t0[0], ts[0], t[j])
+            slope = _horner(dv, (t[j] - t0[0]) / ts[0])
             ratio[i] = 0.5 * hgt[j] / np.sqrt(1 + slope * slope)
             lo, hi = min(lo, t[j]), max(hi, t[j])
             i += 1
@@ -783,7 +772,7 @@ def edge_consensus_piece(rows, xc, pts, tab_l, edges_l, keys_r, edges_r, width, 
     du = _deriv(uc[3 - udg:].copy(), uts)
     slope = np.empty(len(sel))
     for j in range(len(sel)):
-        slope[j] = _horner(du, ut0, uts, t_in[j])
+        slope[j] = _horner(du, (t_in[j] - ut0) / uts)
     radius = half_px / np.sqrt(1 + _mean(slope) ** 2)
     dev = np.empty(n)
     for i in range(n):

@@ -83,20 +83,17 @@ def _along(uvd: np.ndarray, u: float, v: float) -> tuple[np.ndarray, np.ndarray]
     return uvd, np.r_[0.0, np.cumsum(step)]
 
 
-def _patch_size(radius_px: float, du: float, dv: float) -> tuple[int, int, float]:
-    """Half height, half width (px) of a patch inside a branch of ``radius_px`` running along (du, dv)
-    (unit), and its half extent across the branch (px): long along the rows on a flat branch, narrow
-    across a steep one, a square inside the branch otherwise."""
+def _patch_size(radius_px: float, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Half heights, half widths (px) (K,) int of patches inside a branch of ``radius_px`` running along
+    (``du``, ``dv``) (K,) (unit), and their half extents across the branch (K,) px: long along the rows on
+    a flat branch (< 30 deg), narrow across a steep one (> 60 deg), a square inside the branch otherwise."""
     r = max(radius_px, 1.0)
-    a = abs(dv)                                              # sine of the angle to the rows
-    if a < 0.5:                                              # flat (< 30 deg): rows along the branch
-        hh, hw = max(1, min(7, int(0.6 * r))), 7
-    elif a > 0.87:                                           # steep (> 60 deg): columns along it
-        hh, hw = 4, max(2, min(7, round(0.6 * r)))
-    else:
-        hh = hw = max(2, min(6, round(0.45 * r)))
-    across = hh * abs(du) + hw * a                           # (the box's half extent across the axis)
-    return hh, hw, across
+    a = np.abs(dv)                                           # sine of the angle to the rows
+    flat, steep = a < 0.5, a > 0.87
+    sq = max(2, min(6, round(0.45 * r)))
+    hh = np.where(flat, max(1, min(7, int(0.6 * r))), np.where(steep, 4, sq))
+    hw = np.where(flat, 7, np.where(steep, max(2, min(7, round(0.6 * r))), sq))
+    return hh, hw, hh * np.abs(du) + hw * a                  # (the box's half extent across the axis)
 
 
 def check_features(features: list, pieces: list, left, right, left_mask: np.ndarray,
@@ -154,7 +151,7 @@ def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray
         js = by_node.get(int(ft.node), [])
         for j in js:
             r_other = max([pieces[k].radius_px for k in js if k != j], default=ft.radius_px)
-            rows += _piece_patches(i, j, ft, pieces[j], r_other, left_mask, h, w)
+            rows += _piece_patches(i, j, ft, pieces[j], r_other, left_mask)
     cols = ("feature", "piece", "s", "u", "v", "d_ref", "hh", "hw", "across", "r", "slope")
     a = np.array(rows, float).reshape(-1, len(cols))
     t = {c: a[:, k] for k, c in enumerate(cols)}
@@ -179,7 +176,7 @@ def patch_depth_fraction_many(radius_px: np.ndarray, across_px: np.ndarray) -> n
     return (val * inside).sum(1) / inside.sum(1)
 
 
-def _piece_patches(i: int, j: int, ft, p, r_other: float, left_mask: np.ndarray, h: int, w: int) -> list:
+def _piece_patches(i: int, j: int, ft, p, r_other: float, left_mask: np.ndarray) -> list:
     """Patch rows ``(feature, piece, s, u, v, d_ref, hh, hw, across, r, slope)`` along one piece of a feature
     (inside the image and the left mask); ``d_ref`` the disparity each patch is searched around, ``slope``
     the piece's disparity slope (px per px) over the patches' reach. A fork's patches start clear of the
@@ -190,25 +187,32 @@ def _piece_patches(i: int, j: int, ft, p, r_other: float, left_mask: np.ndarray,
     s1 = min(s0 + min(max(REACH_RADII * r, MIN_SPAN_PX), MAX_SPAN_PX), s[-1])
     if s1 < s0:
         return []
-    sk = np.arange(s0, s1 + 1e-9, min(max(STEP_RADII * r, MIN_STEP_PX), MAX_STEP_PX))
     near = (s >= s0 - r) & (s <= max(s1, s0 + MIN_SPAN_PX) + 1.0)     # the piece's slope over the patches' reach
-    g = np.polyfit(s[near], uvd[near, 2], 1)[0] if near.sum() >= 2 and np.ptp(s[near]) >= 2.0 else np.nan
-    if not abs(g) <= MAX_PIECE_SLOPE:                    # (turning steeply in depth, or too short: no verdict)
+    sn, dn = s[near], uvd[near, 2]
+    if len(sn) < 2 or np.ptp(sn) < 2.0:
         return []
-    u, v = np.interp(sk, s, uvd[:, 0]), np.interp(sk, s, uvd[:, 1])
-    du = np.interp(sk + 1.0, s, uvd[:, 0]) - np.interp(sk - 1.0, s, uvd[:, 0])
-    dv = np.interp(sk + 1.0, s, uvd[:, 1]) - np.interp(sk - 1.0, s, uvd[:, 1])
+    sc = sn - sn.mean()
+    g = float((sc * (dn - dn.mean())).sum() / (sc * sc).sum())
+    if abs(g) > MAX_PIECE_SLOPE:                         # (turning steeply in depth: no verdict)
+        return []
+    sk = np.arange(s0, s1 + 1e-9, min(max(STEP_RADII * r, MIN_STEP_PX), MAX_STEP_PX))
+    q = np.concatenate([sk, sk + 1.0, sk - 1.0])
+    uq, vq = np.interp(q, s, uvd[:, 0]), np.interp(q, s, uvd[:, 1])
+    k = len(sk)
+    du, dv = uq[k:2 * k] - uq[2 * k:], vq[k:2 * k] - vq[2 * k:]
     ln = np.maximum(np.hypot(du, dv), 1e-9)
-    rows = []
-    for k in range(len(sk)):
-        hh, hw, across = _patch_size(r, du[k] / ln[k], dv[k] / ln[k])
-        ui, vi = int(round(u[k])), int(round(v[k]))
-        if not (hh <= vi < h - hh and hw <= ui < w - hw):
-            continue
-        if left_mask[vi - hh:vi + hh + 1, ui - hw:ui + hw + 1].min() < 128:
-            continue                                     # (partly off the branch: a leaf, the background)
-        rows.append((i, j, sk[k], ui, vi, ft.d, hh, hw, across, r, g))
-    return rows
+    hh, hw, across = _patch_size(r, du / ln, dv / ln)
+    ui, vi = np.rint(uq[:k]).astype(np.int64), np.rint(vq[:k]).astype(np.int64)
+    h, w = left_mask.shape
+    ok = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
+    ui, vi, hh, hw, across, sk = ui[ok], vi[ok], hh[ok], hw[ok], across[ok], sk[ok]
+    # inside the branch (not a leaf, not the background): the box's corners, edge midpoints and centre
+    inside = np.ones(len(ui), bool)
+    for fy, fx in ((-1, -1), (-1, 1), (1, -1), (1, 1), (0, -1), (0, 1), (-1, 0), (1, 0), (0, 0)):
+        inside &= left_mask[vi + fy * hh, ui + fx * hw] >= 128
+    m = int(inside.sum())
+    return np.column_stack([np.full(m, i), np.full(m, j), sk[inside], ui[inside], vi[inside], np.full(m, ft.d),
+                            hh[inside], hw[inside], across[inside], np.full(m, r), np.full(m, g)]).tolist()
 
 
 def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:

@@ -37,8 +37,12 @@ MIN_SCORE = 0.7              # a patch matched with a lower correlation gives no
 MIN_STD = 2.0                # a patch with a lower grey-level standard deviation has no texture
 MIN_PATCHES = 2              # fewer agreeing patches give no verdict
 MAX_SLOPE = 0.1              # the search window widens by this many px per px from the feature
-MAX_PIECE_SLOPE = 0.06      # a piece whose disparity changes faster (px per px) gives no verdict
-MAX_SPREAD_PX = 0.5          # a piece whose patches disagree by more than twice this (px) gives no verdict
+MAX_PIECE_SLOPE = 0.12      # a piece whose disparity changes faster (px per px) gives no verdict
+MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing within twice this (px): an estimate
+FIT_MIN_PATCHES = 4          # the texture's own line: at least this many patches ...
+FIT_MIN_SPAN_PX = 15.0       # ... spanning this many px ...
+FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
+MERGE_PX = 8000              # nearby features' patches are read together while that adds fewer pixels
 
 
 @dataclass(frozen=True)
@@ -74,25 +78,16 @@ class FeatureCheck:
         return self.d_check_px - self.d_px
 
 
-def _along(uvd: np.ndarray, u: float, v: float) -> tuple[np.ndarray, np.ndarray]:
-    """A piece's samples (N, 3) ordered from the end nearer (``u``, ``v``) and their arc length (N,) px
-    in the image from that end."""
-    if np.hypot(uvd[-1, 0] - u, uvd[-1, 1] - v) < np.hypot(uvd[0, 0] - u, uvd[0, 1] - v):
-        uvd = uvd[::-1]
-    step = np.hypot(np.diff(uvd[:, 0]), np.diff(uvd[:, 1]))
-    return uvd, np.r_[0.0, np.cumsum(step)]
-
-
-def _patch_size(radius_px: float, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Half heights, half widths (px) (K,) int of patches inside a branch of ``radius_px`` running along
+def _patch_size(radius_px: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Half heights, half widths (px) (K,) int of patches inside branches of ``radius_px`` (K,) running along
     (``du``, ``dv``) (K,) (unit), and their half extents across the branch (K,) px: long along the rows on
     a flat branch (< 30 deg), narrow across a steep one (> 60 deg), a square inside the branch otherwise."""
-    r = max(radius_px, 1.0)
+    r = np.maximum(radius_px, 1.0)
     a = np.abs(dv)                                           # sine of the angle to the rows
     flat, steep = a < 0.5, a > 0.87
-    sq = max(2, min(6, round(0.45 * r)))
-    hh = np.where(flat, max(1, min(7, int(0.6 * r))), np.where(steep, 4, sq))
-    hw = np.where(flat, 7, np.where(steep, max(2, min(7, round(0.6 * r))), sq))
+    sq = np.clip(np.rint(0.45 * r), 2, 6)
+    hh = np.where(flat, np.clip(np.floor(0.6 * r), 1, 7), np.where(steep, 4, sq)).astype(np.int64)
+    hw = np.where(flat, 7, np.where(steep, np.clip(np.rint(0.6 * r), 2, 7), sq)).astype(np.int64)
     return hh, hw, hh * np.abs(du) + hw * a                  # (the box's half extent across the axis)
 
 
@@ -124,14 +119,11 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
         One per feature, in order.
     """
     t = patch_table(features, pieces, left, right, left_mask, d_range_px, f_px, offset_px)
-    out = []
-    for i, ft in enumerate(features):
-        sel = t["feature"] == i
-        dc, n, spread = estimate(t["s"][sel], t["d_axis"][sel], t["score"][sel], t["piece"][sel], t["slope"][sel],
-                                 ft.d)
-        withheld = bool(n >= MIN_PATCHES and abs(dc - ft.d) > max_diff_px)
-        out.append(FeatureCheck(int(ft.node), float(ft.d), dc, n, spread, withheld))
-    return out
+    d_px = np.array([ft.d for ft in features], float)
+    d_check, n, spread = estimate(t, d_px)
+    withheld = np.abs(d_check - d_px) > max_diff_px                    # (NaN: False)
+    return [FeatureCheck(int(ft.node), float(d_px[i]), float(d_check[i]), int(n[i]), float(spread[i]),
+                         bool(withheld[i])) for i, ft in enumerate(features)]
 
 
 def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray, d_range_px, f_px: float,
@@ -139,24 +131,8 @@ def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray
     """Every feature's patches and their texture disparity: a dict of arrays (P,): ``feature`` (index),
     ``piece`` (index among all pieces), ``s`` (px from the feature along the piece), ``u``, ``v``,
     ``d_axis`` (the patch's texture disparity moved onto the axis; NaN: none), ``score``."""
-    by_node: dict[int, list] = {}
-    for j, p in enumerate(pieces):
-        if p.recovered or len(p.uvd) < 2 or not np.isfinite(p.radius_px):
-            continue
-        for n in set(p.nodes):
-            by_node.setdefault(int(n), []).append(j)
-    h, w = left_mask.shape
-    rows = []
-    for i, ft in enumerate(features):
-        js = by_node.get(int(ft.node), [])
-        for j in js:
-            r_other = max([pieces[k].radius_px for k in js if k != j], default=ft.radius_px)
-            rows += _piece_patches(i, j, ft, pieces[j], r_other, left_mask)
-    cols = ("feature", "piece", "s", "u", "v", "d_ref", "hh", "hw", "across", "r", "slope")
-    a = np.array(rows, float).reshape(-1, len(cols))
-    t = {c: a[:, k] for k, c in enumerate(cols)}
-    for c in ("feature", "piece", "u", "v", "hh", "hw"):
-        t[c] = t[c].astype(np.int64)
+    t = _patches(features, pieces, left_mask)
+    w = left_mask.shape[1]
     d_surf, t["score"] = patch_disparities(left, right, t, d_range_px, w)
     frac = patch_depth_fraction_many(t["r"], t["across"])
     t["d_axis"] = surface_to_axis(d_surf, t["r"], f_px, offset_px, frac)
@@ -176,50 +152,129 @@ def patch_depth_fraction_many(radius_px: np.ndarray, across_px: np.ndarray) -> n
     return (val * inside).sum(1) / inside.sum(1)
 
 
-def _piece_patches(i: int, j: int, ft, p, r_other: float, left_mask: np.ndarray) -> list:
-    """Patch rows ``(feature, piece, s, u, v, d_ref, hh, hw, across, r, slope)`` along one piece of a feature
-    (inside the image and the left mask); ``d_ref`` the disparity each patch is searched around, ``slope``
-    the piece's disparity slope (px per px) over the patches' reach. A fork's patches start clear of the
-    other pieces' silhouettes (``r_other``: their largest radius, px), a tip's one radius back."""
-    uvd, s = _along(p.uvd, ft.u, ft.v)
-    r = max(float(p.radius_px), 1.0)
-    s0 = max(FORK_CLEAR * r_other if ft.kind == "bifurcation" else TIP_BACK * r, MIN_REACH_PX)
-    s1 = min(s0 + min(max(REACH_RADII * r, MIN_SPAN_PX), MAX_SPAN_PX), s[-1])
-    if s1 < s0:
-        return []
-    near = (s >= s0 - r) & (s <= max(s1, s0 + MIN_SPAN_PX) + 1.0)     # the piece's slope over the patches' reach
-    sn, dn = s[near], uvd[near, 2]
-    if len(sn) < 2 or np.ptp(sn) < 2.0:
-        return []
-    sc = sn - sn.mean()
-    g = float((sc * (dn - dn.mean())).sum() / (sc * sc).sum())
-    if abs(g) > MAX_PIECE_SLOPE:                         # (turning steeply in depth: no verdict)
-        return []
-    sk = np.arange(s0, s1 + 1e-9, min(max(STEP_RADII * r, MIN_STEP_PX), MAX_STEP_PX))
-    q = np.concatenate([sk, sk + 1.0, sk - 1.0])
-    uq, vq = np.interp(q, s, uvd[:, 0]), np.interp(q, s, uvd[:, 1])
-    k = len(sk)
-    du, dv = uq[k:2 * k] - uq[2 * k:], vq[k:2 * k] - vq[2 * k:]
-    ln = np.maximum(np.hypot(du, dv), 1e-9)
-    hh, hw, across = _patch_size(r, du / ln, dv / ln)
-    ui, vi = np.rint(uq[:k]).astype(np.int64), np.rint(vq[:k]).astype(np.int64)
+def _pairs(features: list, pieces: list) -> tuple[list, list, list]:
+    """(feature index, piece index, largest radius of the feature's other pieces) of every feature and
+    (not recovered) piece ending at its node."""
+    by_node: dict[int, list] = {}
+    for j, p in enumerate(pieces):
+        if p.recovered or len(p.uvd) < 2 or not np.isfinite(p.radius_px):
+            continue
+        for n in set(p.nodes):
+            by_node.setdefault(int(n), []).append(j)
+    fi, pj, r_other = [], [], []
+    for i, ft in enumerate(features):
+        js = by_node.get(int(ft.node), [])
+        for j in js:
+            fi.append(i), pj.append(j)
+            r_other.append(max([pieces[k].radius_px for k in js if k != j], default=ft.radius_px))
+    return fi, pj, r_other
+
+
+def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
+    """Every feature's patches along its pieces, all at once: a dict of arrays (P,) ``feature``, ``piece``,
+    ``s`` (px from the feature along the piece), ``u``, ``v`` (int centre), ``d_ref`` (the disparity searched
+    around: the feature's), ``hh``, ``hw`` (int half height, width), ``across`` (half extent across the axis,
+    px), ``r`` (the piece's radius px), ``slope`` (the piece's disparity slope over the patches' reach, px per
+    px, away from the feature). A fork's patches start clear of its other pieces' silhouettes
+    (``FORK_CLEAR`` x their largest radius), a tip's ``TIP_BACK`` radius back; patches inside the image and
+    the left mask only; pieces turning steeply in depth (``|slope| > MAX_PIECE_SLOPE``) or too short give none."""
+    fi, pj, r_other = _pairs(features, pieces)
+    cols = ("feature", "piece", "s", "u", "v", "d_ref", "hh", "hw", "across", "r", "slope")
+    if not fi:
+        return {c: np.zeros(0, np.int64 if c in ("feature", "piece", "u", "v", "hh", "hw") else float) for c in cols}
+    fi, pj, r_other = np.array(fi), np.array(pj), np.array(r_other, float)
+    used = np.unique(pj)
+    # the used pieces' samples end to end, each piece's arc length from its first sample, pieces BIG px apart
+    uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)
+    n = np.array([len(pieces[j].uvd) for j in used.tolist()])
+    first = np.r_[0, np.cumsum(n)[:-1]]
+    step = np.r_[0.0, np.hypot(np.diff(uvd[:, 0]), np.diff(uvd[:, 1]))]
+    step[first] = 0.0
+    arc = np.cumsum(step)
+    arc -= np.repeat(arc[first], n)
+    length = arc[first + n - 1]
+    big = float(length.max()) + 10.0
+    x = arc + np.repeat(np.arange(len(used)) * big, n)          # (increasing over all pieces)
+    k = np.searchsorted(used, pj)                               # each pair's piece among the used
+    ft_uv = np.array([[features[i].u, features[i].v] for i in fi.tolist()])
+    a, z = uvd[first[k], :2], uvd[first[k] + n[k] - 1, :2]
+    from_end = np.hypot(*(z - ft_uv).T) < np.hypot(*(a - ft_uv).T)     # the feature at the piece's last sample
+    r = np.maximum(np.array([pieces[j].radius_px for j in pj.tolist()], float), 1.0)
+    fork = np.array([features[i].kind == "bifurcation" for i in fi.tolist()])
+    s0 = np.maximum(np.where(fork, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
+    s1 = np.minimum(s0 + np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX), length[k])
+    dstep = np.clip(STEP_RADII * r, MIN_STEP_PX, MAX_STEP_PX)
+
+    def at(q, col):                             # a column at arc q (pairs, m) from each pair's feature end
+        sl = np.where(from_end[:, None], length[k][:, None] - q, q)
+        return np.interp(np.clip(sl, 0.0, length[k][:, None]) + (k * big)[:, None], x, uvd[:, col])
+
+    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (within the piece)
+    lo = np.maximum(s0 - r, 0.0)
+    hi = np.minimum(np.maximum(s1, s0 + MIN_SPAN_PX), length[k])
+    qs = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+    dq, qc = at(qs, 2), qs - qs.mean(1, keepdims=True)
+    slope = (qc * (dq - dq.mean(1, keepdims=True))).sum(1) / np.maximum((qc * qc).sum(1), 1e-9)
+    ok_pair = (s1 >= s0) & (hi - lo >= 2.0) & (np.abs(slope) <= MAX_PIECE_SLOPE)
+    m = int(MAX_SPAN_PX // MIN_STEP_PX) + 1
+    q = s0[:, None] + dstep[:, None] * np.arange(m)[None, :]
+    valid = ok_pair[:, None] & (q <= s1[:, None] + 1e-9)
+    pu, pv = at(q, 0), at(q, 1)
+    du, dv = at(q + 1.0, 0) - at(q - 1.0, 0), at(q + 1.0, 1) - at(q - 1.0, 1)
+    pair, col = np.nonzero(valid)
+    ln = np.maximum(np.hypot(du, dv), 1e-9)[pair, col]
+    rr = r[pair]
+    hh, hw, across = _patch_size(rr, du[pair, col] / ln, dv[pair, col] / ln)
+    ui, vi = np.rint(pu[pair, col]).astype(np.int64), np.rint(pv[pair, col]).astype(np.int64)
     h, w = left_mask.shape
-    ok = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
-    ui, vi, hh, hw, across, sk = ui[ok], vi[ok], hh[ok], hw[ok], across[ok], sk[ok]
+    keep = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
     # inside the branch (not a leaf, not the background): the box's corners, edge midpoints and centre
-    inside = np.ones(len(ui), bool)
     for fy, fx in ((-1, -1), (-1, 1), (1, -1), (1, 1), (0, -1), (0, 1), (-1, 0), (1, 0), (0, 0)):
-        inside &= left_mask[vi + fy * hh, ui + fx * hw] >= 128
-    m = int(inside.sum())
-    return np.column_stack([np.full(m, i), np.full(m, j), sk[inside], ui[inside], vi[inside], np.full(m, ft.d),
-                            hh[inside], hw[inside], across[inside], np.full(m, r), np.full(m, g)]).tolist()
+        yy, xx = np.where(keep, vi + fy * hh, 0), np.where(keep, ui + fx * hw, 0)
+        keep &= left_mask[yy, xx] >= 128
+    pair, col = pair[keep], col[keep]
+    d_feat = np.array([features[i].d for i in fi.tolist()])
+    return {"feature": fi[pair], "piece": pj[pair], "s": q[pair, col], "u": ui[keep], "v": vi[keep],
+            "d_ref": d_feat[pair], "hh": hh[keep], "hw": hw[keep], "across": across[keep], "r": rr[keep],
+            "slope": slope[pair]}
+
+
+def _clusters(t: dict, sx0: np.ndarray, sx1: np.ndarray) -> list[tuple[np.ndarray, tuple[int, int, int, int, int, int]]]:
+    """The patches grouped for reading: (rows (K,), box (y0, y1, lx0, lx1, rx0, rx1)) per group. Each
+    feature's patches make a group; groups are merged while the merged boxes add less than ``MERGE_PX``
+    pixels to theirs (a read costs ~10 000 px' worth of remapping by itself)."""
+    u, v, hh, hw = t["u"], t["v"], t["hh"], t["hw"]
+    n = len(u)
+    cuts = np.flatnonzero(np.diff(t["feature"])) + 1                 # (rows are grouped by feature)
+    starts, ends = np.r_[0, cuts], np.r_[cuts, n]
+    boxes = np.column_stack([np.minimum.reduceat(v - hh, starts), np.maximum.reduceat(v + hh, starts) + 1,
+                             np.minimum.reduceat(u - hw, starts), np.maximum.reduceat(u + hw, starts) + 1,
+                             np.minimum.reduceat(sx0, starts), np.maximum.reduceat(sx1, starts)]).tolist()
+
+    def area(b):
+        return (b[1] - b[0]) * (b[3] - b[2] + b[5] - b[4])
+
+    groups = []                                  # [box, [row slices]]
+    for k, box in enumerate(boxes):
+        for g in groups:
+            gb = g[0]
+            ub = [min(gb[0], box[0]), max(gb[1], box[1]), min(gb[2], box[2]), max(gb[3], box[3]),
+                  min(gb[4], box[4]), max(gb[5], box[5])]
+            if area(ub) - area(gb) - area(box) < MERGE_PX:
+                g[0] = ub
+                g[1].append(np.arange(starts[k], ends[k]))
+                break
+        else:
+            groups.append([box, [np.arange(starts[k], ends[k])]])
+    return [(np.concatenate(rows), tuple(box)) for box, rows in groups]
 
 
 def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel disparity (P,) of the bark surface of each patch of the table ``t`` (:func:`patch_table`'s
     columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``; NaN: no texture, or the peak at the
     window's end) within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``) (and the working range), and
-    its correlation (P,). Each feature's patches are read in one box of each image."""
+    its correlation (P,) (:func:`kernels.ncc_peaks`). Nearby features' patches are read in one box of each
+    image (:func:`_clusters`)."""
     n = len(t["u"])
     d_out, score = np.full(n, np.nan), np.full(n, -1.0)
     if n == 0:
@@ -229,15 +284,12 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
     hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
     sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
-    cuts = np.flatnonzero(np.diff(t["feature"])) + 1                 # (rows are grouped by feature)
-    for a, b in zip(np.r_[0, cuts].tolist(), np.r_[cuts, n].tolist()):
-        y0, y1 = int((v[a:b] - hh[a:b]).min()), int((v[a:b] + hh[a:b]).max()) + 1
-        lx0, lx1 = int((u[a:b] - hw[a:b]).min()), int((u[a:b] + hw[a:b]).max()) + 1
-        rx0, rx1 = int(sx0[a:b].min()), int(sx1[a:b].max())
+    for rows, (y0, y1, lx0, lx1, rx0, rx1) in _clusters(t, sx0, sx1):
         lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
         rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
-        for hw_k in np.unique(hw[a:b]).tolist():                     # (one call per patch width)
-            i = a + np.flatnonzero(hw[a:b] == hw_k)
+        hw_r = hw[rows]
+        for hw_k in np.unique(hw_r).tolist():                        # (one call per patch width)
+            i = rows[hw_r == hw_k]
             ok, ks, offs, best = kernels.ncc_peaks(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], hw_k,
                                                    sx0[i] - rx0, sx1[i] - rx0, MIN_STD)
             inner = ok & (ks > 0) & (ks < sx1[i] - sx0[i] - 2 * hw_k - 1)   # (a peak at the window's end: not found)
@@ -247,35 +299,60 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     return d_out, score
 
 
-def estimate(s: np.ndarray, d_axis: np.ndarray, score: np.ndarray, piece: np.ndarray, slope: np.ndarray,
-             d_px: float) -> tuple[float, int, float]:
-    """The texture's disparity at a feature from its patches (P,): ``s`` px from it along ``piece``, their
-    axis disparity ``d_axis`` and correlation ``score``, the piece's disparity slope ``slope`` (px per px).
+def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The texture's disparity at each feature from the patch table ``t`` (:func:`patch_table`; rows grouped
+    by feature, then piece) and the features' disparities ``d_px`` (F,).
 
-    Each piece with at least ``MIN_PATCHES`` confident patches (``score >= MIN_SCORE``) agreeing within
-    ``2 MAX_SPREAD_PX`` once carried to the feature along the piece's slope gives their median; a piece
-    turning steeply in depth (``|slope| > MAX_PIECE_SLOPE``: the two views see its bark foreshortened
-    differently) gives none. The feature's estimate is the piece estimate nearest the feature's own
-    disparity ``d_px`` when all lie on one side of it, ``d_px`` itself (no disagreement) when they
-    straddle it.
+    A piece's confident patches (``score >= MIN_SCORE``, at least ``MIN_PATCHES``) give up to two estimates
+    at the feature: carried along the piece's own disparity slope (their mean, when they agree within
+    ``2 MAX_SPREAD_PX``), and the intercept of the straight line through them (the texture's own slope;
+    at least ``FIT_MIN_PATCHES`` spanning ``FIT_MIN_SPAN_PX``, none off it by more than ``FIT_MAX_RES_PX``,
+    its slope within ``MAX_PIECE_SLOPE``); the piece's estimate is the one nearer the feature's disparity
+    (the cautious one). The feature's estimate is the piece estimate nearest its disparity when all lie on
+    one side of it, its own disparity (agreement) when they straddle it.
 
-    Returns (disparity (NaN: no verdict), confident patches used, their spread (max - min, px)).
+    Returns
+    -------
+    d_check, n, spread : ndarray (F,)
+        The estimate (NaN: no verdict), the confident patches of the pieces that gave one (int), and the
+        largest spread (max - min, px) of their carried values.
     """
-    good = np.isfinite(d_axis) & (score >= MIN_SCORE) & (np.abs(slope) <= MAX_PIECE_SLOPE)
-    ests, n, spread = [], 0, 0.0
-    for j in np.unique(piece[good]).tolist():
-        k = good & (piece == j)
-        if k.sum() < MIN_PATCHES:
-            continue
-        e = d_axis[k] - slope[k] * s[k]
-        if np.ptp(e) > 2 * MAX_SPREAD_PX:
-            continue
-        ests.append(float(np.median(e)))
-        n += int(k.sum())
-        spread = max(spread, float(np.ptp(e)))
-    if not ests:
-        return float("nan"), 0, float("nan")
-    diffs = np.array(ests) - d_px
-    if (diffs > 0).all() or (diffs < 0).all():
-        return float(ests[int(np.argmin(np.abs(diffs)))]), n, spread
-    return float(d_px), n, spread
+    nf = len(d_px)
+    d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
+    good = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
+    if not good.any():
+        return d_check, n_used, spread
+    f, p, s, d, g = (t[c][good] for c in ("feature", "piece", "s", "d_axis", "slope"))
+    key = f * (int(p.max()) + 1) + p
+    starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
+    cnt = np.diff(np.r_[starts, len(key)])
+    grp = np.repeat(np.arange(len(starts)), cnt)
+    fg = f[starts]                                           # each group's feature
+    # carried along the piece's slope
+    e = d - g * s
+    e_lo, e_hi = np.minimum.reduceat(e, starts), np.maximum.reduceat(e, starts)
+    carry = np.where((cnt >= MIN_PATCHES) & (e_hi - e_lo <= 2 * MAX_SPREAD_PX), np.add.reduceat(e, starts) / cnt,
+                     np.nan)
+    # the texture's own straight line
+    s1, s2 = np.add.reduceat(s, starts), np.add.reduceat(s * s, starts)
+    y1, sy = np.add.reduceat(d, starts), np.add.reduceat(s * d, starts)
+    den = cnt * s2 - s1 * s1
+    b = (cnt * sy - s1 * y1) / np.where(den > 0, den, 1.0)
+    a0 = (y1 - b * s1) / cnt
+    res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
+    span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
+    fit = np.where((cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX)
+                   & (np.abs(b) <= MAX_PIECE_SLOPE), a0, np.nan)
+    dc, df = carry - d_px[fg], fit - d_px[fg]
+    diff = np.where(np.isnan(dc) | (np.abs(df) < np.abs(dc)), df, dc)     # (NaN: neither)
+    ok = np.isfinite(diff)
+    if not ok.any():
+        return d_check, n_used, spread
+    fg, diff, cnt, ext = fg[ok], diff[ok], cnt[ok], (e_hi - e_lo)[ok]
+    fs = np.r_[0, np.flatnonzero(np.diff(fg)) + 1]
+    lo, hi = np.minimum.reduceat(diff, fs), np.maximum.reduceat(diff, fs)
+    fi = fg[fs]
+    d_check[fi] = d_px[fi] + np.where(lo > 0, lo, np.where(hi < 0, hi, 0.0))
+    n_used[fi] = np.add.reduceat(cnt, fs)
+    spread[fi] = np.maximum.reduceat(ext, fs)
+    return d_check, n_used, spread

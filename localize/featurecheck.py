@@ -39,8 +39,8 @@ MIN_PATCHES = 2              # fewer agreeing patches give no verdict
 MAX_SLOPE = 0.1              # the search window widens by this many px per px from the feature
 MAX_PIECE_SLOPE = 0.12      # a piece whose disparity changes faster (px per px) gives no verdict
 MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing within twice this (px): an estimate
-FIT_MIN_PATCHES = 4          # the texture's own line: at least this many patches ...
-FIT_MIN_SPAN_PX = 15.0       # ... spanning this many px ...
+FIT_MIN_PATCHES = 3          # the texture's own line: at least this many patches ...
+FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
 FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
 MERGE_PX = 8000              # nearby features' patches are read together while that adds fewer pixels
 
@@ -303,19 +303,21 @@ def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     """The texture's disparity at each feature from the patch table ``t`` (:func:`patch_table`; rows grouped
     by feature, then piece) and the features' disparities ``d_px`` (F,).
 
-    A piece's confident patches (``score >= MIN_SCORE``, at least ``MIN_PATCHES``) give up to two estimates
-    at the feature: carried along the piece's own disparity slope (their mean, when they agree within
-    ``2 MAX_SPREAD_PX``), and the intercept of the straight line through them (the texture's own slope;
-    at least ``FIT_MIN_PATCHES`` spanning ``FIT_MIN_SPAN_PX``, none off it by more than ``FIT_MAX_RES_PX``,
-    its slope within ``MAX_PIECE_SLOPE``); the piece's estimate is the one nearer the feature's disparity
-    (the cautious one). The feature's estimate is the piece estimate nearest its disparity when all lie on
-    one side of it, its own disparity (agreement) when they straddle it.
+    A piece's confident patches (``score >= MIN_SCORE``, at least ``MIN_PATCHES``) are carried to the feature
+    along a slope. Where they lie on a straight line of their own (at least ``FIT_MIN_PATCHES`` spanning
+    ``FIT_MIN_SPAN_PX``, none off it by more than ``FIT_MAX_RES_PX``, its slope within ``MAX_PIECE_SLOPE``)
+    the slope is the texture's or the matched piece's: the two lines through the patches' centroid bound
+    the piece's estimate at the feature, and the bound nearer the feature's disparity counts (none when
+    the feature's lies between them). Otherwise they are carried along the piece's slope and their mean
+    counts when they agree within ``2 MAX_SPREAD_PX``. The feature's estimate is the piece estimate
+    nearest its disparity when all lie on one side of it, its own disparity (agreement) when they
+    straddle it: the least alarming reading of the texture.
 
     Returns
     -------
     d_check, n, spread : ndarray (F,)
         The estimate (NaN: no verdict), the confident patches of the pieces that gave one (int), and the
-        largest spread (max - min, px) of their carried values.
+        largest spread (max - min, px) of their values carried along the pieces' slopes.
     """
     nf = len(d_px)
     d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
@@ -341,10 +343,13 @@ def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     a0 = (y1 - b * s1) / cnt
     res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
     span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
-    fit = np.where((cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX)
-                   & (np.abs(b) <= MAX_PIECE_SLOPE), a0, np.nan)
-    dc, df = carry - d_px[fg], fit - d_px[fg]
-    diff = np.where(np.isnan(dc) | (np.abs(df) < np.abs(dc)), df, dc)     # (NaN: neither)
+    line = (cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX) & (np.abs(b) <= MAX_PIECE_SLOPE)
+    # on the texture's line the slope is the texture's or the piece's: the intercepts of both lines through the
+    # patches' centroid bound the estimate; the bound nearer the feature's disparity counts (0 between them)
+    a_piece = (y1 - g[starts] * s1) / cnt
+    lo_b, hi_b = np.minimum(a0, a_piece) - d_px[fg], np.maximum(a0, a_piece) - d_px[fg]
+    on_line = np.where(lo_b > 0, lo_b, np.where(hi_b < 0, hi_b, 0.0))
+    diff = np.where(line, on_line, carry - d_px[fg])                 # (NaN: neither)
     ok = np.isfinite(diff)
     if not ok.any():
         return d_check, n_used, spread

@@ -42,7 +42,6 @@ MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing 
 FIT_MIN_PATCHES = 3          # the texture's own line: at least this many patches ...
 FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
 FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
-MERGE_PX = 8000              # nearby features' patches are read together while that adds fewer pixels
 
 
 @dataclass(frozen=True)
@@ -152,22 +151,21 @@ def patch_depth_fraction_many(radius_px: np.ndarray, across_px: np.ndarray) -> n
     return (val * inside).sum(1) / inside.sum(1)
 
 
-def _pairs(features: list, pieces: list) -> tuple[list, list, list]:
-    """(feature index, piece index, largest radius of the feature's other pieces) of every feature and
-    (not recovered) piece ending at its node."""
-    by_node: dict[int, list] = {}
-    for j, p in enumerate(pieces):
-        if p.recovered or len(p.uvd) < 2 or not np.isfinite(p.radius_px):
-            continue
-        for n in set(p.nodes):
-            by_node.setdefault(int(n), []).append(j)
-    fi, pj, r_other = [], [], []
-    for i, ft in enumerate(features):
-        js = by_node.get(int(ft.node), [])
-        for j in js:
-            fi.append(i), pj.append(j)
-            r_other.append(max([pieces[k].radius_px for k in js if k != j], default=ft.radius_px))
-    return fi, pj, r_other
+def _pairs(fa: np.ndarray, pieces: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every feature and (not recovered) piece ending at its node: feature index (K,), piece index (K,)
+    (by feature, then piece), and the largest radius of the feature's other pieces (K,) px (the feature's own
+    radius where it has no other). ``fa`` (F, 6): each feature's node, u, v, d, radius px, fork (1/0)."""
+    pa = np.array([(p.nodes[0], p.nodes[1], p.radius_px, not p.recovered and len(p.uvd) >= 2
+                    and math.isfinite(p.radius_px)) for p in pieces], float).reshape(-1, 4)
+    match = ((fa[:, :1] == pa[None, :, 0]) | (fa[:, :1] == pa[None, :, 1])) & (pa[None, :, 3] > 0)
+    fi, pj = np.nonzero(match)
+    radius = np.where(match, pa[None, :, 2], -np.inf)                 # (F, P)
+    top = radius.argmax(1)
+    first = radius[np.arange(len(fa)), top]
+    radius[np.arange(len(fa)), top] = -np.inf
+    second = radius.max(1)
+    r_other = np.where(pj == top[fi], second[fi], first[fi])
+    return fi, pj, np.where(np.isfinite(r_other), r_other, fa[fi, 4])
 
 
 def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
@@ -178,11 +176,12 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
     px, away from the feature). A fork's patches start clear of its other pieces' silhouettes
     (``FORK_CLEAR`` x their largest radius), a tip's ``TIP_BACK`` radius back; patches inside the image and
     the left mask only; pieces turning steeply in depth (``|slope| > MAX_PIECE_SLOPE``) or too short give none."""
-    fi, pj, r_other = _pairs(features, pieces)
+    fa = np.array([(ft.node, ft.u, ft.v, ft.d, ft.radius_px, ft.kind == "bifurcation") for ft in features],
+                  float).reshape(-1, 6)
+    fi, pj, r_other = _pairs(fa, pieces)
     cols = ("feature", "piece", "s", "u", "v", "d_ref", "hh", "hw", "across", "r", "slope")
-    if not fi:
+    if len(fi) == 0:
         return {c: np.zeros(0, np.int64 if c in ("feature", "piece", "u", "v", "hh", "hw") else float) for c in cols}
-    fi, pj, r_other = np.array(fi), np.array(pj), np.array(r_other, float)
     used = np.unique(pj)
     # the used pieces' samples end to end, each piece's arc length from its first sample, pieces BIG px apart
     uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)
@@ -196,31 +195,33 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
     big = float(length.max()) + 10.0
     x = arc + np.repeat(np.arange(len(used)) * big, n)          # (increasing over all pieces)
     k = np.searchsorted(used, pj)                               # each pair's piece among the used
-    ft_uv = np.array([[features[i].u, features[i].v] for i in fi.tolist()])
+    ft_uv = fa[fi, 1:3]
     a, z = uvd[first[k], :2], uvd[first[k] + n[k] - 1, :2]
     from_end = np.hypot(*(z - ft_uv).T) < np.hypot(*(a - ft_uv).T)     # the feature at the piece's last sample
     r = np.maximum(np.array([pieces[j].radius_px for j in pj.tolist()], float), 1.0)
-    fork = np.array([features[i].kind == "bifurcation" for i in fi.tolist()])
+    fork = fa[fi, 5] > 0
     s0 = np.maximum(np.where(fork, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
     s1 = np.minimum(s0 + np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX), length[k])
     dstep = np.clip(STEP_RADII * r, MIN_STEP_PX, MAX_STEP_PX)
 
-    def at(q, col):                             # a column at arc q (pairs, m) from each pair's feature end
-        sl = np.where(from_end[:, None], length[k][:, None] - q, q)
-        return np.interp(np.clip(sl, 0.0, length[k][:, None]) + (k * big)[:, None], x, uvd[:, col])
-
-    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (within the piece)
+    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (within the piece);
+    # the patches at s0, s0 + step, ... up to s1, and 1 px either side of them (their direction)
     lo = np.maximum(s0 - r, 0.0)
     hi = np.minimum(np.maximum(s1, s0 + MIN_SPAN_PX), length[k])
     qs = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
-    dq, qc = at(qs, 2), qs - qs.mean(1, keepdims=True)
-    slope = (qc * (dq - dq.mean(1, keepdims=True))).sum(1) / np.maximum((qc * qc).sum(1), 1e-9)
-    ok_pair = (s1 >= s0) & (hi - lo >= 2.0) & (np.abs(slope) <= MAX_PIECE_SLOPE)
     m = int(MAX_SPAN_PX // MIN_STEP_PX) + 1
     q = s0[:, None] + dstep[:, None] * np.arange(m)[None, :]
+    arcs = np.concatenate([qs, q, q + 1.0, q - 1.0], axis=1)      # (pairs, 9 + 3 m) px from the feature's end
+    lk = length[k][:, None]
+    xq = np.clip(np.where(from_end[:, None], lk - arcs, arcs), 0.0, lk) + (k * big)[:, None]
+    dq = np.interp(xq[:, :9], x, uvd[:, 2])
+    iu, iv = np.interp(xq[:, 9:], x, uvd[:, 0]), np.interp(xq[:, 9:], x, uvd[:, 1])
+    qc = qs - qs.mean(1, keepdims=True)
+    slope = (qc * (dq - dq.mean(1, keepdims=True))).sum(1) / np.maximum((qc * qc).sum(1), 1e-9)
+    ok_pair = (s1 >= s0) & (hi - lo >= 2.0) & (np.abs(slope) <= MAX_PIECE_SLOPE)
     valid = ok_pair[:, None] & (q <= s1[:, None] + 1e-9)
-    pu, pv = at(q, 0), at(q, 1)
-    du, dv = at(q + 1.0, 0) - at(q - 1.0, 0), at(q + 1.0, 1) - at(q - 1.0, 1)
+    pu, pv = iu[:, :m], iv[:, :m]
+    du, dv = iu[:, m:2 * m] - iu[:, 2 * m:], iv[:, m:2 * m] - iv[:, 2 * m:]
     pair, col = np.nonzero(valid)
     ln = np.maximum(np.hypot(du, dv), 1e-9)[pair, col]
     rr = r[pair]
@@ -233,69 +234,50 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
         yy, xx = np.where(keep, vi + fy * hh, 0), np.where(keep, ui + fx * hw, 0)
         keep &= left_mask[yy, xx] >= 128
     pair, col = pair[keep], col[keep]
-    d_feat = np.array([features[i].d for i in fi.tolist()])
+    d_feat = fa[fi, 3]
     return {"feature": fi[pair], "piece": pj[pair], "s": q[pair, col], "u": ui[keep], "v": vi[keep],
             "d_ref": d_feat[pair], "hh": hh[keep], "hw": hw[keep], "across": across[keep], "r": rr[keep],
             "slope": slope[pair]}
 
 
-def _clusters(t: dict, sx0: np.ndarray, sx1: np.ndarray) -> list[tuple[np.ndarray, tuple[int, int, int, int, int, int]]]:
-    """The patches grouped for reading: (rows (K,), box (y0, y1, lx0, lx1, rx0, rx1)) per group. Each
-    feature's patches make a group; groups are merged while the merged boxes add less than ``MERGE_PX``
-    pixels to theirs (a read costs ~10 000 px' worth of remapping by itself)."""
-    u, v, hh, hw = t["u"], t["v"], t["hh"], t["hw"]
-    n = len(u)
-    cuts = np.flatnonzero(np.diff(t["feature"])) + 1                 # (rows are grouped by feature)
-    starts, ends = np.r_[0, cuts], np.r_[cuts, n]
-    boxes = np.column_stack([np.minimum.reduceat(v - hh, starts), np.maximum.reduceat(v + hh, starts) + 1,
-                             np.minimum.reduceat(u - hw, starts), np.maximum.reduceat(u + hw, starts) + 1,
-                             np.minimum.reduceat(sx0, starts), np.maximum.reduceat(sx1, starts)]).tolist()
-
-    def area(b):
-        return (b[1] - b[0]) * (b[3] - b[2] + b[5] - b[4])
-
-    groups = []                                  # [box, [row slices]]
-    for k, box in enumerate(boxes):
-        for g in groups:
-            gb = g[0]
-            ub = [min(gb[0], box[0]), max(gb[1], box[1]), min(gb[2], box[2]), max(gb[3], box[3]),
-                  min(gb[4], box[4]), max(gb[5], box[5])]
-            if area(ub) - area(gb) - area(box) < MERGE_PX:
-                g[0] = ub
-                g[1].append(np.arange(starts[k], ends[k]))
-                break
-        else:
-            groups.append([box, [np.arange(starts[k], ends[k])]])
-    return [(np.concatenate(rows), tuple(box)) for box, rows in groups]
-
-
 def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel disparity (P,) of the bark surface of each patch of the table ``t`` (:func:`patch_table`'s
-    columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``; NaN: no texture, or the peak at the
-    window's end) within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``) (and the working range), and
-    its correlation (P,) (:func:`kernels.ncc_peaks`). Nearby features' patches are read in one box of each
-    image (:func:`_clusters`)."""
+    columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``; rows grouped by feature; NaN: no
+    texture, or the peak at the window's end) within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``)
+    (and the working range), and its correlation (P,) (:func:`kernels.ncc_peaks`: one call per feature and
+    patch width; each feature's patches read in one box of each image)."""
     n = len(t["u"])
     d_out, score = np.full(n, np.nan), np.full(n, -1.0)
     if n == 0:
         return d_out, score
-    u, v, hh, hw = t["u"], t["v"], t["hh"], t["hw"]
+    u, v, hh, hw, f = t["u"], t["v"], t["hh"], t["hw"], t["feature"]
     half = WINDOW_PX + MAX_SLOPE * t["s"]
     lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
     hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
     sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
-    for rows, (y0, y1, lx0, lx1, rx0, rx1) in _clusters(t, sx0, sx1):
-        lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
-        rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
-        hw_r = hw[rows]
-        for hw_k in np.unique(hw_r).tolist():                        # (one call per patch width)
-            i = rows[hw_r == hw_k]
-            ok, ks, offs, best = kernels.ncc_peaks(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], hw_k,
-                                                   sx0[i] - rx0, sx1[i] - rx0, MIN_STD)
-            inner = ok & (ks > 0) & (ks < sx1[i] - sx0[i] - 2 * hw_k - 1)   # (a peak at the window's end: not found)
-            i = i[inner]
-            d_out[i] = u[i] - (sx0[i] + ks[inner] + offs[inner] + hw_k)
-            score[i] = best[inner]
+    fs = np.r_[0, np.flatnonzero(np.diff(f)) + 1]
+    boxes = np.column_stack([np.minimum.reduceat(v - hh, fs), np.maximum.reduceat(v + hh, fs) + 1,
+                             np.minimum.reduceat(u - hw, fs), np.maximum.reduceat(u + hw, fs) + 1,
+                             np.minimum.reduceat(sx0, fs), np.maximum.reduceat(sx1, fs)])
+    order = np.lexsort((hw, f))                                      # (by feature, then patch width)
+    key = f[order] * 64 + hw[order]
+    gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
+    ge = np.r_[gs[1:], n]
+    box_of = np.searchsorted(fs, order[gs], side="right") - 1       # each group's feature's box
+    ok, ks, offs = np.zeros(n, bool), np.zeros(n, np.int64), np.zeros(n)
+    last = -1
+    for a, b, kb in zip(gs.tolist(), ge.tolist(), box_of.tolist()):
+        y0, y1, lx0, lx1, rx0, rx1 = boxes[kb].tolist()
+        if kb != last:
+            lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
+            rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
+            last = kb
+        i = order[a:b]
+        ok[i], ks[i], offs[i], score[i] = kernels.ncc_peaks(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], int(hw[i[0]]),
+                                                            sx0[i] - rx0, sx1[i] - rx0, MIN_STD)
+    found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
+    d_out[found] = (u - (sx0 + ks + offs + hw))[found]
+    score[~found] = -1.0
     return d_out, score
 
 

@@ -4,15 +4,14 @@ The matcher places a tip or a fork from the branch outlines (and, on flat pieces
 several mechanisms; each has its own ways to fail, and a feature grossly off in depth (seeds 260-291:
 1-4 px of disparity, 6-18 mm) is worse for the arm than a feature not reported. This check knows none
 of those mechanisms. Near each feature it takes small patches of the left grey image inside the
-feature's branch(es) (a tip: its branch ``TIP_REACH`` radii back from the tip; a fork: each of its
-pieces, clear of the crotch), finds each patch's disparity in the right image along the same
-rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
-sub-pixel parabola), moves it from the bark surface back onto the axis
-(:func:`texture.surface_to_axis`) and carries it to the feature along the piece's own disparity
-slope (a branch turning in depth changes disparity along its length). Where enough patches agree
-with each other and their median differs from the feature's disparity by more than ``max_diff_px``,
-the feature is withheld. Patches without texture, off the branch or matched weakly give no verdict:
-the feature is kept.
+feature's branch(es) (a tip: along its branch from ``TIP_BACK`` radius back; a fork: along each of its
+pieces, clear of the other pieces' silhouettes), finds each patch's disparity in the right image along
+the same rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
+sub-pixel parabola), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
+and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
+and the matched piece's slopes). Where that differs from the feature's disparity by more than
+``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
+and pieces turning steeply in depth give no verdict: the feature is kept.
 Measured on 60 scenes and seeds 260-291: docs/localize-featurecheck.md.
 """
 
@@ -26,18 +25,18 @@ from appliance.localize import kernels
 from appliance.localize.texture import surface_to_axis
 
 TIP_BACK = 1.0               # a tip's patches start this many radii back along its branch
-FORK_CLEAR = 1.2             # a fork's start this many of its other pieces' largest radius out (clear of them)
+FORK_CLEAR = 1.2             # a fork's this many x its other pieces' largest radius out (clear of them)
 REACH_RADII = 3.0            # ... and span this many radii of the piece
 MIN_SPAN_PX, MAX_SPAN_PX = 20.0, 40.0    # ... but at least / at most this many px
 STEP_RADII = 0.75            # one patch every this many radii
 MIN_STEP_PX, MAX_STEP_PX = 3.0, 8.0
 MIN_REACH_PX = 4.0           # patches start at least this far from the feature
-WINDOW_PX = 8                # each patch searched within +-this of the piece's disparity there
+WINDOW_PX = 8                # each patch searched within +-this of the feature's disparity ...
+MAX_SLOPE = 0.1              # ... widened by this many px per px from the feature
 MIN_SCORE = 0.7              # a patch matched with a lower correlation gives no verdict
 MIN_STD = 2.0                # a patch with a lower grey-level standard deviation has no texture
-MIN_PATCHES = 2              # fewer agreeing patches give no verdict
-MAX_SLOPE = 0.1              # the search window widens by this many px per px from the feature
-MAX_PIECE_SLOPE = 0.12      # a piece whose disparity changes faster (px per px) gives no verdict
+MIN_PATCHES = 2              # a piece with fewer confident patches gives no verdict
+MAX_PIECE_SLOPE = 0.12       # a piece whose disparity changes faster (px per px) gives no verdict
 MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing within twice this (px): an estimate
 FIT_MIN_PATCHES = 3          # the texture's own line: at least this many patches ...
 FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
@@ -55,13 +54,13 @@ class FeatureCheck:
     d_px : float
         The feature's (matched) disparity.
     d_check_px : float
-        The texture's disparity carried to the feature (median over its patches; NaN: no verdict).
+        The texture's disparity carried to the feature (:func:`estimate`; NaN: no verdict).
     n_patches : int
-        Patches that gave a confident disparity.
+        Confident patches of the pieces that gave an estimate.
     spread_px : float
-        Their median absolute deviation (px).
+        The largest spread (max - min, px) of a piece's patches carried along its slope.
     withheld : bool
-        ``|d_check_px - d_px| > max_diff_px`` with enough agreeing patches.
+        ``|d_check_px - d_px| > max_diff_px``.
     """
 
     node: int
@@ -92,7 +91,7 @@ def _patch_size(radius_px: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[
 
 def check_features(features: list, pieces: list, left, right, left_mask: np.ndarray,
                    d_range_px: tuple[float, float], f_px: float, offset_px: float = 0.0,
-                   max_diff_px: float = 1.0) -> list[FeatureCheck]:
+                   max_diff_px: float = 1.6) -> list[FeatureCheck]:
     """The texture check of every feature (see module docstring).
 
     Parameters
@@ -104,7 +103,7 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
     left, right : ndarray (H, W) uint8 or lazy rectified images
         Rectified grey images (read in small boxes: ``img[y0:y1, x0:x1]``).
     left_mask : ndarray (H, W) uint8
-        Left branch coverage 0-255; a patch must lie where it is >= 128 throughout.
+        Left branch coverage 0-255; a patch must lie where it is >= 128 (corners, edge midpoints, centre).
     d_range_px : (float, float)
         Disparities of the working range (patches are searched within them).
     f_px, offset_px : float
@@ -127,9 +126,9 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
 
 def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray, d_range_px, f_px: float,
                 offset_px: float) -> dict:
-    """Every feature's patches and their texture disparity: a dict of arrays (P,): ``feature`` (index),
-    ``piece`` (index among all pieces), ``s`` (px from the feature along the piece), ``u``, ``v``,
-    ``d_axis`` (the patch's texture disparity moved onto the axis; NaN: none), ``score``."""
+    """Every feature's patches and their texture disparity: the arrays (P,) of :func:`_patches` (``feature``,
+    ``piece``, ``s`` px from the feature along the piece, ``u``, ``v``, ...) and ``score`` (the correlation)
+    and ``d_axis`` (the patch's texture disparity moved onto the axis; NaN: none)."""
     t = _patches(features, pieces, left_mask)
     w = left_mask.shape[1]
     d_surf, t["score"] = patch_disparities(left, right, t, d_range_px, w)

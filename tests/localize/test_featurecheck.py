@@ -6,12 +6,19 @@ a fork at u = 130 where a second, diagonal piece leaves the band. A feature at t
 kept; at a disparity 3 px off it is withheld; a feature on bark without texture is kept (no verdict).
 """
 
+from dataclasses import replace
+from pathlib import Path
+
 import cv2
 import numpy as np
+from appliance.calibrate.model import load_calibration
 from appliance.config import load_config
+from appliance.localize import Localizer
 from appliance.localize.featurecheck import check_features, patch_table
 from appliance.localize.localizer import paper_config
 from appliance.localize.matching import FeatureUVD, PieceUVD
+
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 
 H, W = 200, 300
 D_PX, R_PX, F_PX = 40.0, 8.0, 1450.0
@@ -43,7 +50,8 @@ def _pieces() -> list:
 
 
 def _features(d_tip: float, d_fork: float) -> list:
-    return [FeatureUVD(2, "endpoint", 200.0, 100.0, d_tip, R_PX), FeatureUVD(1, "bifurcation", 130.0, 100.0, d_fork, R_PX)]
+    return [FeatureUVD(2, "endpoint", 200.0, 100.0, d_tip, R_PX),
+            FeatureUVD(1, "bifurcation", 130.0, 100.0, d_fork, R_PX)]
 
 
 def _check(features, textured=True):
@@ -92,3 +100,21 @@ def test_config_improved_on_paper_off():
     cfg = load_config().localize
     assert cfg.feature_check.enabled and cfg.feature_check.max_diff_px > 0
     assert not paper_config(cfg).feature_check.enabled
+
+
+def test_localizer_runs_the_check_and_only_withholds():
+    """On a rendered fixture the check runs as its own stage; the features it reports are those reported
+    without it, less the withheld ones (none here: every feature of fixture 00 agrees with its bark)."""
+    cfg = load_config().localize
+    calib = load_calibration(FIXTURES / "rig.yaml")
+    left = cv2.imread(str(FIXTURES / "scenes" / "left_00.png"))
+    right = cv2.imread(str(FIXTURES / "scenes" / "right_00.png"))
+    on = Localizer(calib, cfg).localize(left, right)
+    off_cfg = replace(cfg, feature_check=replace(cfg.feature_check, enabled=False))
+    off = Localizer(calib, off_cfg).localize(left, right)
+    assert "check" in on.timings_ms and "check" not in off.timings_ms
+    assert [f.xyz_mm for f in on.features] == [f.xyz_mm for f in off.features]
+    strict = replace(cfg, feature_check=replace(cfg.feature_check, max_diff_px=1e-6))
+    few = Localizer(calib, strict).localize(left, right)
+    assert len(few.features) < len(off.features)                      # (the check does read the texture)
+    assert {f.xyz_mm for f in few.features} <= {f.xyz_mm for f in off.features}

@@ -158,6 +158,8 @@ def _pairs(fa: np.ndarray, pieces: list) -> tuple[np.ndarray, np.ndarray, np.nda
                     and math.isfinite(p.radius_px)) for p in pieces], float).reshape(-1, 4)
     match = ((fa[:, :1] == pa[None, :, 0]) | (fa[:, :1] == pa[None, :, 1])) & (pa[None, :, 3] > 0)
     fi, pj = np.nonzero(match)
+    if len(fi) == 0:
+        return fi, pj, np.zeros(0)
     radius = np.where(match, pa[None, :, 2], -np.inf)                 # (F, P)
     top = radius.argmax(1)
     first = radius[np.arange(len(fa)), top]

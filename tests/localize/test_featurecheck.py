@@ -85,6 +85,13 @@ def test_no_texture_no_verdict():
     assert all(np.isnan(c.d_check_px) for c in checks)
 
 
+def test_no_pieces_no_verdict():
+    left, right, mask = _pair()
+    checks = check_features(_features(D_PX + 3.0, D_PX), [], left, right, mask, D_RANGE, F_PX)
+    assert [c.withheld for c in checks] == [False, False] and all(c.n_patches == 0 for c in checks)
+    assert check_features([], _pieces(), left, right, mask, D_RANGE, F_PX) == []
+
+
 def test_patches_inside_branch_and_clear_of_fork():
     left, right, mask = _pair()
     t = patch_table(_features(D_PX, D_PX), _pieces(), left, right, mask, D_RANGE, F_PX, 0.0)

@@ -231,9 +231,9 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
     h, w = left_mask.shape
     keep = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
     # inside the branch (not a leaf, not the background): the box's corners, edge midpoints and centre
-    for fy, fx in ((-1, -1), (-1, 1), (1, -1), (1, 1), (0, -1), (0, 1), (-1, 0), (1, 0), (0, 0)):
-        yy, xx = np.where(keep, vi + fy * hh, 0), np.where(keep, ui + fx * hw, 0)
-        keep &= left_mask[yy, xx] >= 128
+    yy = np.clip(vi[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1]) * hh[:, None], 0, h - 1)
+    xx = np.clip(ui[:, None] + np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1]) * hw[:, None], 0, w - 1)
+    keep &= (left_mask[yy, xx] >= 128).all(1)
     pair, col = pair[keep], col[keep]
     d_feat = fa[fi, 3]
     return {"feature": fi[pair], "piece": pj[pair], "s": q[pair, col], "u": ui[keep], "v": vi[keep],

@@ -100,6 +100,12 @@ class MatchConfig:
 
 
 @dataclass(frozen=True)
+class FeatureCheckConfig:
+    enabled: bool
+    max_diff_px: float = rng(gt=0)
+
+
+@dataclass(frozen=True)
 class LocalizeConfig:
     working_range_mm: tuple[float, float]
     safety_factor_k: float = rng(min=1)
@@ -108,6 +114,7 @@ class LocalizeConfig:
     prune: PruneConfig = field()
     recover: RecoverConfig = field()
     match: MatchConfig = field()
+    feature_check: FeatureCheckConfig = field()
 
     def __post_init__(self):
         near, far = self.working_range_mm

@@ -1,7 +1,8 @@
 """The localizer: a stereo pair in, branches and their tips and forks in 3D out.
 
 Stages (each timed in ``LocalizationResult.timings_ms``): segment, rectify, skeleton,
-prune, recover, radius, match, triangulate. ``variant="paper"`` runs the paper's choice
+prune, recover, radius, match, check (improved: each feature's disparity against its bark texture,
+:mod:`featurecheck`), triangulate. ``variant="paper"`` runs the paper's choice
 at every step (full-size thinning, 5 px spur pruning, Hough recovery, feature matching);
 ``"improved"`` runs what the configuration says (by default: fast skeleton, radius-aware
 pruning, collinear recovery, dense centre-line matching).
@@ -22,6 +23,7 @@ from appliance.localize import kernels
 from appliance.localize.curves import median
 from appliance.localize.dense import match_dense
 from appliance.localize.errors import LocalizeError
+from appliance.localize.featurecheck import check_features
 from appliance.localize.graph import SkeletonGraph
 from appliance.localize.match import match_features
 from appliance.localize.matching import Matching, StereoMasks
@@ -45,6 +47,7 @@ def paper_config(cfg: LocalizeConfig) -> LocalizeConfig:
         prune=replace(cfg.prune, min_length_px=5.0, radius_factor=0.0, keep_border_spurs=False),
         recover=replace(cfg.recover, method="hough"),
         match=replace(cfg.match, method="features", max_disparity_gradient=0.0),
+        feature_check=replace(cfg.feature_check, enabled=False),
     )
 
 
@@ -219,6 +222,13 @@ class Localizer:
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
                              float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid)
             matching = match_dense(graph_l, sm, c.match)
+            if c.feature_check.enabled and matching.features:   # (withheld features: not triangulated)
+                clock.lap("match")
+                checks = check_features(matching.features, matching.pieces, gl, gr, ml, self.d_range_px,
+                                        sm.f_px, sm.offset_px, c.feature_check.max_diff_px)
+                matching = replace(matching, features=[f for f, k in zip(matching.features, checks) if not k.withheld],
+                                   stats={**matching.stats, "feature_check": checks})
+                clock.lap("check")
         clock.lap("match")
         result = self._assemble(matching, stamp_ns)
         clock.lap("triangulate")

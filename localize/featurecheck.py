@@ -1,0 +1,346 @@
+"""An independent check of each matched feature's disparity by the bark texture of its own branches.
+
+The matcher places a tip or a fork from the branch outlines (and, on flat pieces, their texture) by
+several mechanisms; each has its own ways to fail, and a feature grossly off in depth (seeds 260-291:
+1-4 px of disparity, 6-18 mm) is worse for the arm than a feature not reported. This check knows none
+of those mechanisms. Near each feature it takes small patches of the left grey image inside the
+feature's branch(es) (a tip: along its branch from ``TIP_BACK`` radius back; a fork: along each of its
+pieces, clear of the other pieces' silhouettes), finds each patch's disparity in the right image along
+the same rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
+sub-pixel parabola), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
+and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
+and the matched piece's slopes). Where that differs from the feature's disparity by more than
+``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
+and pieces turning steeply in depth give no verdict: the feature is kept.
+Measured on 60 scenes and seeds 260-291: docs/localize-featurecheck.md.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from appliance.localize import kernels
+from appliance.localize.texture import surface_to_axis
+
+TIP_BACK = 1.0               # a tip's patches start this many radii back along its branch
+FORK_CLEAR = 1.2             # a fork's this many x its other pieces' largest radius out (clear of them)
+REACH_RADII = 3.0            # ... and span this many radii of the piece
+MIN_SPAN_PX, MAX_SPAN_PX = 20.0, 40.0    # ... but at least / at most this many px
+STEP_RADII = 0.75            # one patch every this many radii
+MIN_STEP_PX, MAX_STEP_PX = 3.0, 8.0
+MIN_REACH_PX = 4.0           # patches start at least this far from the feature
+WINDOW_PX = 8                # each patch searched within +-this of the feature's disparity ...
+MAX_SLOPE = 0.1              # ... widened by this many px per px from the feature
+MIN_SCORE = 0.7              # a patch matched with a lower correlation gives no verdict
+MIN_STD = 2.0                # a patch with a lower grey-level standard deviation has no texture
+MIN_PATCHES = 2              # a piece with fewer confident patches gives no verdict
+MAX_PIECE_SLOPE = 0.12       # a piece whose disparity changes faster (px per px) gives no verdict
+MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing within twice this (px): an estimate
+FIT_MIN_PATCHES = 3          # the texture's own line: at least this many patches ...
+FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
+FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
+
+
+@dataclass(frozen=True)
+class FeatureCheck:
+    """One feature's texture check.
+
+    Attributes
+    ----------
+    node : int
+        The feature's graph node.
+    d_px : float
+        The feature's (matched) disparity.
+    d_check_px : float
+        The texture's disparity carried to the feature (:func:`estimate`; NaN: no verdict).
+    n_patches : int
+        Confident patches of the pieces that gave an estimate.
+    spread_px : float
+        The largest spread (max - min, px) of a piece's patches carried along its slope.
+    withheld : bool
+        ``|d_check_px - d_px| > max_diff_px``.
+    """
+
+    node: int
+    d_px: float
+    d_check_px: float
+    n_patches: int
+    spread_px: float
+    withheld: bool
+
+    @property
+    def diff_px(self) -> float:
+        """Texture minus feature disparity (NaN: no verdict)."""
+        return self.d_check_px - self.d_px
+
+
+def _patch_size(radius_px: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Half heights, half widths (px) (K,) int of patches inside branches of ``radius_px`` (K,) running along
+    (``du``, ``dv``) (K,) (unit), and their half extents across the branch (K,) px: long along the rows on
+    a flat branch (< 30 deg), narrow across a steep one (> 60 deg), a square inside the branch otherwise."""
+    r = np.maximum(radius_px, 1.0)
+    a = np.abs(dv)                                           # sine of the angle to the rows
+    flat, steep = a < 0.5, a > 0.87
+    sq = np.clip(np.rint(0.45 * r), 2, 6)
+    hh = np.where(flat, np.clip(np.floor(0.6 * r), 1, 7), np.where(steep, 4, sq)).astype(np.int64)
+    hw = np.where(flat, 7, np.where(steep, np.clip(np.rint(0.6 * r), 2, 7), sq)).astype(np.int64)
+    return hh, hw, hh * np.abs(du) + hw * a                  # (the box's half extent across the axis)
+
+
+def check_features(features: list, pieces: list, left, right, left_mask: np.ndarray,
+                   d_range_px: tuple[float, float], f_px: float, offset_px: float = 0.0,
+                   max_diff_px: float = 1.6) -> list[FeatureCheck]:
+    """The texture check of every feature (see module docstring).
+
+    Parameters
+    ----------
+    features : list of matching.FeatureUVD
+        Matched features (rectified left (u, v), disparity d, radius px).
+    pieces : list of matching.PieceUVD
+        Matched branch pieces; a feature's patches lie on the (not recovered) pieces ending at its node.
+    left, right : ndarray (H, W) uint8 or lazy rectified images
+        Rectified grey images (read in small boxes: ``img[y0:y1, x0:x1]``).
+    left_mask : ndarray (H, W) uint8
+        Left branch coverage 0-255; a patch must lie where it is >= 128 (corners, edge midpoints, centre).
+    d_range_px : (float, float)
+        Disparities of the working range (patches are searched within them).
+    f_px, offset_px : float
+        Rectified focal length and ``cx_left - cx_right``.
+    max_diff_px : float
+        A feature whose texture disparity differs by more is withheld.
+
+    Returns
+    -------
+    list of FeatureCheck
+        One per feature, in order.
+    """
+    t = patch_table(features, pieces, left, right, left_mask, d_range_px, f_px, offset_px)
+    d_px = np.array([ft.d for ft in features], float)
+    d_check, n, spread = estimate(t, d_px)
+    withheld = np.abs(d_check - d_px) > max_diff_px                    # (NaN: False)
+    return [FeatureCheck(int(ft.node), float(d_px[i]), float(d_check[i]), int(n[i]), float(spread[i]),
+                         bool(withheld[i])) for i, ft in enumerate(features)]
+
+
+def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray, d_range_px, f_px: float,
+                offset_px: float) -> dict:
+    """Every feature's patches and their texture disparity: the arrays (P,) of :func:`_patches` (``feature``,
+    ``piece``, ``s`` px from the feature along the piece, ``u``, ``v``, ...) and ``score`` (the correlation)
+    and ``d_axis`` (the patch's texture disparity moved onto the axis; NaN: none)."""
+    t = _patches(features, pieces, left_mask)
+    w = left_mask.shape[1]
+    d_surf, t["score"] = patch_disparities(left, right, t, d_range_px, w)
+    frac = patch_depth_fraction_many(t["r"], t["across"])
+    t["d_axis"] = surface_to_axis(d_surf, t["r"], f_px, offset_px, frac)
+    return t
+
+
+def patch_depth_fraction_many(radius_px: np.ndarray, across_px: np.ndarray) -> np.ndarray:
+    """:func:`texture.patch_depth_fraction` of patches (P,) spanning +-``across_px`` across branches of
+    ``radius_px``: the mean of sqrt(1 - (y / r)^2) over whole-px offsets y."""
+    k = np.maximum(np.asarray(across_px, float).astype(int), 1)
+    if len(k) == 0:
+        return np.zeros(0)
+    y = np.arange(-k.max(), k.max() + 1, dtype=float)
+    inside = np.abs(y)[None, :] <= k[:, None]
+    t = y[None, :] / np.maximum(radius_px, 1e-9)[:, None]
+    val = np.sqrt(np.clip(1.0 - t * t, 0.0, None))
+    return (val * inside).sum(1) / inside.sum(1)
+
+
+def _pairs(fa: np.ndarray, pieces: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every feature and (not recovered) piece ending at its node: feature index (K,), piece index (K,)
+    (by feature, then piece), and the largest radius of the feature's other pieces (K,) px (the feature's own
+    radius where it has no other). ``fa`` (F, 6): each feature's node, u, v, d, radius px, fork (1/0)."""
+    pa = np.array([(p.nodes[0], p.nodes[1], p.radius_px, not p.recovered and len(p.uvd) >= 2
+                    and math.isfinite(p.radius_px)) for p in pieces], float).reshape(-1, 4)
+    match = ((fa[:, :1] == pa[None, :, 0]) | (fa[:, :1] == pa[None, :, 1])) & (pa[None, :, 3] > 0)
+    fi, pj = np.nonzero(match)
+    if len(fi) == 0:
+        return fi, pj, np.zeros(0)
+    radius = np.where(match, pa[None, :, 2], -np.inf)                 # (F, P)
+    top = radius.argmax(1)
+    first = radius[np.arange(len(fa)), top]
+    radius[np.arange(len(fa)), top] = -np.inf
+    second = radius.max(1)
+    r_other = np.where(pj == top[fi], second[fi], first[fi])
+    return fi, pj, np.where(np.isfinite(r_other), r_other, fa[fi, 4])
+
+
+def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
+    """Every feature's patches along its pieces, all at once: a dict of arrays (P,) ``feature``, ``piece``,
+    ``s`` (px from the feature along the piece), ``u``, ``v`` (int centre), ``d_ref`` (the disparity searched
+    around: the feature's), ``hh``, ``hw`` (int half height, width), ``across`` (half extent across the axis,
+    px), ``r`` (the piece's radius px), ``slope`` (the piece's disparity slope over the patches' reach, px per
+    px, away from the feature). A fork's patches start clear of its other pieces' silhouettes
+    (``FORK_CLEAR`` x their largest radius), a tip's ``TIP_BACK`` radius back; patches inside the image and
+    the left mask only; pieces turning steeply in depth (``|slope| > MAX_PIECE_SLOPE``) or too short give none."""
+    fa = np.array([(ft.node, ft.u, ft.v, ft.d, ft.radius_px, ft.kind == "bifurcation") for ft in features],
+                  float).reshape(-1, 6)
+    fi, pj, r_other = _pairs(fa, pieces)
+    cols = ("feature", "piece", "s", "u", "v", "d_ref", "hh", "hw", "across", "r", "slope")
+    if len(fi) == 0:
+        return {c: np.zeros(0, np.int64 if c in ("feature", "piece", "u", "v", "hh", "hw") else float) for c in cols}
+    used = np.unique(pj)
+    # the used pieces' samples end to end, each piece's arc length from its first sample, pieces BIG px apart
+    uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)
+    n = np.array([len(pieces[j].uvd) for j in used.tolist()])
+    first = np.r_[0, np.cumsum(n)[:-1]]
+    step = np.r_[0.0, np.hypot(np.diff(uvd[:, 0]), np.diff(uvd[:, 1]))]
+    step[first] = 0.0
+    arc = np.cumsum(step)
+    arc -= np.repeat(arc[first], n)
+    length = arc[first + n - 1]
+    big = float(length.max()) + 10.0
+    x = arc + np.repeat(np.arange(len(used)) * big, n)          # (increasing over all pieces)
+    k = np.searchsorted(used, pj)                               # each pair's piece among the used
+    ft_uv = fa[fi, 1:3]
+    a, z = uvd[first[k], :2], uvd[first[k] + n[k] - 1, :2]
+    from_end = np.hypot(*(z - ft_uv).T) < np.hypot(*(a - ft_uv).T)     # the feature at the piece's last sample
+    r = np.maximum(np.array([pieces[j].radius_px for j in pj.tolist()], float), 1.0)
+    fork = fa[fi, 5] > 0
+    s0 = np.maximum(np.where(fork, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
+    s1 = np.minimum(s0 + np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX), length[k])
+    dstep = np.clip(STEP_RADII * r, MIN_STEP_PX, MAX_STEP_PX)
+
+    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (within the piece);
+    # the patches at s0, s0 + step, ... up to s1, and 1 px either side of them (their direction)
+    lo = np.maximum(s0 - r, 0.0)
+    hi = np.minimum(np.maximum(s1, s0 + MIN_SPAN_PX), length[k])
+    qs = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+    m = int(MAX_SPAN_PX // MIN_STEP_PX) + 1
+    q = s0[:, None] + dstep[:, None] * np.arange(m)[None, :]
+    arcs = np.concatenate([qs, q, q + 1.0, q - 1.0], axis=1)      # (pairs, 9 + 3 m) px from the feature's end
+    lk = length[k][:, None]
+    xq = np.clip(np.where(from_end[:, None], lk - arcs, arcs), 0.0, lk) + (k * big)[:, None]
+    dq = np.interp(xq[:, :9], x, uvd[:, 2])
+    iu, iv = np.interp(xq[:, 9:], x, uvd[:, 0]), np.interp(xq[:, 9:], x, uvd[:, 1])
+    qc = qs - qs.mean(1, keepdims=True)
+    slope = (qc * (dq - dq.mean(1, keepdims=True))).sum(1) / np.maximum((qc * qc).sum(1), 1e-9)
+    ok_pair = (s1 >= s0) & (hi - lo >= 2.0) & (np.abs(slope) <= MAX_PIECE_SLOPE)
+    valid = ok_pair[:, None] & (q <= s1[:, None] + 1e-9)
+    pu, pv = iu[:, :m], iv[:, :m]
+    du, dv = iu[:, m:2 * m] - iu[:, 2 * m:], iv[:, m:2 * m] - iv[:, 2 * m:]
+    pair, col = np.nonzero(valid)
+    ln = np.maximum(np.hypot(du, dv), 1e-9)[pair, col]
+    rr = r[pair]
+    hh, hw, across = _patch_size(rr, du[pair, col] / ln, dv[pair, col] / ln)
+    ui, vi = np.rint(pu[pair, col]).astype(np.int64), np.rint(pv[pair, col]).astype(np.int64)
+    h, w = left_mask.shape
+    keep = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
+    # inside the branch (not a leaf, not the background): the box's corners, edge midpoints and centre
+    yy = np.clip(vi[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1]) * hh[:, None], 0, h - 1)
+    xx = np.clip(ui[:, None] + np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1]) * hw[:, None], 0, w - 1)
+    keep &= (left_mask[yy, xx] >= 128).all(1)
+    pair, col = pair[keep], col[keep]
+    d_feat = fa[fi, 3]
+    return {"feature": fi[pair], "piece": pj[pair], "s": q[pair, col], "u": ui[keep], "v": vi[keep],
+            "d_ref": d_feat[pair], "hh": hh[keep], "hw": hw[keep], "across": across[keep], "r": rr[keep],
+            "slope": slope[pair]}
+
+
+def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel disparity (P,) of the bark surface of each patch of the table ``t`` (:func:`patch_table`'s
+    columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``; rows grouped by feature; NaN: no
+    texture, or the peak at the window's end) within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``)
+    (and the working range), and its correlation (P,) (:func:`kernels.ncc_peaks`: one call per feature and
+    patch width; each feature's patches read in one box of each image)."""
+    n = len(t["u"])
+    d_out, score = np.full(n, np.nan), np.full(n, -1.0)
+    if n == 0:
+        return d_out, score
+    u, v, hh, hw, f = t["u"], t["v"], t["hh"], t["hw"], t["feature"]
+    half = WINDOW_PX + MAX_SLOPE * t["s"]
+    lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
+    hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
+    sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
+    fs = np.r_[0, np.flatnonzero(np.diff(f)) + 1]
+    boxes = np.column_stack([np.minimum.reduceat(v - hh, fs), np.maximum.reduceat(v + hh, fs) + 1,
+                             np.minimum.reduceat(u - hw, fs), np.maximum.reduceat(u + hw, fs) + 1,
+                             np.minimum.reduceat(sx0, fs), np.maximum.reduceat(sx1, fs)])
+    order = np.lexsort((hw, f))                                      # (by feature, then patch width)
+    key = f[order] * 64 + hw[order]
+    gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
+    ge = np.r_[gs[1:], n]
+    box_of = np.searchsorted(fs, order[gs], side="right") - 1       # each group's feature's box
+    ok, ks, offs = np.zeros(n, bool), np.zeros(n, np.int64), np.zeros(n)
+    last = -1
+    for a, b, kb in zip(gs.tolist(), ge.tolist(), box_of.tolist()):
+        y0, y1, lx0, lx1, rx0, rx1 = boxes[kb].tolist()
+        if kb != last:
+            lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
+            rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
+            last = kb
+        i = order[a:b]
+        ok[i], ks[i], offs[i], score[i] = kernels.ncc_peaks(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], int(hw[i[0]]),
+                                                            sx0[i] - rx0, sx1[i] - rx0, MIN_STD)
+    found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
+    d_out[found] = (u - (sx0 + ks + offs + hw))[found]
+    score[~found] = -1.0
+    return d_out, score
+
+
+def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The texture's disparity at each feature from the patch table ``t`` (:func:`patch_table`; rows grouped
+    by feature, then piece) and the features' disparities ``d_px`` (F,).
+
+    A piece's confident patches (``score >= MIN_SCORE``, at least ``MIN_PATCHES``) are carried to the feature
+    along a slope. Where they lie on a straight line of their own (at least ``FIT_MIN_PATCHES`` spanning
+    ``FIT_MIN_SPAN_PX``, none off it by more than ``FIT_MAX_RES_PX``, its slope within ``MAX_PIECE_SLOPE``)
+    the slope is the texture's or the matched piece's: the two lines through the patches' centroid bound
+    the piece's estimate at the feature, and the bound nearer the feature's disparity counts (none when
+    the feature's lies between them). Otherwise they are carried along the piece's slope and their mean
+    counts when they agree within ``2 MAX_SPREAD_PX``. The feature's estimate is the piece estimate
+    nearest its disparity when all lie on one side of it, its own disparity (agreement) when they
+    straddle it: the least alarming reading of the texture.
+
+    Returns
+    -------
+    d_check, n, spread : ndarray (F,)
+        The estimate (NaN: no verdict), the confident patches of the pieces that gave one (int), and the
+        largest spread (max - min, px) of their values carried along the pieces' slopes.
+    """
+    nf = len(d_px)
+    d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
+    good = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
+    if not good.any():
+        return d_check, n_used, spread
+    f, p, s, d, g = (t[c][good] for c in ("feature", "piece", "s", "d_axis", "slope"))
+    key = f * (int(p.max()) + 1) + p
+    starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
+    cnt = np.diff(np.r_[starts, len(key)])
+    grp = np.repeat(np.arange(len(starts)), cnt)
+    fg = f[starts]                                           # each group's feature
+    # carried along the piece's slope
+    e = d - g * s
+    e_lo, e_hi = np.minimum.reduceat(e, starts), np.maximum.reduceat(e, starts)
+    carry = np.where((cnt >= MIN_PATCHES) & (e_hi - e_lo <= 2 * MAX_SPREAD_PX), np.add.reduceat(e, starts) / cnt,
+                     np.nan)
+    # the texture's own straight line
+    s1, s2 = np.add.reduceat(s, starts), np.add.reduceat(s * s, starts)
+    y1, sy = np.add.reduceat(d, starts), np.add.reduceat(s * d, starts)
+    den = cnt * s2 - s1 * s1
+    b = (cnt * sy - s1 * y1) / np.where(den > 0, den, 1.0)
+    a0 = (y1 - b * s1) / cnt
+    res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
+    span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
+    line = (cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX) & (np.abs(b) <= MAX_PIECE_SLOPE)
+    # on the texture's line the slope is the texture's or the piece's: the intercepts of both lines through the
+    # patches' centroid bound the estimate; the bound nearer the feature's disparity counts (0 between them)
+    a_piece = (y1 - g[starts] * s1) / cnt
+    lo_b, hi_b = np.minimum(a0, a_piece) - d_px[fg], np.maximum(a0, a_piece) - d_px[fg]
+    on_line = np.where(lo_b > 0, lo_b, np.where(hi_b < 0, hi_b, 0.0))
+    diff = np.where(line, on_line, carry - d_px[fg])                 # (NaN: neither)
+    ok = np.isfinite(diff)
+    if not ok.any():
+        return d_check, n_used, spread
+    fg, diff, cnt, ext = fg[ok], diff[ok], cnt[ok], (e_hi - e_lo)[ok]
+    fs = np.r_[0, np.flatnonzero(np.diff(fg)) + 1]
+    lo, hi = np.minimum.reduceat(diff, fs), np.maximum.reduceat(diff, fs)
+    fi = fg[fs]
+    d_check[fi] = d_px[fi] + np.where(lo > 0, lo, np.where(hi < 0, hi, 0.0))
+    n_used[fi] = np.add.reduceat(cnt, fs)
+    spread[fi] = np.maximum.reduceat(ext, fs)
+    return d_check, n_used, spread

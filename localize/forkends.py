@@ -50,6 +50,10 @@ SIDES_WEIGHT_PX = 0.5
 # 273's fork: +3.3 and +1.6 px, the weighted mean +2.9 px, 17 mm)
 SIDES_CONFLICT_WITHHELD = True
 SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the nearest this close to the fork)
+# ... and so is a fork whose one steep parent side is carried past what its span vouches for (_reach > 0),
+# its own rows next to the fork not read, with no child curve to confirm it (seed 264's fork, colour
+# masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
+LONE_SIDE_WITHHELD = True
 
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
@@ -294,6 +298,9 @@ class ForkPlacing:
             # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
             self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
+            agree = False
+        if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
+                and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:
             agree = False
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the

@@ -43,6 +43,18 @@ FLAT_TAPER = True
 SIDES_WEIGHTED = True
 SIDES_WEIGHT_PX = 0.5
 
+# a fork whose two steep parent sides are both known there from their own rows (their fitted spans
+# reach it, or forkdisp.side_disparity_near read rows next to it) yet are not of one branch there
+# (_agree) is withheld: one side's crossings next to the fork are not the parent's alone in one view
+# (a one-sided occluder trimming its outline, the crotch widening it) and nothing tells which (seed
+# 273's fork: +3.3 and +1.6 px, the weighted mean +2.9 px, 17 mm)
+SIDES_CONFLICT_WITHHELD = True
+SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the nearest this close to the fork)
+# ... and so is a fork whose one steep parent side is carried past what its span vouches for (_reach > 0),
+# its own rows next to the fork not read, with no child curve to confirm it (seed 264's fork, colour
+# masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
+LONE_SIDE_WITHHELD = True
+
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
 # the nearer side); the outline within 1 px of the parent's confirms the fork
@@ -285,12 +297,29 @@ class ForkPlacing:
             # the two steep sides disagree beyond their rows' noise (the checks above took their mean):
             # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
             self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
+        if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
+            agree = False
+        if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
+                and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:
+            agree = False
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _sides_conflict(self, parents: list, xy: np.ndarray, d_par: list, side_near: dict) -> bool:
+        """Whether a fork's two steep parent sides, both known at ``xy`` (2,) from their own rows there,
+        give disparities ``d_par`` (two, px) that are not of one branch (:func:`_agree`): no carry to
+        blame, one side's rows next to the fork are another shape's in one view, and nothing tells
+        which. A side is known there when read from its crossings within ``SIDE_KNOWN_PX`` of the fork
+        (``side_near``: {piece: :class:`forkdisp.SideNear`}) or, not read, when its fitted span reaches
+        it (:meth:`_reach` <= 0)."""
+        if len(parents) != 2 or len(d_par) != 2 or _agree(d_par[0], d_par[1]):
+            return False
+        return all(self.curves[s].by_row and (side_near[s].nearest_px <= SIDE_KNOWN_PX if s in side_near
+                                              else self._reach(s, xy) <= 0) for s in parents)
 
     def _radius_at_fork(self, parents: list, xy: np.ndarray) -> float | None:
         """The parent's radius (px) at the fork ``xy`` (2,) from its two sides' (each its span's mean,

@@ -90,9 +90,12 @@ def bark_lookup(px, width, lut, tiles, tile_px, out):
             x0 = t0 * tile_px
             x1 = w if tx == tw else min(tx * tile_px, w)
             for y in range(y0, y1):
-                for i in range(y * w + x0, y * w + x1):
-                    k = (np.uint32(px[3 * i]) << 16) | (np.uint32(px[3 * i + 1]) << 8) | np.uint32(px[3 * i + 2])
-                    out[i] = np.uint8(0) - ((lut[k >> 3] >> (k & 7)) & one)
+                # (slices read from 0: numba then knows the indices are not negative, ~1.5x faster)
+                src = px[3 * (y * w + x0):3 * (y * w + x1)]
+                dst = out[y * w + x0:y * w + x1]
+                for i in range(len(dst)):
+                    k = (np.uint32(src[3 * i]) << 16) | (np.uint32(src[3 * i + 1]) << 8) | np.uint32(src[3 * i + 2])
+                    dst[i] = np.uint8(0) - ((lut[k >> 3] >> (k & 7)) & one)
     return out
 
 

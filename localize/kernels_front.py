@@ -4,11 +4,12 @@
 values of ``kernels.bark_tiles`` (OpenCV's HSV thresholds) at about half its cost: the pixels of a
 run of flagged tiles are read as one flat run per image row.
 
-:func:`distance_near` is the radius map's Euclidean distance transform: the same values as
-OpenCV's precise one (``cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)``) on
-branch masks, bit for bit on the fixtures' and the 60 scenes' masks (both are the square root of
-the exact squared distance as float32; OpenCV's may differ from the correctly rounded root by one
-unit in the last place, ~4e-6 px). Tests: tests/localize/test_kernels_speed02.py.
+:func:`distance_near` is the radius map's Euclidean distance transform, OpenCV's precise one
+(``cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)``) at ~1/7 of its cost on branch
+masks: the correctly rounded float32 root of the exact squared distance. OpenCV's (IPP's with one
+thread) is that value or one unit in the last place off (~1e-6 px), and not always the same from
+one call to the next; on the fixtures' masks they agree bit for bit, and the 60 scenes' results are
+unchanged. Tests: tests/localize/test_kernels_speed02.py.
 """
 
 from __future__ import annotations

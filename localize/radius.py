@@ -37,8 +37,9 @@ def ridge_radius_map(mask: np.ndarray, window_px: int = 1, scale: int = 1) -> Ra
     way between a branch pixel and a background pixel), max-filtered over
     ``window_px`` so points a little off the ridge (a coarse skeleton) read the ridge.
     ``mask`` may be a ``scale`` times smaller mask (then the radius is only good to
-    about ``scale / 2`` px). The distances are OpenCV's precise ones (``DIST_MASK_PRECISE``),
-    computed near the branches only (:func:`kernels_front.distance_near`) on mostly empty masks.
+    about ``scale / 2`` px). The distances are those of OpenCV's precise transform
+    (``DIST_MASK_PRECISE``: exact, up to the root's last bit), computed near the branches only
+    (:func:`kernels_front.distance_near`) on mostly empty masks.
     """
     m = binary(mask)
     if cv2.countNonZero(m) <= NEAR_MAX_SHARE * m.size:

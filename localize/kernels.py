@@ -994,6 +994,8 @@ def warm_up() -> None:
     kernels_forks.warm_up()
     from appliance.localize import kernels_dense     # (its own module: it imports this one)
     kernels_dense.warm_up()
+    from appliance.localize import kernels_front     # (the front stages' kernels, speed02: imports this one)
+    kernels_front.warm_up()
 
 
 # --- match stage (speedm)

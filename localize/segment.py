@@ -13,13 +13,13 @@ from types import SimpleNamespace
 import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_front
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 _K3 = np.ones((3, 3), np.uint8)
-FULL_SHARE = 0.6               # bark_mask: above this share of tiles to test, the whole image in one call
+FULL_SHARE = 0.6               # bark_mask: above this share of tiles to test, the whole image (rows whole)
 _MIN_SIN2 = 0.05 ** 2          # unmix_edges: background and bark chromaticities at least ~3 deg apart
 
 
@@ -116,9 +116,12 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     bottom (right) edge below (right of) the last sampled row (column), which the clean-up keeps if
     its area reaches ``min_area_px`` (a strip 3 px wide and ~130 px long). The fixture scenes and the
     28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The tiles' pixels are
-    tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels.bark_tiles`), so small
-    tiles cost no calls: 16 px tiles cover ~21 % of fixture 00's image (32 px: 35 %), ~0.6 against
-    ~1.2 ms per 1280x960 image for 32 px tiles converted by OpenCV one run of tiles at a time.
+    tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels_front.bark_lookup`, one
+    run of pixels per image row and run of tiles), so small tiles cost no calls: 16 px tiles cover
+    ~21 % of fixture 00's image (32 px: 35 %), ~0.2 ms against ~1.6 ms per 1280x960 image for
+    OpenCV's conversion and thresholds of the whole image. Where most tiles are flagged (a
+    background speckled with bark-coloured pixels: fixture 03's grass) the whole image is looked up
+    (~0.75 ms).
 
     ``small``: the sample, :func:`sample_nearest` (``bgr``, ``sample``), when already taken.
     """
@@ -138,9 +141,10 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     n_tiles = cv2.countNonZero(tiles)
     if n_tiles == 0:
         return out
-    if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: in one call
-        return _hsv_threshold(bgr, cfg, dst=out)
-    kernels.bark_tiles(bgr, bark_lut(cfg), tiles, tile_px, out)          # (compiled: no call per tile)
+    if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
+        tiles = np.ones((1, 1), np.uint8)
+    kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, bark_lut(cfg), tiles, tile_px,
+                              out.reshape(-1))                   # (compiled: no call per tile)
     return out
 
 

@@ -1,0 +1,154 @@
+"""The front stages' kernels (localize/kernels_front.py, speed02) against the OpenCV calls they replace."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+from appliance.commands.common import effective_config
+from appliance.localize import kernels, kernels_front
+from appliance.localize.radius import NEAR_MAX_SHARE, ridge_radius_map
+from appliance.localize.segment import _hsv_threshold, bark_lut, bark_mask, segment_mask
+from appliance.localize.skeleton import binary, skeletonize
+
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+
+
+def _cv_distance(mask: np.ndarray) -> np.ndarray:
+    """What ridge_radius_map took before (OpenCV's square roots can be one unit in the last place
+    off, and differ with the mask's non-zero value: the masks are made 0/1 first, as there)."""
+    return cv2.distanceTransform(binary(mask), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def _exact(ref: np.ndarray) -> np.ndarray:
+    """The correctly rounded float32 roots of OpenCV's squared distances (integers)."""
+    return np.sqrt(np.rint(ref.astype(np.float64) ** 2)).astype(np.float32)
+
+
+def _near(mask: np.ndarray) -> np.ndarray:
+    return kernels_front.distance_near(mask, np.empty(mask.shape, np.float32))
+
+
+def test_distance_near_is_opencvs_on_the_fixtures_masks():
+    """The skeleton's 4x smaller masks of the four fixture pairs (the radius map's input): the exact
+    distances bit for bit, OpenCV's to its last bit (with one OpenCV thread its IPP transform may
+    return a root one ulp off, not the same on every call)."""
+    cfg = effective_config(None).localize.segment
+    for n in range(4):
+        for side in ("left", "right"):
+            bgr = cv2.imread(str(FIXTURES / f"{side}_{n:02d}.png"))
+            small = skeletonize(segment_mask(bgr, cfg), "fast", 4).mask
+            assert 0 < cv2.countNonZero(small) <= NEAR_MAX_SHARE * small.size
+            ref = _cv_distance(small)
+            np.testing.assert_array_equal(_near(small), _exact(ref))
+            np.testing.assert_allclose(_near(small), ref, rtol=2e-7, atol=0)
+            assert ref.max() > 5.0
+
+
+def test_distance_near_constructed_shapes():
+    """Thick lines, discs, a disc cut by the image's corner (outside is not zero), a single pixel,
+    a column without a zero pixel: OpenCV's distances to rounding (atol 1e-5 px), the exact ones bit
+    for bit."""
+    img = np.zeros((90, 130), np.uint8)
+    cv2.line(img, (5, 80), (120, 10), 255, 9)
+    cv2.line(img, (0, 45), (129, 50), 255, 3)
+    cv2.circle(img, (30, 30), 14, 255, -1)
+    cv2.circle(img, (125, 85), 12, 255, -1)                 # cut by the bottom-right corner
+    img[:, 70] = 255                                        # a column without a zero
+    img[2, 100] = 255
+    ref = _cv_distance(img)
+    np.testing.assert_allclose(_near(img), ref, rtol=0, atol=1e-5)
+    np.testing.assert_array_equal(_near(img), _exact(ref))
+    assert _near(img)[2, 100] == 1.0 and _near(img)[89, 129] > 3.0
+    np.testing.assert_array_equal(_near(np.zeros((3, 4), np.uint8)), np.zeros((3, 4), np.float32))
+    one = np.zeros((1, 9), np.uint8)
+    one[0, 3:7] = 1
+    np.testing.assert_array_equal(_near(one), np.array([[0, 0, 0, 1, 2, 2, 1, 0, 0]], np.float32))
+
+
+def test_distance_near_random_masks():
+    """Random masks from sparse to nearly full (at least one zero pixel): OpenCV's values to rounding
+    (its square root may be one unit in the last place off: atol 1e-5 px); the exact distances (the
+    squared ones are integers) bit for bit."""
+    rng = np.random.default_rng(2)
+    for t in range(150):
+        h, w = (int(v) for v in rng.integers(1, 80, 2))
+        m = (rng.random((h, w)) < rng.choice([0.02, 0.3, 0.7, 0.95])).astype(np.uint8) * 255
+        if t % 2:
+            m = cv2.dilate(m, np.ones((5, 5), np.uint8))
+        m.flat[rng.integers(m.size)] = 0
+        ref = _cv_distance(m)
+        got = _near(m)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-5)
+        np.testing.assert_array_equal(got, _exact(ref))
+
+
+def test_ridge_radius_map_full_masks_take_opencvs_path():
+    """A mask fuller than NEAR_MAX_SHARE (and one without any zero pixel) goes to OpenCV: its map (to
+    rounding: OpenCV's precise distances differ by an ulp from one call to the next)."""
+    full = np.full((40, 50), 255, np.uint8)
+    full[20, 25] = 0
+    ref = cv2.max(cv2.subtract(_cv_distance(full), 0.5), 0.0)
+    np.testing.assert_allclose(ridge_radius_map(full).image, ref, rtol=1e-6, atol=0)
+    ones = np.full((10, 12), 255, np.uint8)
+    ref = cv2.max(cv2.subtract(_cv_distance(ones), 0.5), 0.0)
+    assert ref.min() > 1e6                                  # (no zero pixel: OpenCV's "far")
+    np.testing.assert_allclose(ridge_radius_map(ones).image, ref, rtol=1e-6, atol=0)
+
+
+def test_ridge_radius_map_branch_mask():
+    """The radius map of a 4x smaller branch mask (window 3, scale 4), as the localizer takes it: the
+    distances less half a pixel, max-filtered, times the scale."""
+    img = np.zeros((60, 80), np.uint8)
+    cv2.line(img, (5, 50), (75, 8), 255, 7)
+    ref = cv2.max(cv2.subtract(cv2.dilate(_cv_distance(img), np.ones((3, 3), np.uint8)), 0.5), 0.0) * np.float32(4)
+    got = ridge_radius_map(img, 3, 4)
+    assert got.scale == 4 and got.image.dtype == np.float32
+    np.testing.assert_allclose(got.image, ref, rtol=0, atol=4e-5)
+    assert 10.0 < got.image.max() < 16.0                    # (7 px wide: radius ~3.5 small px)
+
+
+def _lookup(img: np.ndarray, lut: np.ndarray, tiles: np.ndarray, tile_px: int, fill: int = 7) -> np.ndarray:
+    out = np.full(img.shape[:2], fill, np.uint8)
+    kernels_front.bark_lookup(np.ascontiguousarray(img).reshape(-1), img.shape[1], lut, tiles, tile_px, out.reshape(-1))
+    return out
+
+
+def test_bark_lookup_is_bark_tiles():
+    """bark_lookup against the kernel it replaces (kernels.bark_tiles) for random tile flags (runs of
+    tiles, single tiles, the last row and column reaching the image's edges), tile sizes and hue
+    ranges (wrapping through red, not wrapping), on random and smooth colours: bit for bit, pixels
+    outside the flagged tiles untouched."""
+    base = effective_config(None).localize.segment
+    rng = np.random.default_rng(7)
+    img = rng.integers(0, 256, (75, 101, 3), np.uint8)
+    img[:40] = cv2.GaussianBlur(img[:40], (0, 0), 3)
+    for hues, tile_px, p in (((base.hue_min, base.hue_max), 16, 0.5), ((5, 40), 8, 0.3), ((base.hue_min, base.hue_max),
+                                                                                          32, 0.9)):
+        lut = bark_lut(replace(base, hue_min=hues[0], hue_max=hues[1]))
+        tiles = (rng.random((-(-75 // tile_px), -(-101 // tile_px))) < p).astype(np.uint8) * 255
+        want = kernels.bark_tiles(img, lut, tiles, tile_px, np.full(img.shape[:2], 7, np.uint8))
+        got = _lookup(img, lut, tiles, tile_px)
+        np.testing.assert_array_equal(got, want)
+        assert (got == 7).any() and (got == 255).any() and (got == 0).any()
+    small_tiles = np.ones((2, 3), np.uint8)                     # (fewer tiles than the image: the last reach its edges)
+    np.testing.assert_array_equal(_lookup(img, lut, small_tiles, 16),
+                                  kernels.bark_tiles(img, lut, small_tiles, 16, np.full(img.shape[:2], 7, np.uint8)))
+
+
+def test_bark_mask_is_opencvs_test_where_flagged():
+    """bark_mask through bark_lookup: on a fixture (tiles) and a speckled image (the whole image,
+    FULL_SHARE), OpenCV's HSV thresholds (_hsv_threshold) wherever it tests, everywhere on the speckled one."""
+    cfg = effective_config(None).localize.segment
+    bgr = cv2.imread(str(FIXTURES / "left_00.png"))
+    got, want = bark_mask(bgr, cfg), _hsv_threshold(bgr, cfg)
+    assert cv2.countNonZero(got) > 0.9 * cv2.countNonZero(want)
+    assert not (got & ~want).any()                              # (tested pixels exact; the rest 0)
+    rng = np.random.default_rng(3)
+    speckled = np.where(rng.random((96, 128, 1)) < 0.3, np.uint8([40, 60, 90]), np.uint8([40, 200, 90]))
+    speckled = np.ascontiguousarray(speckled.astype(np.uint8))
+    want = _hsv_threshold(speckled, cfg)
+    assert 0 < cv2.countNonZero(want) < want.size
+    np.testing.assert_array_equal(bark_mask(speckled, cfg), want)

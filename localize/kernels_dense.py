@@ -1025,14 +1025,21 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     lost = np.zeros(ng, np.bool_)
     if occl_tol_px >= 0:
         keep, degree, lost = width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, occl_tol_px, occl_share)
-        if not keep.all():
+        if lost.any():                  # those pieces' models refitted without the dropped picks
             chosen = chosen[keep]
-            c = len(chosen)
-            tq, dq = np.empty(c), np.empty(c)
-            for j in range(c):
-                tq[j], dq[j] = t[q[chosen[j]]], cd[chosen[j]]
-            starts = np.searchsorted(gq[chosen], np.arange(ng + 1))
-            coef, t0, ts, _, inl = robust_fit_groups(tq, dq, starts, degree, np.full(ng, 3, np.int64), 3.5)
+            relo = np.flatnonzero(lost)
+            sub = np.flatnonzero(lost[gq[chosen]])
+            tq, dq = np.empty(len(sub)), np.empty(len(sub))
+            for j in range(len(sub)):
+                tq[j], dq[j] = t[q[chosen[sub[j]]]], cd[chosen[sub[j]]]
+            g_sub = np.searchsorted(relo, gq[chosen[sub]])
+            starts = np.searchsorted(g_sub, np.arange(len(relo) + 1))
+            c2, t02, ts2, _, inl2 = robust_fit_groups(tq, dq, starts, degree[relo], np.full(len(relo), 3, np.int64),
+                                                      3.5)
+            for i in range(len(relo)):
+                coef[relo[i]], t0[relo[i]], ts[relo[i]] = c2[i], t02[i], ts2[i]
+            inl = np.ones(len(chosen), np.bool_)
+            inl[sub] = inl2
             chosen = chosen[inl]
     nc = len(chosen)
     tf, df, cf, wf = np.empty(nc), np.empty(nc), np.empty(nc), np.empty(nc)

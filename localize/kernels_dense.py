@@ -1105,11 +1105,12 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
             ir = irs[side_k, j]
             e_r = edges_r[side_k, max(ir, 0)]
             de2[side_k, j] = e_l - e_r
-            if lost[g_all[idx[j]]]:     # (its single edges carry it: a thick branch's outlines are tangents
-                #   from each camera, +-1.6 px off its axis at r = 34 px, 900 mm)
+            if lost[g_all[idx[j]]]:
+                # (such a piece's single edges carry its occluded rows: a thick branch's outlines are
+                # tangents from each camera, +-1.6 px of disparity off its axis at r = 34 px, 900 mm)
                 de2[side_k, j] = edge_to_axis_one(u[j], e_l - e_r, half[j], side, f_px, cx_px, offset_px)
-            okk[side_k, j] = abs(e_l - (u[j] + side * half[j])) <= 1.0 and ir >= 0 and abs(de2[side_k, j] - d[j]) <= 1.0 \
-                and not (has_taken and taken[max(ir, 0)])
+            okk[side_k, j] = abs(e_l - (u[j] + side * half[j])) <= 1.0 and ir >= 0 \
+                and abs(de2[side_k, j] - d[j]) <= 1.0 and not (has_taken and taken[max(ir, 0)])
     ne = 0
     for side_k in range(2):
         for j in range(nr):

@@ -161,10 +161,11 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     # per row, the candidate nearest the model (twice), the centre line and width fitted to the picks
     # (rows where the branch is partly hidden still show one true edge in both views), and the other
     # rows' single edges (single_edge.edge_samples' steps, moved into the kernel); compiled: the same steps
-    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge = kernels_dense.steep_fit(
+    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge, degree = kernels_dense.steep_fit(
         t, alive, n, np.ascontiguousarray(degree, np.int64), q, rr, cd, cw, gq, c_l, w_l, model.coef, model.t0,
         model.ts, rows_all, il_all, g_all, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
-        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_), kernels_dense.OCCL_TOL_PX,
+        kernels_dense.OCCL_SHARE, float(sm.f_px), 0.5 * (sm.left_mask.shape[1] - 1), float(sm.offset_px))
     if not ok:
         return {}
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from

@@ -876,7 +876,7 @@ def disparity_refit(tf, df, bc, te, de, be, degree):
 
 
 @numba.njit(**_JIT)
-def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share):
+def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share, junction_row):
     """The picks whose left and right crossings are about as wide as the piece's other rows.
 
     A leaf or an apple covering one edge of a branch in one view only leaves that view's run
@@ -885,7 +885,11 @@ def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share):
     a quadratic carrying it 30 rows on to the fork). Both views see the same taper on a row, so
     the right-minus-left width of a piece only drifts slowly (the views' distances to the axis);
     a pick ``tol_px + share * w`` off the piece's median is not a whole crossing. Pieces with fewer
-    than 8 picks, or where fewer than half (or 4) would remain, keep all theirs.
+    than 8 picks, or where fewer than half (or 4) would remain, keep all theirs; so does a piece whose
+    pick nearest one of its junctions would be dropped and lies within one width (rows) of that
+    junction's row: next to a fork the views' silhouettes differ
+    in width anyway (the crotch), and a side shortened there is carried to its fork from rows further
+    off while the fork's other side reads it (seed 273 T9: withheld as a conflict of its sides instead).
 
     Parameters
     ----------
@@ -895,6 +899,8 @@ def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share):
         Candidates' row index into ``t``, right width (px) and piece; ``w_l`` (M,) left widths, px.
     degree : (G,) int64
         The pieces' degrees.
+    junction_row : (G, 2) float
+        The row (px, as ``t``) of each piece's junction ends; NaN where that end is not a junction.
 
     Returns
     -------
@@ -927,7 +933,17 @@ def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share):
             if keep[j]:
                 m += 1
                 lo, hi = min(lo, t[q[chosen[j]]]), max(hi, t[q[chosen[j]]])
-        if m < max(4, 0.5 * (b - a)):
+        at_fork = False
+        for e in range(2):
+            jr = junction_row[k, e]
+            if not np.isnan(jr):
+                jn, dn = a, np.inf
+                for j in range(a, b):
+                    dj = abs(t[q[chosen[j]]] - jr)
+                    if dj < dn:
+                        jn, dn = j, dj
+                at_fork = at_fork or (not keep[jn] and dn <= w_l[q[chosen[jn]]])
+        if m < max(4, 0.5 * (b - a)) or at_fork:
             keep[a:b] = True
         elif m < b - a:
             lost[k] = True
@@ -938,7 +954,7 @@ def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share):
 @numba.njit(**_JIT)
 def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_ts, rows_all, il_all, g_all,
               tab_r, edges_l, edges_r, width, taken, occl_tol_px=-1.0, occl_share=0.0, f_px=1.0, cx_px=0.0,
-              offset_px=0.0):
+              offset_px=0.0, junction_row=np.full((0, 2), np.nan)):
     """``dense.fit_steep_many``'s middle steps: each row's candidate nearest the model, twice (the
     consensus lines, then a robust fit of the picks, 1 round; then 3 rounds), the centre line and the
     width fitted to the picks, and the single-edge samples of the other rows
@@ -965,7 +981,7 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
         occl_share * w`` px (w: the left width) off its piece's median are dropped and the model
         refitted without them (:func:`width_disagree`: an edge hidden in one view only), and those
         pieces' single edges taken to their axis (:func:`edge_to_axis_one`; ``f_px``, ``cx_px``,
-        ``offset_px`` as there); negative: off.
+        ``offset_px`` as there; ``junction_row`` (G, 2): :func:`width_disagree`'s); negative: off.
 
     Returns
     -------
@@ -1024,7 +1040,8 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     chosen = chosen[inl]
     lost = np.zeros(ng, np.bool_)
     if occl_tol_px >= 0:
-        keep, degree, lost = width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, occl_tol_px, occl_share)
+        keep, degree, lost = width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, occl_tol_px, occl_share,
+                                            junction_row)
         if lost.any():                  # those pieces' models refitted without the dropped picks
             chosen = chosen[keep]
             relo = np.flatnonzero(lost)
@@ -1149,4 +1166,4 @@ def warm_up() -> None:
     i1, b1, f4 = np.zeros(1, np.int64), np.ones(1, np.bool_), np.zeros((1, 4))
     for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
         steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken,
-                  OCCL_TOL_PX, OCCL_SHARE, 1000.0, 0.0, 0.0)
+                  OCCL_TOL_PX, OCCL_SHARE, 1000.0, 0.0, 0.0, np.full((1, 2), np.nan))

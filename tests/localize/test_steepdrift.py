@@ -13,6 +13,7 @@ DEPTH_MM = 900.0
 F_PX = 1450.0
 RADIUS_PX = 30.0
 BOUND_PX = 0.4          # the reported disparity along the branch and at its tips, against the truth
+_NO_JUNCTION = np.full((1, 2), np.nan)   # width_disagree: the piece has no junction end
 
 
 def _pair(calib, occluded: bool):
@@ -84,12 +85,12 @@ def test_width_disagree_drops_the_occluded_rows_only():
     q = np.arange(n, dtype=np.int64)
     gq = np.zeros(n, np.int64)
     tol = kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE
-    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol)
+    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol, _NO_JUNCTION)
     np.testing.assert_array_equal(keep, np.abs(cw - w_l) <= tol[0] + tol[1] * 40.0)
     assert keep[:20].all() and not keep[23:].any()
     assert degree[0] == 1 and lost[0]   # 22 rows over 21: a line
     # half the rows narrowed by 10 px: the median lies between, no reference width: all picks kept
     cw[:] = 40.0
     cw[15:] = 30.0
-    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol)
+    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol, _NO_JUNCTION)
     assert keep.all() and degree[0] == 2 and not lost[0]

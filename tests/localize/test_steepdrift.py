@@ -85,12 +85,33 @@ def test_width_disagree_drops_the_occluded_rows_only():
     q = np.arange(n, dtype=np.int64)
     gq = np.zeros(n, np.int64)
     tol = kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE
-    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol, _NO_JUNCTION)
+    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol,
+                                                      _NO_JUNCTION)
     np.testing.assert_array_equal(keep, np.abs(cw - w_l) <= tol[0] + tol[1] * 40.0)
     assert keep[:20].all() and not keep[23:].any()
     assert degree[0] == 1 and lost[0]   # 22 rows over 21: a line
     # half the rows narrowed by 10 px: the median lies between, no reference width: all picks kept
     cw[:] = 40.0
     cw[15:] = 30.0
-    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol, _NO_JUNCTION)
+    keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol,
+                                                      _NO_JUNCTION)
     assert keep.all() and degree[0] == 2 and not lost[0]
+
+
+def test_width_disagree_keeps_a_piece_narrowed_next_to_its_fork():
+    # the same piece, its narrowed rows 20-29 at one end: a junction 3 rows past that end (within one width,
+    # 40 px): the rows are the crotch's or an occluder's next to the fork, and the side is not shortened there
+    # (seed 273 T9); a junction at the clean end, or 60 rows past the narrowed one, leaves the rule as it is
+    n = 30
+    t = np.arange(n, dtype=float)
+    w_l = np.full(n, 40.0)
+    cw = w_l.copy()
+    cw[20:] -= np.arange(1, 11)
+    q = np.arange(n, dtype=np.int64)
+    gq = np.zeros(n, np.int64)
+    tol = kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE
+    for junction, dropped in (((np.nan, 32.0), False), ((-3.0, np.nan), True), ((np.nan, 89.0), True)):
+        keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol,
+                                                          np.array([junction]))
+        assert lost[0] == dropped and keep.all() != dropped, junction
+        assert degree[0] == (1 if dropped else 2)

@@ -126,6 +126,15 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
 _NO_TAKEN = np.zeros(0, bool)
 
 
+def _junction_rows(graph: SkeletonGraph, segs: np.ndarray) -> np.ndarray:
+    """(G, 2) float: the row (px, full resolution) of each segment's end nodes that are junctions, NaN
+    at its other ends."""
+    nodes = graph.seg_nodes[np.asarray(segs, int)]
+    junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    rows = graph.to_full(graph.node_yx[np.maximum(nodes, 0).reshape(-1)])[:, 1].reshape(-1, 2)
+    return np.where(junction, rows, np.nan).astype(float)
+
+
 def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: Runs, sm: StereoMasks,
                    angle_deg: dict[int, float], taken: np.ndarray | None = None) -> dict[int, BranchCurve]:
     """Dense row-by-row match of steep segments, all at once: {segment: curve} of those that find enough.
@@ -161,10 +170,12 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
     # per row, the candidate nearest the model (twice), the centre line and width fitted to the picks
     # (rows where the branch is partly hidden still show one true edge in both views), and the other
     # rows' single edges (single_edge.edge_samples' steps, moved into the kernel); compiled: the same steps
-    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge = kernels_dense.steep_fit(
+    ok, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge, degree = kernels_dense.steep_fit(
         t, alive, n, np.ascontiguousarray(degree, np.int64), q, rr, cd, cw, gq, c_l, w_l, model.coef, model.t0,
         model.ts, rows_all, il_all, g_all, runs_r._find_tables, runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
-        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_))
+        _NO_TAKEN if taken is None else np.ascontiguousarray(taken, np.bool_), kernels_dense.OCCL_TOL_PX,
+        kernels_dense.OCCL_SHARE, float(sm.f_px), 0.5 * (sm.left_mask.shape[1] - 1), float(sm.offset_px),
+        _junction_rows(graph, segs))
     if not ok:
         return {}
     # the disparity fitted to each curve's inliers, all curves at once (rounding-level differences from

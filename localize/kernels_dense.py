@@ -27,6 +27,9 @@ from appliance.localize.kernels import (
     runs_find,
 )
 
+OCCL_TOL_PX = 1.5       # steep_fit: a pick whose width disagreement is this + OCCL_SHARE * width off its piece's
+OCCL_SHARE = 0.02       # ... median is dropped (width_disagree; docs/localize-steepdrift.md)
+
 
 @numba.njit(**_JIT)
 def _percentile75(a):
@@ -873,8 +876,85 @@ def disparity_refit(tf, df, bc, te, de, be, degree):
 
 
 @numba.njit(**_JIT)
+def width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, tol_px, share, junction_row):
+    """The picks whose left and right crossings are about as wide as the piece's other rows.
+
+    A leaf or an apple covering one edge of a branch in one view only leaves that view's run
+    narrower on those rows: its centre, so the row's disparity, moves by half the hidden width
+    (seed 263 T3: a trunk's right edge covered in the right view over 18 rows, disparity +5 px and
+    a quadratic carrying it 30 rows on to the fork). Both views see the same taper on a row, so
+    the right-minus-left width of a piece only drifts slowly (the views' distances to the axis);
+    a pick ``tol_px + share * w`` off the piece's median is not a whole crossing. Pieces with fewer
+    than 8 picks, or where fewer than half (or 4) would remain, keep all theirs; so does a piece whose
+    pick nearest one of its junctions would be dropped and lies within one width (rows) of that
+    junction's row: next to a fork the views' silhouettes differ
+    in width anyway (the crotch), and a side shortened there is carried to its fork from rows further
+    off while the fork's other side reads it (seed 273 T9: withheld as a conflict of its sides instead).
+
+    Parameters
+    ----------
+    chosen : (C,) int64
+        The picks (candidate indices; their pieces ``gq[chosen]`` non-decreasing).
+    q, cw, gq : (K,)
+        Candidates' row index into ``t``, right width (px) and piece; ``w_l`` (M,) left widths, px.
+    degree : (G,) int64
+        The pieces' degrees.
+    junction_row : (G, 2) float
+        The row (px, as ``t``) of each piece's junction ends; NaN where that end is not a junction.
+
+    Returns
+    -------
+    keep : (C,) bool
+    degree : (G,) int64
+        :func:`curves.degree_for` of the rows kept, for the pieces that lost picks (the others' as given).
+    lost : (G,) bool
+        The pieces that lost picks.
+    """
+    c = len(chosen)
+    keep = np.ones(c, np.bool_)
+    lost = np.zeros(ng, np.bool_)
+    degree = degree.copy()
+    starts = np.searchsorted(gq[chosen], np.arange(ng + 1))
+    for k in range(ng):
+        a, b = starts[k], starts[k + 1]
+        if b - a < 8:
+            continue
+        dw = np.empty(b - a)
+        for j in range(a, b):
+            i = chosen[j]
+            dw[j - a] = cw[i] - w_l[q[i]]
+        med = _median(dw)
+        for j in range(a, b):
+            i = chosen[j]
+            dw[j - a] = (dw[j - a] - med) / (tol_px + share * w_l[q[i]])     # (in tolerances)
+            keep[j] = abs(dw[j - a]) <= 1.0
+        m, lo, hi = 0, np.inf, -np.inf
+        for j in range(a, b):
+            if keep[j]:
+                m += 1
+                lo, hi = min(lo, t[q[chosen[j]]]), max(hi, t[q[chosen[j]]])
+        at_fork = False
+        for e in range(2):
+            jr = junction_row[k, e]
+            if not np.isnan(jr):
+                jn, dn = a, np.inf
+                for j in range(a, b):
+                    dj = abs(t[q[chosen[j]]] - jr)
+                    if dj < dn:
+                        jn, dn = j, dj
+                at_fork = at_fork or (not keep[jn] and dn <= w_l[q[chosen[jn]]])
+        if m < max(4, 0.5 * (b - a)) or at_fork:
+            keep[a:b] = True
+        elif m < b - a:
+            lost[k] = True
+            degree[k] = min(degree[k], 1 if m < 12 or hi - lo < 40 else (2 if hi - lo < 160 else 3))
+    return keep, degree, lost
+
+
+@numba.njit(**_JIT)
 def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_ts, rows_all, il_all, g_all,
-              tab_r, edges_l, edges_r, width, taken):
+              tab_r, edges_l, edges_r, width, taken, occl_tol_px=-1.0, occl_share=0.0, f_px=1.0, cx_px=0.0,
+              offset_px=0.0, junction_row=np.full((0, 2), np.nan)):
     """``dense.fit_steep_many``'s middle steps: each row's candidate nearest the model, twice (the
     consensus lines, then a robust fit of the picks, 1 round; then 3 rounds), the centre line and the
     width fitted to the picks, and the single-edge samples of the other rows
@@ -896,6 +976,12 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     tab_r : ``Runs._find_tables`` of the right runs; ``edges_l``, ``edges_r``: (2, R) boundaries, px.
     width : int
         Image width, px. ``taken`` (R',) bool or empty: right runs of other pieces.
+    occl_tol_px, occl_share : float
+        With ``occl_tol_px >= 0``, picks whose right-minus-left width is more than ``occl_tol_px +
+        occl_share * w`` px (w: the left width) off its piece's median are dropped and the model
+        refitted without them (:func:`width_disagree`: an edge hidden in one view only), and those
+        pieces' single edges taken to their axis (:func:`edge_to_axis_one`; ``f_px``, ``cx_px``,
+        ``offset_px`` as there; ``junction_row`` (G, 2): :func:`width_disagree`'s); negative: off.
 
     Returns
     -------
@@ -908,6 +994,8 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
         The centre line's inliers.
     te, de : (E,) float; re, ge : (E,) int64
         Single-edge samples (per piece, left edges first): row, disparity, right run, piece.
+    degree : (G,) int64
+        The pieces' degrees (lowered where :func:`width_disagree` dropped picks).
     """
     ng = len(alive)
     alive = alive.copy()
@@ -942,7 +1030,7 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
                 c += 1
         chosen = chosen[:c]
         if not alive.any():
-            return False, alive, z, z, z, z, zi, zi, zb, z, z, zi, zi
+            return False, alive, z, z, z, z, zi, zi, zb, z, z, zi, zi, degree
         tq, dq = np.empty(c), np.empty(c)
         for j in range(c):
             tq[j], dq[j] = t[q[chosen[j]]], cd[chosen[j]]
@@ -950,6 +1038,26 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
         coef, t0, ts, _, inl = robust_fit_groups(tq, dq, starts, degree, np.full(ng, 1 if it == 0 else 3, np.int64),
                                                  3.5)
     chosen = chosen[inl]
+    lost = np.zeros(ng, np.bool_)
+    if occl_tol_px >= 0:
+        keep, degree, lost = width_disagree(chosen, q, cw, gq, t, w_l, degree, ng, occl_tol_px, occl_share,
+                                            junction_row)
+        if lost.any():                  # those pieces' models refitted without the dropped picks
+            chosen = chosen[keep]
+            relo = np.flatnonzero(lost)
+            sub = np.flatnonzero(lost[gq[chosen]])
+            tq, dq = np.empty(len(sub)), np.empty(len(sub))
+            for j in range(len(sub)):
+                tq[j], dq[j] = t[q[chosen[sub[j]]]], cd[chosen[sub[j]]]
+            g_sub = np.searchsorted(relo, gq[chosen[sub]])
+            starts = np.searchsorted(g_sub, np.arange(len(relo) + 1))
+            c2, t02, ts2, _, inl2 = robust_fit_groups(tq, dq, starts, degree[relo], np.full(len(relo), 3, np.int64),
+                                                      3.5)
+            for i in range(len(relo)):
+                coef[relo[i]], t0[relo[i]], ts[relo[i]] = c2[i], t02[i], ts2[i]
+            inl = np.ones(len(chosen), np.bool_)
+            inl[sub] = inl2
+            chosen = chosen[inl]
     nc = len(chosen)
     tf, df, cf, wf = np.empty(nc), np.empty(nc), np.empty(nc), np.empty(nc)
     gc, rc = np.empty(nc, np.int64), np.empty(nc, np.int64)
@@ -1014,8 +1122,12 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
             ir = irs[side_k, j]
             e_r = edges_r[side_k, max(ir, 0)]
             de2[side_k, j] = e_l - e_r
-            okk[side_k, j] = abs(e_l - (u[j] + side * half[j])) <= 1.0 and ir >= 0 and abs(e_l - e_r - d[j]) <= 1.0 \
-                and not (has_taken and taken[max(ir, 0)])
+            if lost[g_all[idx[j]]]:
+                # (such a piece's single edges carry its occluded rows: a thick branch's outlines are
+                # tangents from each camera, +-1.6 px of disparity off its axis at r = 34 px, 900 mm)
+                de2[side_k, j] = edge_to_axis_one(u[j], e_l - e_r, half[j], side, f_px, cx_px, offset_px)
+            okk[side_k, j] = abs(e_l - (u[j] + side * half[j])) <= 1.0 and ir >= 0 \
+                and abs(de2[side_k, j] - d[j]) <= 1.0 and not (has_taken and taken[max(ir, 0)])
     ne = 0
     for side_k in range(2):
         for j in range(nr):
@@ -1029,7 +1141,7 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
                 if okk[side_k, j] and g_all[idx[j]] == k:
                     te[e], de[e], re[e], ge[e] = tr[j], de2[side_k, j], irs[side_k, j], k
                     e += 1
-    return True, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge
+    return True, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge, degree
 
 
 def warm_up() -> None:
@@ -1053,4 +1165,5 @@ def warm_up() -> None:
     disparity_refit(f3, f3, b2, f3, f3, b2, np.ones(1, np.int64))
     i1, b1, f4 = np.zeros(1, np.int64), np.ones(1, np.bool_), np.zeros((1, 4))
     for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
-        steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken)
+        steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken,
+                  OCCL_TOL_PX, OCCL_SHARE, 1000.0, 0.0, 0.0, np.full((1, 2), np.nan))

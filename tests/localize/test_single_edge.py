@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from appliance.calibrate.model import load_calibration
 from appliance.config import load_config
-from appliance.localize import Localizer, dense
+from appliance.localize import Localizer, dense, kernels_dense
 from appliance.localize.single_edge import edge_to_axis
 from appliance.synth.evaluate import score_result
 from appliance.synth.truth import load_truth
@@ -50,16 +50,32 @@ def _fixture_00():
 
 def test_trunk_cut_by_occluders_is_carried_on(monkeypatch):
     # fixture 00: the trunk between the crossing twigs (a piece whose rows show one true edge only) and
-    # its part behind the leaves above the matched stretch; without carrying on, coverage 0.82
+    # its part behind the leaves above the matched stretch. Measured (exact masks):
+    #   width rule off (main before steepdrift): coverage 0.913 with carrying on, 0.845 without (the trunk's
+    #     fit bent by rows whose right-minus-left width disagrees ended 154 mm off its axis, and carrying on
+    #     recovered its rows);
+    #   width rule on (kernels_dense.width_disagree): 0.909 with, 0.922 without: the trunk's own fit already
+    #     lies on its axis, so carrying on adds nothing here; what it costs is the fork T5 between the trunk
+    #     and its child sliding ~50 rows up the trunk with the grown curve (the child's polyline then starts
+    #     off its axis: 28 mm of it uncovered; 22 mm on main too, hidden there by the gain). On the 60 scenes
+    #     carrying on still helps (colour p95 1.75 mm without `grow`, 1.68 with; coverage equal).
     loc, left, right, truth = _fixture_00()
     kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right)
-    with_it = score_result(loc.localize(left, right, **kw), truth)
-    monkeypatch.setattr(dense, "carry_over", lambda *a, **k: {})
-    monkeypatch.setattr(dense, "grow", lambda *a, **k: None)
-    without = score_result(loc.localize(left, right, **kw), truth)
+    no_grow = dict(carry_over=lambda *a, **k: {}, grow=lambda *a, **k: None)
+    scores = {}
+    for rule in (True, False):
+        with monkeypatch.context() as m:
+            if not rule:
+                m.setattr(kernels_dense, "OCCL_TOL_PX", -1.0)
+            scores[rule, True] = score_result(loc.localize(left, right, **kw), truth)
+            for name, fn in no_grow.items():
+                m.setattr(dense, name, fn)
+            scores[rule, False] = score_result(loc.localize(left, right, **kw), truth)
+    # carrying on recovers the rows a piece's own fit leaves (width rule off: the drifted trunk)
+    assert scores[False, True].branch_coverage >= scores[False, False].branch_coverage + 0.04
+    with_it, without = scores[True, True], scores[True, False]
     assert with_it.branch_coverage >= 0.88
-    assert with_it.branch_coverage >= without.branch_coverage + 0.04
-    assert with_it.branch_precision >= without.branch_precision - 0.005
+    assert with_it.branch_coverage >= without.branch_coverage - 0.02     # the fork's slide only
     assert with_it.n_found >= without.n_found
 
 

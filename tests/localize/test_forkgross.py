@@ -43,13 +43,25 @@ def test_a_fork_whose_sides_both_known_there_disagree_is_withheld(monkeypatch, w
     # is another shape's there, and which one nothing tells; their weighted mean was ~0.5 px off
     # (main: reported, 5-6 mm at 1000 mm); the fork is withheld
     import appliance.localize.forkends as forkends
+    from appliance.localize import kernels_dense
     monkeypatch.setattr(forkends, "SIDES_CONFLICT_WITHHELD", withheld)
+    # steepdrift's width rule (kernels_dense.width_disagree) drops this drawn cut's rows from the upper
+    # side's fit and the fork is then reported 0.02 px off: rule 1 is for the cuts it does not correct
+    monkeypatch.setattr(kernels_dense, "OCCL_TOL_PX", -1.0)
     calib, left, right, ml, mr, d = occluded_y(316.25)
     found = forks(calib, left, right, ml, mr)
     if withheld:
         assert found == []
     else:
         assert len(found) == 1 and (found[0].left_px[0] - found[0].right_px[0]) - d >= 0.35
+
+
+def test_a_fork_whose_side_is_cut_in_one_view_is_reported_right_with_the_width_rule():
+    # the same drawing with steepdrift's width rule on: the cut rows leave the upper side's fit, the sides
+    # agree and the fork stands at the truth (measured 0.02 px)
+    calib, left, right, ml, mr, d = occluded_y(316.25)
+    found = forks(calib, left, right, ml, mr)
+    assert len(found) == 1 and abs((found[0].left_px[0] - found[0].right_px[0]) - d) <= 0.15
 
 
 def test_a_fork_whose_sides_agree_within_a_pixel_stands():

@@ -763,32 +763,6 @@ def remove_corners_flat(flat, idx, w2, corner):
 
 
 @numba.njit(**_JIT)
-def bark_tiles(bgr, lut, tiles, tile_px, out):
-    """The bark test of every pixel of the flagged tiles, by a colour lookup table, in one pass; the
-    rest of ``out`` untouched.
-
-    ``bgr`` (H, W, 3) uint8; ``lut`` (2^21,) uint8: bit ``k & 7`` of byte ``k >> 3`` is the test of the
-    colour ``k = b << 16 | g << 8 | r``; ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square
-    tile (the last tile row and column reach the image's bottom and right edges); ``out`` (H, W)
-    uint8 gets 255 (bark) or 0.
-    """
-    h, w = out.shape
-    th, tw = tiles.shape
-    for ty in range(th):
-        y0 = ty * tile_px
-        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
-        for tx in range(tw):
-            if tiles[ty, tx] == 0:
-                continue
-            x0 = tx * tile_px
-            x1 = w if tx == tw - 1 else min(x0 + tile_px, w)
-            for y in range(y0, y1):
-                for x in range(x0, x1):
-                    k = (np.int64(bgr[y, x, 0]) << 16) | (np.int64(bgr[y, x, 1]) << 8) | np.int64(bgr[y, x, 2])
-                    out[y, x] = 255 if (lut[k >> 3] >> (k & 7)) & 1 else 0
-    return out
-
-@numba.njit(**_JIT)
 def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
     """``segment.unmix_edges``' per-block unmixing and the coverage of its outline pixels, float32 in
     numpy's order of operations (the numpy steps' values bit for bit).
@@ -980,8 +954,6 @@ def warm_up() -> None:
     off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)
     zhang_suen_flat(img, img.copy(), i[:0], off, tab, tab)
     remove_corners_flat(img, i[:0], 4, tab)
-    bark_tiles(np.zeros((4, 4, 3), np.uint8), _readonly(np.zeros(8, np.uint8)), np.zeros((1, 1), np.uint8), 4,
-               np.zeros((4, 4), np.uint8))
     graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))
     unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
                  np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))

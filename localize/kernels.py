@@ -968,6 +968,8 @@ def warm_up() -> None:
     kernels_dense.warm_up()
     from appliance.localize import kernels_front     # (the front stages' kernels, speed02: imports this one)
     kernels_front.warm_up()
+    from appliance.localize import kernels_check     # (the feature check's kernel, speedG: imports this one)
+    kernels_check.warm_up()
 
 
 # --- match stage (speedm)

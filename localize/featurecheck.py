@@ -254,43 +254,8 @@ def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     """
     nf = len(d_px)
     d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
-    good = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
-    if not good.any():
-        return d_check, n_used, spread
-    f, p, s, d, g = (t[c][good] for c in ("feature", "piece", "s", "d_axis", "slope"))
-    key = f * (int(p.max()) + 1) + p
-    starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
-    cnt = np.diff(np.r_[starts, len(key)])
-    grp = np.repeat(np.arange(len(starts)), cnt)
-    fg = f[starts]                                           # each group's feature
-    # carried along the piece's slope
-    e = d - g * s
-    e_lo, e_hi = np.minimum.reduceat(e, starts), np.maximum.reduceat(e, starts)
-    carry = np.where((cnt >= MIN_PATCHES) & (e_hi - e_lo <= 2 * MAX_SPREAD_PX), np.add.reduceat(e, starts) / cnt,
-                     np.nan)
-    # the texture's own straight line
-    s1, s2 = np.add.reduceat(s, starts), np.add.reduceat(s * s, starts)
-    y1, sy = np.add.reduceat(d, starts), np.add.reduceat(s * d, starts)
-    den = cnt * s2 - s1 * s1
-    b = (cnt * sy - s1 * y1) / np.where(den > 0, den, 1.0)
-    a0 = (y1 - b * s1) / cnt
-    res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
-    span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
-    line = (cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX) & (np.abs(b) <= MAX_PIECE_SLOPE)
-    # on the texture's line the slope is the texture's or the piece's: the intercepts of both lines through the
-    # patches' centroid bound the estimate; the bound nearer the feature's disparity counts (0 between them)
-    a_piece = (y1 - g[starts] * s1) / cnt
-    lo_b, hi_b = np.minimum(a0, a_piece) - d_px[fg], np.maximum(a0, a_piece) - d_px[fg]
-    on_line = np.where(lo_b > 0, lo_b, np.where(hi_b < 0, hi_b, 0.0))
-    diff = np.where(line, on_line, carry - d_px[fg])                 # (NaN: neither)
-    ok = np.isfinite(diff)
-    if not ok.any():
-        return d_check, n_used, spread
-    fg, diff, cnt, ext = fg[ok], diff[ok], cnt[ok], (e_hi - e_lo)[ok]
-    fs = np.r_[0, np.flatnonzero(np.diff(fg)) + 1]
-    lo, hi = np.minimum.reduceat(diff, fs), np.maximum.reduceat(diff, fs)
-    fi = fg[fs]
-    d_check[fi] = d_px[fi] + np.where(lo > 0, lo, np.where(hi < 0, hi, 0.0))
-    n_used[fi] = np.add.reduceat(cnt, fs)
-    spread[fi] = np.maximum.reduceat(ext, fs)
+    consts = np.array([MIN_SCORE, MIN_PATCHES, MAX_SPREAD_PX, FIT_MIN_PATCHES, FIT_MIN_SPAN_PX, FIT_MAX_RES_PX,
+                       MAX_PIECE_SLOPE], float)
+    kernels_check.estimate_pieces(t["feature"], t["piece"], t["s"], t["d_axis"], t["slope"], t["score"],
+                                  np.asarray(d_px, float), consts, d_check, n_used, spread)
     return d_check, n_used, spread

@@ -175,6 +175,116 @@ def place_patches(uvd, starts, k, ft_uv, r, s0, reach, dstep, mask, m, consts):
 
 
 @numba.njit(**_JIT)
+def _sum_at(a, idx, n):
+    """``np.add.reduceat``'s sum of ``a[idx[:n]]`` (n >= 1): the first term plus numpy's pairwise sum of
+    the rest (under 8 terms one after another; else eight partial sums, paired, then the remainder)."""
+    if n == 1:
+        return a[idx[0]]
+    m = n - 1
+    if m < 8:
+        rest = 0.0
+        for i in range(1, n):
+            rest += a[idx[i]]
+        return a[idx[0]] + rest
+    r = np.empty(8)
+    for j in range(8):
+        r[j] = a[idx[1 + j]]
+    i = 8
+    while i < m - m % 8:
+        for j in range(8):
+            r[j] += a[idx[1 + i + j]]
+        i += 8
+    rest = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while i < m:
+        rest += a[idx[1 + i]]
+        i += 1
+    return a[idx[0]] + rest
+
+
+@numba.njit(**_JIT)
+def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_used, spread):
+    """:func:`featurecheck.estimate`'s steps (its values: numpy's sums in numpy's order) into ``d_check``,
+    ``n_used``, ``spread`` (F,) (NaN, 0, NaN where no verdict).
+
+    Parameters
+    ----------
+    feature, piece : ndarray (P,) int64
+        Each patch's feature and piece (rows grouped by feature, then piece).
+    s, d, g, score : ndarray (P,) float64
+        Distance from the feature (px), texture disparity on the axis (px, NaN: none), the piece's slope
+        (px per px) and the correlation.
+    d_px : ndarray (F,) float64
+        The features' disparities.
+    consts : ndarray (7,) float64
+        ``MIN_SCORE``, ``MIN_PATCHES``, ``MAX_SPREAD_PX``, ``FIT_MIN_PATCHES``, ``FIT_MIN_SPAN_PX``,
+        ``FIT_MAX_RES_PX``, ``MAX_PIECE_SLOPE``.
+    """
+    min_score, min_patches, max_spread = consts[0], consts[1], consts[2]
+    fit_min, fit_span, fit_res, max_slope = consts[3], consts[4], consts[5], consts[6]
+    n = len(s)
+    idx = np.empty(n, np.int64)
+    e, r2, sd = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        e[i] = d[i] - g[i] * s[i]
+        r2[i] = s[i] * s[i]
+        sd[i] = s[i] * d[i]
+    cur_f, lo, hi, cnt_f, ext_f = -1, 0.0, 0.0, 0, 0.0
+    i = 0
+    while i <= n:
+        # the next group: the confident rows of one (feature, piece)
+        m = 0
+        if i < n:
+            f0, p0 = feature[i], piece[i]
+            while i < n and feature[i] == f0 and piece[i] == p0:
+                if np.isfinite(d[i]) and score[i] >= min_score:
+                    idx[m] = i
+                    m += 1
+                i += 1
+            if m == 0:
+                continue
+        else:
+            i += 1
+            f0 = -1
+        if cur_f >= 0 and f0 != cur_f:                 # (the last feature's groups are done)
+            d_check[cur_f] = d_px[cur_f] + (lo if lo > 0 else (hi if hi < 0 else 0.0))
+            n_used[cur_f] = cnt_f
+            spread[cur_f] = ext_f
+            cur_f = -1
+        if m == 0:
+            break
+        e_lo, e_hi, s_lo, s_hi = e[idx[0]], e[idx[0]], s[idx[0]], s[idx[0]]
+        for j in range(1, m):
+            e_lo, e_hi = min(e_lo, e[idx[j]]), max(e_hi, e[idx[j]])
+            s_lo, s_hi = min(s_lo, s[idx[j]]), max(s_hi, s[idx[j]])
+        carry = np.nan
+        if m >= min_patches and e_hi - e_lo <= 2 * max_spread:
+            carry = _sum_at(e, idx, m) / m
+        s1, s2 = _sum_at(s, idx, m), _sum_at(r2, idx, m)
+        y1, sy = _sum_at(d, idx, m), _sum_at(sd, idx, m)
+        den = m * s2 - s1 * s1
+        b = (m * sy - s1 * y1) / (den if den > 0 else 1.0)
+        a0 = (y1 - b * s1) / m
+        res = 0.0
+        for j in range(m):
+            q = idx[j]
+            v = abs(d[q] - a0 - b * s[q])
+            res = v if j == 0 else max(res, v)
+        dp = d_px[f0]
+        if m >= fit_min and s_hi - s_lo >= fit_span and res <= fit_res and abs(b) <= max_slope:
+            a_piece = (y1 - g[idx[0]] * s1) / m
+            lo_b, hi_b = min(a0, a_piece) - dp, max(a0, a_piece) - dp
+            diff = lo_b if lo_b > 0 else (hi_b if hi_b < 0 else 0.0)
+        else:
+            diff = carry - dp
+        if not np.isfinite(diff):
+            continue
+        if cur_f < 0:
+            cur_f, lo, hi, cnt_f, ext_f = f0, diff, diff, m, e_hi - e_lo
+        else:
+            lo, hi, cnt_f, ext_f = min(lo, diff), max(hi, diff), cnt_f + m, max(ext_f, e_hi - e_lo)
+
+
+@numba.njit(**_JIT)
 def _is_start(starts, i):
     """Whether sample ``i`` is a piece's first (``starts`` sorted)."""
     lo, hi = 0, len(starts)
@@ -200,3 +310,5 @@ def warm_up() -> None:
     f = np.zeros(1)
     place_patches(np.zeros((2, 3)), np.array([0, 2], np.int64), np.zeros(1, np.int64), np.zeros((1, 2)), f + 1, f,
                   f, f + 3, np.zeros((2, 2), np.uint8), 1, np.zeros(4))
+    i = np.zeros(1, np.int64)
+    estimate_pieces(i, i, f, f, f, f, f, np.zeros(7), f.copy(), i.copy(), f.copy())

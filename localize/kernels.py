@@ -1410,7 +1410,8 @@ def _soft_edge(flat, p_out, p_in, outside, inside):
 @numba.njit(**_JIT)
 def _scan_runs(flat, words, w, above, rows, x0, x1):
     """:func:`mask_runs`' scan into ``rows``, ``x0``, ``x1`` (their length the most runs it takes): the
-    number of runs, or -1 when there are more."""
+    number of runs, or -1 when there are more. (The reads index by ``np.uint64``: numba then drops its
+    negative-index test on each, 0.165 -> 0.12 ms per full-size mask.)"""
     total = len(flat)
     n_words = len(words)
     cap = len(rows)
@@ -1422,15 +1423,17 @@ def _scan_runs(flat, words, w, above, rows, x0, x1):
     ones = np.uint64(0x0101010101010101)
     while p < total:
         if (p & 7) == 0:
-            wd = words[p >> 3]
+            wd = words[np.uint64(p >> 3)]
             if not inside:                  # 8 pixels off at a time
                 off_mask = high if above == 127 else ~np.uint64(0)
                 if (wd & off_mask) == 0:
                     wi = (p >> 3) + 1
-                    while wi + 4 <= n_words and ((words[wi] | words[wi + 1] | words[wi + 2] | words[wi + 3])
-                                                 & off_mask) == 0:
+                    while wi + 4 <= n_words:
+                        w0, w1, w2, w3 = np.uint64(wi), np.uint64(wi + 1), np.uint64(wi + 2), np.uint64(wi + 3)
+                        if ((words[w0] | words[w1] | words[w2] | words[w3]) & off_mask) != 0:
+                            break
                         wi += 4
-                    while wi < n_words and (words[wi] & off_mask) == 0:
+                    while wi < n_words and (words[np.uint64(wi)] & off_mask) == 0:
                         wi += 1
                     p = wi << 3
                     continue
@@ -1446,7 +1449,7 @@ def _scan_runs(flat, words, w, above, rows, x0, x1):
             row += 1
             row_start = row_end
             row_end += w
-        on = flat[p] > above
+        on = flat[np.uint64(p)] > above
         p += 1
         end = -1
         if on:

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import featurecheck
+from appliance.localize import featurecheck, kernels
 from appliance.localize import featurecheck as FC
 from appliance.localize.matching import FeatureUVD, PieceUVD
 
@@ -23,13 +23,8 @@ def _patch_size(radius_px: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[
 
 
 def _patches_numpy(features: list, pieces: list, left_mask: np.ndarray) -> dict:
-    """featurecheck._patches before the kernel (speedG): every feature's patches along its pieces, all at once: a dict of arrays (P,) ``feature``, ``piece``,
-    ``s`` (px from the feature along the piece), ``u``, ``v`` (int centre), ``d_ref`` (the disparity searched
-    around: the feature's), ``hh``, ``hw`` (int half height, width), ``across`` (half extent across the axis,
-    px), ``r`` (the piece's radius px), ``slope`` (the piece's disparity slope over the patches' reach, px per
-    px, away from the feature). A fork's patches start clear of its other pieces' silhouettes
-    (``FC.FORK_CLEAR`` x their largest radius), a tip's ``FC.TIP_BACK`` radius back; patches inside the image and
-    the left mask only; pieces turning steeply in depth (``|slope| > FC.MAX_PIECE_SLOPE``) or too short give none."""
+    """featurecheck._patches before the kernel (speedG): every feature's patches along its pieces, all at
+    once (the same columns as featurecheck._patches)."""
     fa = np.array([(ft.node, ft.u, ft.v, ft.d, ft.radius_px, ft.kind == "bifurcation") for ft in features],
                   float).reshape(-1, 6)
     fi, pj, r_other = featurecheck._pairs(fa, pieces)
@@ -95,8 +90,9 @@ def _patches_numpy(features: list, pieces: list, left_mask: np.ndarray) -> dict:
 
 
 def _estimate_numpy(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """featurecheck.estimate before the kernel (speedG): the texture's disparity at each feature from the patch table ``t`` (:func:`patch_table`; rows grouped
-    by feature, then piece) and the features' disparities ``d_px`` (F,).
+    """featurecheck.estimate before the kernel (speedG): the texture's disparity at each feature from the
+    patch table ``t`` (:func:`patch_table`; rows grouped by feature, then piece) and the features'
+    disparities ``d_px`` (F,).
 
     A piece's confident patches (``score >= FC.MIN_SCORE``, at least ``FC.MIN_PATCHES``) are carried to the feature
     along a slope. Where they lie on a straight line of their own (at least ``FC.FIT_MIN_PATCHES`` spanning
@@ -138,7 +134,8 @@ def _estimate_numpy(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     a0 = (y1 - b * s1) / cnt
     res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
     span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
-    line = (cnt >= FC.FIT_MIN_PATCHES) & (span >= FC.FIT_MIN_SPAN_PX) & (res <= FC.FIT_MAX_RES_PX) & (np.abs(b) <= FC.MAX_PIECE_SLOPE)
+    line = ((cnt >= FC.FIT_MIN_PATCHES) & (span >= FC.FIT_MIN_SPAN_PX) & (res <= FC.FIT_MAX_RES_PX)
+            & (np.abs(b) <= FC.MAX_PIECE_SLOPE))
     # on the texture's line the slope is the texture's or the piece's: the intercepts of both lines through the
     # patches' centroid bound the estimate; the bound nearer the feature's disparity counts (0 between them)
     a_piece = (y1 - g[starts] * s1) / cnt
@@ -248,3 +245,37 @@ def test_estimate_is_the_numpy_steps():
         none += np.isnan(got[0]).sum()
         agree += (got[0] == d_px).sum()
     assert verdicts > 300 and none > 300 and agree > 100 and verdicts - agree > 100
+
+
+def _runs_numpy(on: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows, first and last columns of the runs of True of a bool image (row-major), by np.diff."""
+    pad = np.zeros((on.shape[0], on.shape[1] + 2), np.int8)
+    pad[:, 1:-1] = on
+    d = np.diff(pad, axis=1)
+    r0, c0 = np.nonzero(d == 1)
+    _, c1 = np.nonzero(d == -1)
+    return r0, c0, c1 - 1
+
+
+def test_mask_runs_reads_by_unsigned_index():
+    """kernels.mask_runs (its scan now indexing by np.uint64) against np.diff's runs on masks with long
+    stretches off and on (the word-at-a-time skips), runs at the rows' ends and soft edges, for both
+    thresholds (above 127 and above 0), and a mask with more runs than the first buffer holds."""
+    rng = np.random.default_rng(13)
+    for h, w in ((40, 333), (7, 1280), (64, 64)):
+        m = np.zeros((h, w), np.uint8)
+        for _ in range(3 * h):
+            y, x, n = rng.integers(0, h), rng.integers(0, w), rng.integers(1, 120)
+            m[y, x:x + n] = 255
+        m[rng.random((h, w)) < 0.02] = rng.integers(1, 255)                  # soft pixels and specks
+        for above in (127, 0):
+            flat = m.reshape(-1)
+            rows, x0, x1, left, right = kernels.mask_runs(flat, flat.view(np.uint64), w, above, above == 127)
+            for got, want in zip((rows, x0, x1), _runs_numpy(m > above)):
+                np.testing.assert_array_equal(got, want)
+            assert len(rows) > h and (left <= x0).all() and (right >= x1).all()
+    comb = np.zeros((64, 512), np.uint8)
+    comb[:, ::2] = 255                                                       # 16384 runs (> the first 1024)
+    flat = comb.reshape(-1)
+    rows, x0, x1, _, _ = kernels.mask_runs(flat, flat.view(np.uint64), 512, 0, False)
+    assert len(rows) == 64 * 256 and (x1 == x0).all()

@@ -677,7 +677,7 @@ def _code(flat, p, off):
     """Neighbour code of the padded flat pixel ``p``: bit k = neighbour k (``off[k]`` away) set."""
     c = 0
     for k in range(8):
-        if flat[p + off[k]] != 0:
+        if flat[np.uint64(p + off[k])] != 0:        # (unsigned: numba drops its negative-index test)
             c |= 1 << k
     return c
 
@@ -795,8 +795,10 @@ def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
             continue
         done += 1
         v0, v1, v2 = (c0 - c_chi * chi[0]) / det, (c1 - c_chi * chi[1]) / det, (c2 - c_chi * chi[2]) / det
-        for y in range(by * factor, (by + 1) * factor):
-            for x in range(bx * factor, (bx + 1) * factor):
+        for y_ in range(by * factor, (by + 1) * factor):
+            y = np.uint64(y_)                       # (unsigned indices: no negative-index tests)
+            for x_ in range(bx * factor, (bx + 1) * factor):
+                x = np.uint64(x_)
                 if ring[y, x] == 0:
                     continue
                 c = np.float32(bgr[y, x, 0]) * v0

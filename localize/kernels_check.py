@@ -89,10 +89,11 @@ def place_patches(uvd, starts, k, ft_uv, r, s0, reach, dstep, mask, m, consts):
     # the pieces' arc lengths end to end (numpy's cumsum over all, less each piece's first), pieces ``big`` apart
     arc = np.empty(n_s)
     acc = 0.0
-    for i in range(n_s):
-        if i > 0 and not _is_start(starts, i):
-            acc += np.hypot(uvd[i, 0] - uvd[i - 1, 0], uvd[i, 1] - uvd[i - 1, 1])
-        arc[i] = acc
+    for p in range(n_p):
+        for i in range(starts[p], starts[p + 1]):
+            if i > starts[p]:
+                acc += np.hypot(uvd[i, 0] - uvd[i - 1, 0], uvd[i, 1] - uvd[i - 1, 1])
+            arc[i] = acc
     length = np.empty(n_p)
     for p in range(n_p):
         a0 = arc[starts[p]]
@@ -282,19 +283,6 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
             cur_f, lo, hi, cnt_f, ext_f = f0, diff, diff, m, e_hi - e_lo
         else:
             lo, hi, cnt_f, ext_f = min(lo, diff), max(hi, diff), cnt_f + m, max(ext_f, e_hi - e_lo)
-
-
-@numba.njit(**_JIT)
-def _is_start(starts, i):
-    """Whether sample ``i`` is a piece's first (``starts`` sorted)."""
-    lo, hi = 0, len(starts)
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if starts[mid] <= i:
-            lo = mid
-        else:
-            hi = mid
-    return starts[lo] == i
 
 
 @numba.njit(**_JIT)

@@ -1,10 +1,14 @@
-"""Compiled kernel of the feature check (eighth pass, speedG; docs/localize-numba.md).
+"""Compiled kernels of the feature check (eighth pass, speedG; docs/localize-numba.md).
 
 :func:`place_patches` is :func:`featurecheck._patches`' per-piece work in one pass: the pieces' arc
 lengths, the slope of each piece's disparity near the feature, the patch centres, directions and sizes,
 and the test that each patch lies inside the image and the left mask. It follows numpy's operations
 one by one (``np.interp``'s formula, the pairwise order of numpy's 9-term sums), so it gives the numpy
-steps' values bit for bit. Tests: tests/localize/test_kernels_speedG.py.
+steps' values bit for bit.
+
+:func:`estimate_pieces` is :func:`featurecheck.estimate`'s per-piece and per-feature steps, its sums in
+``np.add.reduceat``'s order (the first term plus numpy's pairwise sum of the rest): the same values.
+Tests: tests/localize/test_kernels_speedG.py.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_check
 from appliance.localize.texture import surface_to_axis
 
 TIP_BACK = 1.0               # a tip's patches start this many radii back along its branch
@@ -31,6 +31,9 @@ MIN_SPAN_PX, MAX_SPAN_PX = 20.0, 40.0    # ... but at least / at most this many 
 STEP_RADII = 0.75            # one patch every this many radii
 MIN_STEP_PX, MAX_STEP_PX = 3.0, 8.0
 MIN_REACH_PX = 4.0           # patches start at least this far from the feature
+FLAT_SIN, STEEP_SIN = 0.5, 0.87   # a patch inside a branch under 30 deg to the rows: long along the rows (half
+                                  # height 0.6 r, half width 7 px); over 60 deg: narrow across (half height 4 px,
+                                  # half width 0.6 r); a square of half side 0.45 r otherwise (kernels_check)
 WINDOW_PX = 8                # each patch searched within +-this of the feature's disparity ...
 MAX_SLOPE = 0.1              # ... widened by this many px per px from the feature
 MIN_SCORE = 0.7              # a patch matched with a lower correlation gives no verdict
@@ -74,19 +77,6 @@ class FeatureCheck:
     def diff_px(self) -> float:
         """Texture minus feature disparity (NaN: no verdict)."""
         return self.d_check_px - self.d_px
-
-
-def _patch_size(radius_px: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Half heights, half widths (px) (K,) int of patches inside branches of ``radius_px`` (K,) running along
-    (``du``, ``dv``) (K,) (unit), and their half extents across the branch (K,) px: long along the rows on
-    a flat branch (< 30 deg), narrow across a steep one (> 60 deg), a square inside the branch otherwise."""
-    r = np.maximum(radius_px, 1.0)
-    a = np.abs(dv)                                           # sine of the angle to the rows
-    flat, steep = a < 0.5, a > 0.87
-    sq = np.clip(np.rint(0.45 * r), 2, 6)
-    hh = np.where(flat, np.clip(np.floor(0.6 * r), 1, 7), np.where(steep, 4, sq)).astype(np.int64)
-    hw = np.where(flat, 7, np.where(steep, np.clip(np.rint(0.6 * r), 2, 7), sq)).astype(np.int64)
-    return hh, hw, hh * np.abs(du) + hw * a                  # (the box's half extent across the axis)
 
 
 def check_features(features: list, pieces: list, left, right, left_mask: np.ndarray,
@@ -184,61 +174,21 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
     if len(fi) == 0:
         return {c: np.zeros(0, np.int64 if c in ("feature", "piece", "u", "v", "hh", "hw") else float) for c in cols}
     used = np.unique(pj)
-    # the used pieces' samples end to end, each piece's arc length from its first sample, pieces BIG px apart
-    uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)
-    n = np.array([len(pieces[j].uvd) for j in used.tolist()])
-    first = np.r_[0, np.cumsum(n)[:-1]]
-    step = np.r_[0.0, np.hypot(np.diff(uvd[:, 0]), np.diff(uvd[:, 1]))]
-    step[first] = 0.0
-    arc = np.cumsum(step)
-    arc -= np.repeat(arc[first], n)
-    length = arc[first + n - 1]
-    big = float(length.max()) + 10.0
-    x = arc + np.repeat(np.arange(len(used)) * big, n)          # (increasing over all pieces)
-    k = np.searchsorted(used, pj)                               # each pair's piece among the used
-    ft_uv = fa[fi, 1:3]
-    a, z = uvd[first[k], :2], uvd[first[k] + n[k] - 1, :2]
-    from_end = np.hypot(*(z - ft_uv).T) < np.hypot(*(a - ft_uv).T)     # the feature at the piece's last sample
+    uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)     # (the used pieces end to end)
+    starts = np.r_[0, np.cumsum([len(pieces[j].uvd) for j in used.tolist()])].astype(np.int64)
     r = np.maximum(np.array([pieces[j].radius_px for j in pj.tolist()], float), 1.0)
-    fork = fa[fi, 5] > 0
-    s0 = np.maximum(np.where(fork, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
-    s1 = np.minimum(s0 + np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX), length[k])
+    s0 = np.maximum(np.where(fa[fi, 5] > 0, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
+    reach = np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX)
     dstep = np.clip(STEP_RADII * r, MIN_STEP_PX, MAX_STEP_PX)
-
-    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (within the piece);
-    # the patches at s0, s0 + step, ... up to s1, and 1 px either side of them (their direction)
-    lo = np.maximum(s0 - r, 0.0)
-    hi = np.minimum(np.maximum(s1, s0 + MIN_SPAN_PX), length[k])
-    qs = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
-    m = int(MAX_SPAN_PX // MIN_STEP_PX) + 1
-    q = s0[:, None] + dstep[:, None] * np.arange(m)[None, :]
-    arcs = np.concatenate([qs, q, q + 1.0, q - 1.0], axis=1)      # (pairs, 9 + 3 m) px from the feature's end
-    lk = length[k][:, None]
-    xq = np.clip(np.where(from_end[:, None], lk - arcs, arcs), 0.0, lk) + (k * big)[:, None]
-    dq = np.interp(xq[:, :9], x, uvd[:, 2])
-    iu, iv = np.interp(xq[:, 9:], x, uvd[:, 0]), np.interp(xq[:, 9:], x, uvd[:, 1])
-    qc = qs - qs.mean(1, keepdims=True)
-    slope = (qc * (dq - dq.mean(1, keepdims=True))).sum(1) / np.maximum((qc * qc).sum(1), 1e-9)
-    ok_pair = (s1 >= s0) & (hi - lo >= 2.0) & (np.abs(slope) <= MAX_PIECE_SLOPE)
-    valid = ok_pair[:, None] & (q <= s1[:, None] + 1e-9)
-    pu, pv = iu[:, :m], iv[:, :m]
-    du, dv = iu[:, m:2 * m] - iu[:, 2 * m:], iv[:, m:2 * m] - iv[:, 2 * m:]
-    pair, col = np.nonzero(valid)
-    ln = np.maximum(np.hypot(du, dv), 1e-9)[pair, col]
-    rr = r[pair]
-    hh, hw, across = _patch_size(rr, du[pair, col] / ln, dv[pair, col] / ln)
-    ui, vi = np.rint(pu[pair, col]).astype(np.int64), np.rint(pv[pair, col]).astype(np.int64)
-    h, w = left_mask.shape
-    keep = (vi >= hh) & (vi < h - hh) & (ui >= hw) & (ui < w - hw)
-    # inside the branch (not a leaf, not the background): the box's corners, edge midpoints and centre
-    yy = np.clip(vi[:, None] + np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1]) * hh[:, None], 0, h - 1)
-    xx = np.clip(ui[:, None] + np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1]) * hw[:, None], 0, w - 1)
-    keep &= (left_mask[yy, xx] >= 128).all(1)
-    pair, col = pair[keep], col[keep]
+    # the piece's slope: least squares over 9 points of [s0 - r, max(s1, s0 + MIN_SPAN_PX)] (s1 = s0 + reach,
+    # both within the piece); the patches at s0, s0 + step, ... up to s1 (their direction: 1 px either side)
+    consts = np.array([MIN_SPAN_PX, MAX_PIECE_SLOPE, FLAT_SIN, STEEP_SIN])
+    pair, _, u, v, hh, hw, across, s, slope = kernels_check.place_patches(
+        uvd, starts, np.searchsorted(used, pj), np.ascontiguousarray(fa[fi, 1:3]), r, s0, reach, dstep, left_mask,
+        int(MAX_SPAN_PX // MIN_STEP_PX) + 1, consts)
     d_feat = fa[fi, 3]
-    return {"feature": fi[pair], "piece": pj[pair], "s": q[pair, col], "u": ui[keep], "v": vi[keep],
-            "d_ref": d_feat[pair], "hh": hh[keep], "hw": hw[keep], "across": across[keep], "r": rr[keep],
-            "slope": slope[pair]}
+    return {"feature": fi[pair], "piece": pj[pair], "s": s, "u": u, "v": v, "d_ref": d_feat[pair], "hh": hh,
+            "hw": hw, "across": across, "r": r[pair], "slope": slope[pair]}
 
 
 def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:
@@ -304,43 +254,8 @@ def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     """
     nf = len(d_px)
     d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
-    good = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
-    if not good.any():
-        return d_check, n_used, spread
-    f, p, s, d, g = (t[c][good] for c in ("feature", "piece", "s", "d_axis", "slope"))
-    key = f * (int(p.max()) + 1) + p
-    starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
-    cnt = np.diff(np.r_[starts, len(key)])
-    grp = np.repeat(np.arange(len(starts)), cnt)
-    fg = f[starts]                                           # each group's feature
-    # carried along the piece's slope
-    e = d - g * s
-    e_lo, e_hi = np.minimum.reduceat(e, starts), np.maximum.reduceat(e, starts)
-    carry = np.where((cnt >= MIN_PATCHES) & (e_hi - e_lo <= 2 * MAX_SPREAD_PX), np.add.reduceat(e, starts) / cnt,
-                     np.nan)
-    # the texture's own straight line
-    s1, s2 = np.add.reduceat(s, starts), np.add.reduceat(s * s, starts)
-    y1, sy = np.add.reduceat(d, starts), np.add.reduceat(s * d, starts)
-    den = cnt * s2 - s1 * s1
-    b = (cnt * sy - s1 * y1) / np.where(den > 0, den, 1.0)
-    a0 = (y1 - b * s1) / cnt
-    res = np.maximum.reduceat(np.abs(d - a0[grp] - b[grp] * s), starts)
-    span = np.maximum.reduceat(s, starts) - np.minimum.reduceat(s, starts)
-    line = (cnt >= FIT_MIN_PATCHES) & (span >= FIT_MIN_SPAN_PX) & (res <= FIT_MAX_RES_PX) & (np.abs(b) <= MAX_PIECE_SLOPE)
-    # on the texture's line the slope is the texture's or the piece's: the intercepts of both lines through the
-    # patches' centroid bound the estimate; the bound nearer the feature's disparity counts (0 between them)
-    a_piece = (y1 - g[starts] * s1) / cnt
-    lo_b, hi_b = np.minimum(a0, a_piece) - d_px[fg], np.maximum(a0, a_piece) - d_px[fg]
-    on_line = np.where(lo_b > 0, lo_b, np.where(hi_b < 0, hi_b, 0.0))
-    diff = np.where(line, on_line, carry - d_px[fg])                 # (NaN: neither)
-    ok = np.isfinite(diff)
-    if not ok.any():
-        return d_check, n_used, spread
-    fg, diff, cnt, ext = fg[ok], diff[ok], cnt[ok], (e_hi - e_lo)[ok]
-    fs = np.r_[0, np.flatnonzero(np.diff(fg)) + 1]
-    lo, hi = np.minimum.reduceat(diff, fs), np.maximum.reduceat(diff, fs)
-    fi = fg[fs]
-    d_check[fi] = d_px[fi] + np.where(lo > 0, lo, np.where(hi < 0, hi, 0.0))
-    n_used[fi] = np.add.reduceat(cnt, fs)
-    spread[fi] = np.maximum.reduceat(ext, fs)
+    consts = np.array([MIN_SCORE, MIN_PATCHES, MAX_SPREAD_PX, FIT_MIN_PATCHES, FIT_MIN_SPAN_PX, FIT_MAX_RES_PX,
+                       MAX_PIECE_SLOPE], float)
+    kernels_check.estimate_pieces(t["feature"], t["piece"], t["s"], t["d_axis"], t["slope"], t["score"],
+                                  np.asarray(d_px, float), consts, d_check, n_used, spread)
     return d_check, n_used, spread

@@ -1,7 +1,7 @@
 """Compiled kernels of the front stages (seventh pass, speed02; docs/localize-numba.md).
 
 :func:`bark_lookup` is the colour recogniser's bark test by :func:`segment.bark_lut`'s table, the
-values of ``kernels.bark_tiles`` (OpenCV's HSV thresholds) at about half its cost: the pixels of a
+values of the former ``kernels.bark_tiles`` (OpenCV's HSV thresholds) at about half its cost: the pixels of a
 run of flagged tiles are read as one flat run per image row.
 
 :func:`distance_near` is the radius map's Euclidean distance transform, OpenCV's precise one

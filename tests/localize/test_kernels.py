@@ -177,35 +177,6 @@ def test_thinning_and_corner_kernels_are_the_numpy_passes():
     assert zhang_suen(np.ones((9, 9), np.uint8))[4, 4] == 1 and remove_corners(np.eye(5, dtype=np.uint8)).sum() == 5
 
 
-def test_bark_tiles_is_opencvs_hsv_threshold_in_the_tiles():
-    """bark_tiles with bark_lut's table gives OpenCV's HSV thresholds (bark_hsv) pixel for pixel in the
-    flagged tiles (edge tiles reaching the image's edges) and leaves the rest, for a hue range wrapping
-    through red, one not wrapping and one wrapping without containing 120; the table is bark_hsv's test
-    of every colour."""
-    import cv2
-
-    from appliance.config import load_config
-    from appliance.localize.segment import bark_hsv, bark_lut
-
-    base = load_config().localize.segment
-    rng = np.random.default_rng(6)
-    img = rng.integers(0, 256, (70, 90, 3), np.uint8)
-    img[:35] = cv2.GaussianBlur(img[:35], (0, 0), 3)           # (smooth colours too)
-    for hues in ((base.hue_min, base.hue_max), (5, 40), (175, 130)):
-        cfg = replace(base, hue_min=hues[0], hue_max=hues[1])
-        want = bark_hsv(img, cfg)[1]
-        assert 0 < cv2.countNonZero(want) < want.size
-        tiles = (rng.random((5, 6)) < 0.6).astype(np.uint8)
-        got = kernels.bark_tiles(img, bark_lut(cfg), tiles, 16, np.full(want.shape, 7, np.uint8))
-        inside = np.kron(tiles, np.ones((16, 16), np.uint8))[:70, :90].astype(bool)
-        np.testing.assert_array_equal(got[inside], want[inside])
-        assert (got[~inside] == 7).all()
-        every = np.unpackbits(bark_lut(cfg), bitorder="little").reshape(4096, 4096)    # all 2^24 colours
-        k = np.arange(1 << 24, dtype=np.int64)
-        colours = np.stack([k >> 16, (k >> 8) & 255, k & 255], 1).astype(np.uint8).reshape(4096, 4096, 3)
-        np.testing.assert_array_equal(every * 255, bark_hsv(colours, cfg)[1])
-
-
 def _unmix_numpy(bgr, mask, window_px, band_px, factor=4):
     """The numpy steps unmix_blocks replaced (segment.unmix_edges before the kernel)."""
     import cv2

@@ -6,14 +6,67 @@ from dataclasses import replace
 from pathlib import Path
 
 import cv2
+import numba
 import numpy as np
 from appliance.commands.common import effective_config
-from appliance.localize import kernels, kernels_front
+from appliance.localize import kernels_front
 from appliance.localize.radius import NEAR_MAX_SHARE, ridge_radius_map
-from appliance.localize.segment import _hsv_threshold, bark_lut, bark_mask, segment_mask
+from appliance.localize.segment import _hsv_threshold, bark_hsv, bark_lut, bark_mask, segment_mask
 from appliance.localize.skeleton import binary, skeletonize
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
+
+
+@numba.njit(cache=False)
+def bark_tiles(bgr, lut, tiles, tile_px, out):
+    """The reference for bark_lookup (kernels.bark_tiles until speedG, which bark_lookup replaced):
+    the bark test of every pixel of the flagged tiles, by a colour lookup table, in one pass; the
+    rest of ``out`` untouched.
+
+    ``bgr`` (H, W, 3) uint8; ``lut`` (2^21,) uint8: bit ``k & 7`` of byte ``k >> 3`` is the test of the
+    colour ``k = b << 16 | g << 8 | r``; ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square
+    tile (the last tile row and column reach the image's bottom and right edges); ``out`` (H, W)
+    uint8 gets 255 (bark) or 0.
+    """
+    h, w = out.shape
+    th, tw = tiles.shape
+    for ty in range(th):
+        y0 = ty * tile_px
+        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+        for tx in range(tw):
+            if tiles[ty, tx] == 0:
+                continue
+            x0 = tx * tile_px
+            x1 = w if tx == tw - 1 else min(x0 + tile_px, w)
+            for y in range(y0, y1):
+                for x in range(x0, x1):
+                    k = (np.int64(bgr[y, x, 0]) << 16) | (np.int64(bgr[y, x, 1]) << 8) | np.int64(bgr[y, x, 2])
+                    out[y, x] = 255 if (lut[k >> 3] >> (k & 7)) & 1 else 0
+    return out
+
+
+def test_bark_tiles_is_opencvs_hsv_threshold_in_the_tiles():
+    """bark_tiles with bark_lut's table gives OpenCV's HSV thresholds (bark_hsv) pixel for pixel in the
+    flagged tiles (edge tiles reaching the image's edges) and leaves the rest, for a hue range wrapping
+    through red, one not wrapping and one wrapping without containing 120; the table is bark_hsv's test
+    of every colour."""
+    base = effective_config(None).localize.segment
+    rng = np.random.default_rng(6)
+    img = rng.integers(0, 256, (70, 90, 3), np.uint8)
+    img[:35] = cv2.GaussianBlur(img[:35], (0, 0), 3)           # (smooth colours too)
+    for hues in ((base.hue_min, base.hue_max), (5, 40), (175, 130)):
+        cfg = replace(base, hue_min=hues[0], hue_max=hues[1])
+        want = bark_hsv(img, cfg)[1]
+        assert 0 < cv2.countNonZero(want) < want.size
+        tiles = (rng.random((5, 6)) < 0.6).astype(np.uint8)
+        got = bark_tiles(img, bark_lut(cfg), tiles, 16, np.full(want.shape, 7, np.uint8))
+        inside = np.kron(tiles, np.ones((16, 16), np.uint8))[:70, :90].astype(bool)
+        np.testing.assert_array_equal(got[inside], want[inside])
+        assert (got[~inside] == 7).all()
+        every = np.unpackbits(bark_lut(cfg), bitorder="little").reshape(4096, 4096)    # all 2^24 colours
+        k = np.arange(1 << 24, dtype=np.int64)
+        colours = np.stack([k >> 16, (k >> 8) & 255, k & 255], 1).astype(np.uint8).reshape(4096, 4096, 3)
+        np.testing.assert_array_equal(every * 255, bark_hsv(colours, cfg)[1])
 
 
 def _cv_distance(mask: np.ndarray) -> np.ndarray:
@@ -117,7 +170,7 @@ def _lookup(img: np.ndarray, lut: np.ndarray, tiles: np.ndarray, tile_px: int, f
 
 
 def test_bark_lookup_is_bark_tiles():
-    """bark_lookup against the kernel it replaces (kernels.bark_tiles) for random tile flags (runs of
+    """bark_lookup against the kernel it replaces (bark_tiles) for random tile flags (runs of
     tiles, single tiles, the last row and column reaching the image's edges), tile sizes and hue
     ranges (wrapping through red, not wrapping), on random and smooth colours: bit for bit, pixels
     outside the flagged tiles untouched."""
@@ -129,13 +182,13 @@ def test_bark_lookup_is_bark_tiles():
                                                                                           32, 0.9)):
         lut = bark_lut(replace(base, hue_min=hues[0], hue_max=hues[1]))
         tiles = (rng.random((-(-75 // tile_px), -(-101 // tile_px))) < p).astype(np.uint8) * 255
-        want = kernels.bark_tiles(img, lut, tiles, tile_px, np.full(img.shape[:2], 7, np.uint8))
+        want = bark_tiles(img, lut, tiles, tile_px, np.full(img.shape[:2], 7, np.uint8))
         got = _lookup(img, lut, tiles, tile_px)
         np.testing.assert_array_equal(got, want)
         assert (got == 7).any() and (got == 255).any() and (got == 0).any()
     small_tiles = np.ones((2, 3), np.uint8)                     # (fewer tiles than the image: the last reach its edges)
     np.testing.assert_array_equal(_lookup(img, lut, small_tiles, 16),
-                                  kernels.bark_tiles(img, lut, small_tiles, 16, np.full(img.shape[:2], 7, np.uint8)))
+                                  bark_tiles(img, lut, small_tiles, 16, np.full(img.shape[:2], 7, np.uint8)))
 
 
 def test_bark_mask_is_opencvs_test_where_flagged():

@@ -39,6 +39,7 @@ FLAT_TAPER = True
 # ... and for a lone fitted side, between its own and the other side's radius measured next to the fork
 # (the distance transform; seed 308's fork: the side's span 15.9 px, the fork 22 px, its texture +1.0 px)
 LONE_TAPER = True
+LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px between them (a branch's taper)
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -339,7 +340,10 @@ class ForkPlacing:
                  for s in parents]
         if LONE_TAPER and len(sides) == 1 and len(others) == 1 and rad is not None and near is not None:
             o = others[0]
-            sides.append((float(rad[o]), float(np.hypot(*(near[o].mean(0) - xy)))))
+            r_o, d_o = float(rad[o]), float(np.hypot(*(near[o].mean(0) - xy)))
+            # (the map's radii are good to ~scale / 2 px each: within its scale the two do not tell a taper)
+            if getattr(self.sm.radius_map, "scale", 1) < abs(r_o - sides[0][0]) <= LONE_MAX_TAPER * (sides[0][1] + d_o):
+                sides.append((r_o, d_o))
         if len(sides) != 2:
             return None
         (ra, da), (rb, db) = sides

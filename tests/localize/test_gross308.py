@@ -36,3 +36,23 @@ def test_a_fork_on_a_lone_flat_side_reads_its_texture_with_the_radius_at_the_for
         assert abs(row.dz_mm) <= 1.5
     else:
         assert row.dz_mm <= -3.5
+
+
+@pytest.mark.parametrize("towards_child", [False, True])
+def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_childs_curve(scene_308, monkeypatch,
+                                                                                          towards_child):
+    # the same fork with the lone side's taper off (its texture +1.0 px): with the colour masks the child's
+    # right outline (+2.2 px) was taken over it, though further than the parent's reading from the child's
+    # own curve (-0.7 px); with the outline rule bound towards the child it stays at the texture's +1.0 px
+    import appliance.localize.forkends as forkends
+    from appliance.synth.evaluate import score_result
+    monkeypatch.setattr(forkends, "LONE_TAPER", False)
+    monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
+    left, right, truth, calib = scene_308
+    res = Localizer(calib, load_config().localize).localize(left, right)
+    row = next(r for r in score_result(res, truth).rows if r.truth_index == 12)
+    assert row.kind == "bifurcation"
+    if towards_child:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 5.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm <= -8.0

@@ -336,10 +336,11 @@ class ForkPlacing:
         """The parent's radius (px) at the fork ``xy`` (2,) from its two sides' (each its span's mean,
         taken at the span's middle): a branch tapers along its length, so the distal side's radius is
         smaller than at the fork and the proximal one's larger; linear between the two middles by their
-        distances in the image. With one fitted side (``parents``) and the other side without a curve
-        (``others``), that side's radius ``rad[s]`` measured at its centre-line points ``near[s]`` (K, 2)
-        next to the fork (:meth:`_near_points`, the distance transform's) stands for it (``LONE_TAPER``).
-        None otherwise (the side's own stands)."""
+        distances in the image. With one fitted side through the fork (``parents``), the other side
+        (``others``: without a curve, or its curve not through the fork) stands in with its radius
+        ``rad[s]`` measured at its centre-line points ``near[s]`` (K, 2) next to the fork
+        (:meth:`_near_points`, :meth:`_seg_radius`), where the two tell a taper (``LONE_TAPER``,
+        ``LONE_MAX_TAPER``). None otherwise (the side's own stands)."""
         sides = [(self.curves[s].radius_px,
                   float(np.hypot(*(self.curves[s].uv_at(np.array([0.5 * sum(self.curves[s].t_range)]))[0] - xy))))
                  for s in parents]

@@ -36,6 +36,14 @@ FLAT_NEAR_MIN_PX = 0.25
 
 # ... with the parent's radius at the fork between its two sides' (a tapering branch: ForkPlacing._radius_at_fork)
 FLAT_TAPER = True
+# ... and for a lone fitted side, between its own and the other side's radius measured next to the fork
+# (the distance transform; seed 308's fork: the side's span 15.9 px, the fork 22 px, its texture +1.0 px)
+LONE_TAPER = True
+LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px between them (a branch's taper)
+
+# a flat parent's fork takes its child's right outline's disparity (1-3 px from the parent's) only if that
+# lies no further than the parent's from the child's own curve there, when the child has one
+OUTLINE_TOWARDS_CHILD = True
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -202,7 +210,8 @@ class ForkPlacing:
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
                                    self.sm.f_px, self.sm.offset_px,
-                                   radius_px=self._radius_at_fork(parents, xy) if FLAT_TAPER else None)
+                                   radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
+                                                                  rad, near) if FLAT_TAPER else None)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
                 if v is not None:
                     flat_read.add(s)
@@ -262,7 +271,8 @@ class ForkPlacing:
                 seen_right = abs(d_out - d) <= 3.0
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
-            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)):
+            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)) \
+                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
@@ -321,16 +331,28 @@ class ForkPlacing:
         return all(self.curves[s].by_row and (side_near[s].nearest_px <= SIDE_KNOWN_PX if s in side_near
                                               else self._reach(s, xy) <= 0) for s in parents)
 
-    def _radius_at_fork(self, parents: list, xy: np.ndarray) -> float | None:
+    def _radius_at_fork(self, parents: list, xy: np.ndarray, others: list = (), rad: dict | None = None,
+                        near: dict | None = None) -> float | None:
         """The parent's radius (px) at the fork ``xy`` (2,) from its two sides' (each its span's mean,
         taken at the span's middle): a branch tapers along its length, so the distal side's radius is
         smaller than at the fork and the proximal one's larger; linear between the two middles by their
-        distances in the image. None with fewer than two fitted sides (the side's own stands)."""
-        if len(parents) != 2:
+        distances in the image. With one fitted side through the fork (``parents``), the other side
+        (``others``: without a curve, or its curve not through the fork) stands in with its radius
+        ``rad[s]`` measured at its centre-line points ``near[s]`` (K, 2) next to the fork
+        (:meth:`_near_points`, :meth:`_seg_radius`), where the two tell a taper (``LONE_TAPER``,
+        ``LONE_MAX_TAPER``). None otherwise (the side's own stands)."""
+        sides = [(self.curves[s].radius_px,
+                  float(np.hypot(*(self.curves[s].uv_at(np.array([0.5 * sum(self.curves[s].t_range)]))[0] - xy))))
+                 for s in parents]
+        if LONE_TAPER and len(sides) == 1 and len(others) == 1 and rad is not None and near is not None:
+            o = others[0]
+            r_o, d_o = float(rad[o]), float(np.hypot(*(near[o].mean(0) - xy)))
+            # (the map's radii are good to ~scale / 2 px each: within its scale the two do not tell a taper)
+            if getattr(self.sm.radius_map, "scale", 1) < abs(r_o - sides[0][0]) <= LONE_MAX_TAPER * (sides[0][1] + d_o):
+                sides.append((r_o, d_o))
+        if len(sides) != 2:
             return None
-        (ra, da), (rb, db) = ((self.curves[s].radius_px,
-                               float(np.hypot(*(self.curves[s].uv_at(np.array([0.5 * sum(self.curves[s].t_range)]))[0]
-                                                - xy)))) for s in parents)
+        (ra, da), (rb, db) = sides
         return taper_radius(ra, da, rb, db)
 
     def recheck_outline_forks(self) -> None:

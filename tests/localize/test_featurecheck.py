@@ -3,7 +3,8 @@
 Constructed pair: a textured scene whose right view is the left one shifted by D_PX (a surface at one
 depth), a horizontal branch band of radius R_PX in the left mask from u = 60 to a tip at u = 200, and
 a fork at u = 130 where a second, diagonal piece leaves the band. A feature at the right disparity is
-kept; at a disparity 3 px off it is withheld; a feature on bark without texture is kept (no verdict).
+kept; at a disparity 3 px off, or 12-15 px off (outside the
+search window: the wide search), it is withheld; a feature on bark without texture is kept (no verdict).
 """
 
 from dataclasses import replace
@@ -72,6 +73,19 @@ def test_wrong_disparity_withheld():
     checks = _check(_features(D_PX + 3.0, D_PX - 2.5))
     assert [c.withheld for c in checks] == [True, True]
     assert abs(checks[0].diff_px + 3.0) < 0.4 and abs(checks[1].diff_px - 2.5) < 0.4
+
+
+def test_far_off_disparity_withheld():
+    """Features 12-15 px off: the texture's peak lies outside the +-8 px window; the whole working range
+    searched again finds it."""
+    checks = _check(_features(D_PX + 15.0, D_PX - 12.0))
+    assert [c.withheld for c in checks] == [True, True]
+    assert abs(checks[0].diff_px + 15.0) < 0.4 and abs(checks[1].diff_px - 12.0) < 0.4
+
+
+def test_far_off_without_texture_no_verdict():
+    checks = _check(_features(D_PX + 15.0, D_PX - 12.0), textured=False)
+    assert not any(c.withheld for c in checks) and all(np.isnan(c.d_check_px) for c in checks)
 
 
 def test_small_difference_kept():

@@ -7,7 +7,8 @@ of those mechanisms. Near each feature it takes small patches of the left grey i
 feature's branch(es) (a tip: along its branch from ``TIP_BACK`` radius back; a fork: along each of its
 pieces, clear of the other pieces' silhouettes), finds each patch's disparity in the right image along
 the same rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
-sub-pixel parabola), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
+sub-pixel parabola; a patch without a confident peak near the feature's disparity searched again over the
+whole working range, its peak counting only when unique: :func:`patch_disparities`), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
 and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
 and the matched piece's slopes). Where that differs from the feature's disparity by more than
 ``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
@@ -216,7 +217,7 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
     hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
     sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
-    ok, ks, offs, sc = _search(left, right, t, np.arange(n), sx0, sx1, kernels.ncc_peaks, MIN_STD)
+    ok, ks, offs, sc = _search(left, right, t, np.arange(n), sx0, sx1, kernels.ncc_peaks, (), (MIN_STD,))
     found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
     d_out[found] = (u - (sx0 + ks + offs + hw))[found]
     score[found] = sc[found]
@@ -228,8 +229,8 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
         d_near = t["d_ref"][wide] + t["slope"][wide] * t["s"][wide]
         n0 = np.floor(uw - hww - wx0 - d_near - NEAR_PX).astype(np.int64)      # (strip positions of d_near +- NEAR_PX)
         n1 = np.ceil(uw - hww - wx0 - d_near + NEAR_PX).astype(np.int64)
-        okw, kw, ow, best, near, second = _search(left, right, t, wide, wx0, wx1, kernels_check.wide_peaks, n0, n1,
-                                                  int(WIDE_AWAY_PX), MIN_STD)
+        okw, kw, ow, best, near, second = _search(left, right, t, wide, wx0, wx1, kernels_check.wide_peaks, (n0, n1),
+                                                  (int(WIDE_AWAY_PX), MIN_STD))
         miss = 1.0 - best
         take = okw & (best >= MIN_SCORE) & (1.0 - near >= WIDE_RATIO * miss) & (1.0 - second >= WIDE_RATIO * miss)
         d_out[wide[take]] = (uw - (wx0 + kw + ow + hww))[take]
@@ -238,15 +239,14 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     return d_out, score
 
 
-def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.ndarray, kernel, *args) -> tuple:
-    """``kernel(lbox, rbox, ty, tx, hh, hw, sx0, sx1, *args_per_patch, *args)`` (:func:`kernels.ncc_peaks` or
-    :func:`kernels_check.wide_peaks`) of the patches ``rows`` of the table ``t`` (grouped by feature) along
-    the right-image columns ``sx0[k]:sx1[k]`` (K,) of each, one call per feature and patch width, each
-    feature's patches read in one box of each image. ``args``: arrays (K,) passed per patch, then scalars.
-    Returns the kernel's arrays (K,) in the order of ``rows``."""
+def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.ndarray, kernel, per: tuple,
+            tail: tuple) -> tuple:
+    """``kernel(lbox, rbox, ty, tx, hh, hw, sx0, sx1, *per, *tail)`` (:func:`kernels.ncc_peaks` or
+    :func:`kernels_check.wide_peaks`) of the patches ``rows`` (K,) of the table ``t`` (grouped by feature)
+    along the right-image columns ``sx0[k]:sx1[k]`` of each, one call per feature and patch width, each
+    feature's patches read in one box of each image. ``per``: arrays (K,) passed per patch; ``tail``:
+    scalars. Returns the kernel's arrays (K,) in the order of ``rows``."""
     u, v, hh, hw, f = (t[c][rows] for c in ("u", "v", "hh", "hw", "feature"))
-    per = [a for a in args if isinstance(a, np.ndarray)]
-    tail = [a for a in args if not isinstance(a, np.ndarray)]
     n = len(rows)
     fs = np.r_[0, np.flatnonzero(np.diff(f)) + 1]
     boxes = np.column_stack([np.minimum.reduceat(v - hh, fs), np.maximum.reduceat(v + hh, fs) + 1,

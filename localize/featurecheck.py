@@ -42,6 +42,7 @@ NEAR_PX = 2.0                # no confident peak in the window: the whole workin
 WIDE_RATIO = 2.0             # ... when 1 - its score is this many times under 1 - the best score within +-NEAR_PX
 WIDE_AWAY_PX = 3.0           # of the piece's disparity and 1 - every other local maximum further than this from it
                              # (smooth bark correlates 0.9+ along a row: the dissimilarities tell peaks apart)
+MIN_MISS = 0.005             # (1 - the peak's score taken as at least this: two perfect peaks are not unique)
 MIN_STD = 2.0                # a patch with a lower grey-level standard deviation has no texture
 MIN_PATCHES = 2              # a piece with fewer confident patches gives no verdict
 MAX_PIECE_SLOPE = 0.12       # a piece whose disparity changes faster (px per px) gives no verdict
@@ -204,7 +205,8 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     Each patch is searched within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``) (and the working
     range). A textured patch whose window holds no confident peak (its best at the window's end, or
     scoring under ``MIN_SCORE``) is searched again over the whole working range: a peak there counts when
-    it scores ``>= MIN_SCORE``, is not at the range's end, and its dissimilarity (1 - score) is under
+    it scores ``>= MIN_SCORE``, is not at the range's end, and its dissimilarity (1 - score, at least
+    ``MIN_MISS``) is under
     1 / ``WIDE_RATIO`` of that of the best within +-``NEAR_PX`` of the piece's own disparity at the patch
     (``d_ref + slope s``) and of every other local maximum over ``WIDE_AWAY_PX`` from it
     (:func:`kernels_check.wide_peaks`)."""
@@ -231,7 +233,7 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
         n1 = np.ceil(uw - hww - wx0 - d_near + NEAR_PX).astype(np.int64)
         okw, kw, ow, best, near, second = _search(left, right, t, wide, wx0, wx1, kernels_check.wide_peaks, (n0, n1),
                                                   (int(WIDE_AWAY_PX), MIN_STD))
-        miss = 1.0 - best
+        miss = np.maximum(1.0 - best, MIN_MISS)
         take = okw & (best >= MIN_SCORE) & (1.0 - near >= WIDE_RATIO * miss) & (1.0 - second >= WIDE_RATIO * miss)
         d_out[wide[take]] = (uw - (wx0 + kw + ow + hww))[take]
         score[wide[take]] = best[take]

@@ -7,7 +7,8 @@ of those mechanisms. Near each feature it takes small patches of the left grey i
 feature's branch(es) (a tip: along its branch from ``TIP_BACK`` radius back; a fork: along each of its
 pieces, clear of the other pieces' silhouettes), finds each patch's disparity in the right image along
 the same rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
-sub-pixel parabola), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
+sub-pixel parabola; a patch without a confident peak near the feature's disparity searched again over the
+whole working range, its peak counting only when unique: :func:`patch_disparities`), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
 and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
 and the matched piece's slopes). Where that differs from the feature's disparity by more than
 ``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
@@ -37,6 +38,11 @@ FLAT_SIN, STEEP_SIN = 0.5, 0.87   # a patch inside a branch under 30 deg to the 
 WINDOW_PX = 8                # each patch searched within +-this of the feature's disparity ...
 MAX_SLOPE = 0.1              # ... widened by this many px per px from the feature
 MIN_SCORE = 0.7              # a patch matched with a lower correlation gives no verdict
+NEAR_PX = 2.0                # no confident peak in the window: the whole working range searched; its peak counts
+WIDE_RATIO = 2.0             # ... when 1 - its score is this many times under 1 - the best score within +-NEAR_PX
+WIDE_AWAY_PX = 3.0           # of the piece's disparity and 1 - every other local maximum further than this from it
+                             # (smooth bark correlates 0.9+ along a row: the dissimilarities tell peaks apart)
+MIN_MISS = 0.005             # (1 - the peak's score taken as at least this: two perfect peaks are not unique)
 MIN_STD = 2.0                # a patch with a lower grey-level standard deviation has no texture
 MIN_PATCHES = 2              # a piece with fewer confident patches gives no verdict
 MAX_PIECE_SLOPE = 0.12       # a piece whose disparity changes faster (px per px) gives no verdict
@@ -193,19 +199,57 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
 
 def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: int) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel disparity (P,) of the bark surface of each patch of the table ``t`` (:func:`patch_table`'s
-    columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``; rows grouped by feature; NaN: no
-    texture, or the peak at the window's end) within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``)
-    (and the working range), and its correlation (P,) (:func:`kernels.ncc_peaks`: one call per feature and
-    patch width; each feature's patches read in one box of each image)."""
+    columns ``feature``, ``u``, ``v``, ``d_ref``, ``hh``, ``hw``, ``s``, ``slope``; rows grouped by feature;
+    NaN: no texture, or no confident peak) and its correlation (P,).
+
+    Each patch is searched within ``d_ref`` +- (``WINDOW_PX`` + ``MAX_SLOPE`` x ``s``) (and the working
+    range). A textured patch whose window holds no confident peak (its best at the window's end, or
+    scoring under ``MIN_SCORE``) is searched again over the whole working range: a peak there counts when
+    it scores ``>= MIN_SCORE``, is not at the range's end, and its dissimilarity (1 - score, at least
+    ``MIN_MISS``) is under
+    1 / ``WIDE_RATIO`` of that of the best within +-``NEAR_PX`` of the piece's own disparity at the patch
+    (``d_ref + slope s``) and of every other local maximum over ``WIDE_AWAY_PX`` from it
+    (:func:`kernels_check.wide_peaks`)."""
     n = len(t["u"])
     d_out, score = np.full(n, np.nan), np.full(n, -1.0)
     if n == 0:
         return d_out, score
-    u, v, hh, hw, f = t["u"], t["v"], t["hh"], t["hw"], t["feature"]
+    u, hw = t["u"], t["hw"]
     half = WINDOW_PX + MAX_SLOPE * t["s"]
     lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
     hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
     sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
+    ok, ks, offs, sc = _search(left, right, t, np.arange(n), sx0, sx1, kernels.ncc_peaks, (), (MIN_STD,))
+    found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
+    d_out[found] = (u - (sx0 + ks + offs + hw))[found]
+    score[found] = sc[found]
+    wide = np.flatnonzero(ok & ~(found & (sc >= MIN_SCORE)))       # (textured, no confident peak in the window)
+    if len(wide):
+        uw, hww = u[wide], hw[wide]
+        wx0 = np.maximum(uw - math.ceil(d_range_px[1]) - hww, 0)
+        wx1 = np.minimum(uw - math.floor(d_range_px[0]) + hww + 1, w)
+        d_near = t["d_ref"][wide] + t["slope"][wide] * t["s"][wide]
+        n0 = np.floor(uw - hww - wx0 - d_near - NEAR_PX).astype(np.int64)      # (strip positions of d_near +- NEAR_PX)
+        n1 = np.ceil(uw - hww - wx0 - d_near + NEAR_PX).astype(np.int64)
+        okw, kw, ow, best, near, second = _search(left, right, t, wide, wx0, wx1, kernels_check.wide_peaks, (n0, n1),
+                                                  (int(WIDE_AWAY_PX), MIN_STD))
+        miss = np.maximum(1.0 - best, MIN_MISS)
+        take = okw & (best >= MIN_SCORE) & (1.0 - near >= WIDE_RATIO * miss) & (1.0 - second >= WIDE_RATIO * miss)
+        d_out[wide[take]] = (uw - (wx0 + kw + ow + hww))[take]
+        score[wide[take]] = best[take]
+        d_out[wide[~take]], score[wide[~take]] = np.nan, -1.0
+    return d_out, score
+
+
+def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.ndarray, kernel, per: tuple,
+            tail: tuple) -> tuple:
+    """``kernel(lbox, rbox, ty, tx, hh, hw, sx0, sx1, *per, *tail)`` (:func:`kernels.ncc_peaks` or
+    :func:`kernels_check.wide_peaks`) of the patches ``rows`` (K,) of the table ``t`` (grouped by feature)
+    along the right-image columns ``sx0[k]:sx1[k]`` of each, one call per feature and patch width, each
+    feature's patches read in one box of each image. ``per``: arrays (K,) passed per patch; ``tail``:
+    scalars. Returns the kernel's arrays (K,) in the order of ``rows``."""
+    u, v, hh, hw, f = (t[c][rows] for c in ("u", "v", "hh", "hw", "feature"))
+    n = len(rows)
     fs = np.r_[0, np.flatnonzero(np.diff(f)) + 1]
     boxes = np.column_stack([np.minimum.reduceat(v - hh, fs), np.maximum.reduceat(v + hh, fs) + 1,
                              np.minimum.reduceat(u - hw, fs), np.maximum.reduceat(u + hw, fs) + 1,
@@ -215,7 +259,7 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
     ge = np.r_[gs[1:], n]
     box_of = np.searchsorted(fs, order[gs], side="right") - 1       # each group's feature's box
-    ok, ks, offs = np.zeros(n, bool), np.zeros(n, np.int64), np.zeros(n)
+    out = None
     last = -1
     for a, b, kb in zip(gs.tolist(), ge.tolist(), box_of.tolist()):
         y0, y1, lx0, lx1, rx0, rx1 = boxes[kb].tolist()
@@ -224,12 +268,13 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
             rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
             last = kb
         i = order[a:b]
-        ok[i], ks[i], offs[i], score[i] = kernels.ncc_peaks(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], int(hw[i[0]]),
-                                                            sx0[i] - rx0, sx1[i] - rx0, MIN_STD)
-    found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
-    d_out[found] = (u - (sx0 + ks + offs + hw))[found]
-    score[~found] = -1.0
-    return d_out, score
+        res = kernel(lbox, rbox, v[i] - y0, u[i] - lx0, hh[i], int(hw[i[0]]), sx0[i] - rx0, sx1[i] - rx0,
+                     *(p[i] for p in per), *tail)
+        if out is None:
+            out = [np.zeros(n, r.dtype) for r in res]
+        for o, r in zip(out, res):
+            o[i] = r
+    return tuple(out)
 
 
 def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT
+from appliance.localize.kernels import _JIT, _is_flat, _ncc_row, _patch_sums
 
 
 @numba.njit(**_JIT)
@@ -290,6 +290,54 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
 
 
 @numba.njit(**_JIT)
+def wide_peaks(left, right, ty, tx, hh, hw, sx0, sx1, n0, n1, away, min_std):
+    """:func:`kernels.ncc_peaks` over wide strips, with what tells a unique peak: for each patch ``i``
+    (centre ``(tx[i], ty[i])`` in ``left``, half height ``hh[i]``, half width ``hw``) not flat, its
+    TM_CCOEFF_NORMED scores at the strip positions ``0 .. sx1[i] - sx0[i] - 2 hw - 1`` of ``right``.
+
+    Returns ok (N,) bool (False: flat, too short a strip, or the best at the strip's end), k (N,) int64
+    (the best position), off (N,) (its parabola offset), best (N,) (its score), near (N,) (the best score
+    at positions ``n0[i] .. n1[i]``: around the feature's own disparity; -1 where none) and second (N,)
+    (the best local maximum more than ``away`` positions from the best; -1 where none)."""
+    n = len(ty)
+    nw = 2 * hw + 1
+    big = 0
+    for i in range(n):
+        big = max(big, sx1[i] - sx0[i])
+    ok = np.zeros(n, np.bool_)
+    ks = np.zeros(n, np.int64)
+    offs, best = np.zeros(n), np.full(n, -1.0)
+    near, second = np.full(n, -1.0), np.full(n, -1.0)
+    acc, buf = np.empty(big + 1, np.int32), np.empty(big + 1, np.int32)
+    cs, cs2, c = np.empty(big + 1), np.empty(big + 1), np.empty(big + 1)
+    for i in range(n):
+        nh = 2 * hh[i] + 1
+        y0, lx0 = ty[i] - hh[i], tx[i] - hw
+        st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
+        if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+            continue
+        n_pos = sx1[i] - sx0[i] - nw + 1
+        if n_pos < 3:
+            continue
+        _ncc_row(left, right, y0, nh, lx0, nw, sx0[i], n_pos, st, st2, acc, buf, cs, cs2, c)
+        k = 0
+        for p in range(1, n_pos):
+            if c[p] > c[k]:
+                k = p
+        if k == 0 or k == n_pos - 1:
+            continue
+        denom = c[k - 1] - 2 * c[k] + c[k + 1]
+        off = 0.5 * (c[k - 1] - c[k + 1]) / denom if denom < 0 else 0.0
+        ok[i], ks[i], offs[i], best[i] = True, k, off, c[k]
+        for p in range(max(n0[i], 0), min(n1[i], n_pos - 1) + 1):
+            near[i] = max(near[i], c[p])
+        for p in range(1, n_pos - 1):
+            if abs(p - k) > away and c[p] >= c[p - 1] and c[p] >= c[p + 1]:
+                second[i] = max(second[i], c[p])
+    return ok, ks, offs, best, near, second
+
+
+@numba.njit(**_JIT)
 def _arc_x(q, from_end, lk):
     """A distance ``q`` px from the feature's end as the arc length from the piece's first sample,
     clipped to the piece (``np.clip(np.where(from_end, lk - q, q), 0, lk)``)."""
@@ -304,3 +352,5 @@ def warm_up() -> None:
                   f, f + 3, np.zeros((2, 2), np.uint8), 1, np.zeros(4))
     i = np.zeros(1, np.int64)
     estimate_pieces(i, i, f, f, f, f, f, np.zeros(7), f.copy(), i.copy(), f.copy())
+    img = np.zeros((3, 8), np.uint8)
+    wide_peaks(img, img, i + 1, i + 1, i + 1, 1, i, i + 8, i, i, 2, 2.0)

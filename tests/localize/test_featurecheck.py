@@ -3,7 +3,8 @@
 Constructed pair: a textured scene whose right view is the left one shifted by D_PX (a surface at one
 depth), a horizontal branch band of radius R_PX in the left mask from u = 60 to a tip at u = 200, and
 a fork at u = 130 where a second, diagonal piece leaves the band. A feature at the right disparity is
-kept; at a disparity 3 px off it is withheld; a feature on bark without texture is kept (no verdict).
+kept; at a disparity 3 px off, or 12-15 px off (outside the
+search window: the wide search), it is withheld; a feature on bark without texture is kept (no verdict).
 """
 
 from dataclasses import replace
@@ -72,6 +73,36 @@ def test_wrong_disparity_withheld():
     checks = _check(_features(D_PX + 3.0, D_PX - 2.5))
     assert [c.withheld for c in checks] == [True, True]
     assert abs(checks[0].diff_px + 3.0) < 0.4 and abs(checks[1].diff_px - 2.5) < 0.4
+
+
+def test_far_off_disparity_withheld():
+    """Features 12-15 px off: the texture's peak lies outside the +-8 px window; the whole working range
+    searched again finds it."""
+    checks = _check(_features(D_PX + 15.0, D_PX - 12.0))
+    assert [c.withheld for c in checks] == [True, True]
+    assert abs(checks[0].diff_px + 15.0) < 0.4 and abs(checks[1].diff_px - 12.0) < 0.4
+
+
+def test_far_off_without_texture_no_verdict():
+    checks = _check(_features(D_PX + 15.0, D_PX - 12.0), textured=False)
+    assert not any(c.withheld for c in checks) and all(np.isnan(c.d_check_px) for c in checks)
+
+
+def test_far_off_on_periodic_bark_no_verdict():
+    """Bark repeating every 25 px along the rows: the wide search finds two equal peaks (40, 65 px), no
+    unique one: no verdict for a feature 12 px off (whose window holds neither)."""
+    _, _, mask = _pair()
+    rng = np.random.default_rng(7)
+    period = cv2.GaussianBlur(rng.uniform(0, 255, (H, 25)).astype(np.float32), (0, 0), 1.0)
+    t = np.tile(period, (1, (W + int(D_PX)) // 25 + 1))
+    t = (60 + 140 * (t - t.min()) / (t.max() - t.min())).astype(np.uint8)
+    left, right = np.ascontiguousarray(t[:, :W]), np.ascontiguousarray(t[:, int(D_PX):int(D_PX) + W])
+    feats = [FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + 12.5, R_PX)]
+    checks = check_features(feats, _pieces(), left, right, mask, D_RANGE, F_PX, 0.0, max_diff_px=1.0)
+    assert not checks[0].withheld and np.isnan(checks[0].d_check_px)
+    near = check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX, R_PX)], _pieces(), left, right, mask,
+                          D_RANGE, F_PX, 0.0, max_diff_px=1.0)
+    assert abs(near[0].diff_px) < 0.4                               # (the bark does have texture)
 
 
 def test_small_difference_kept():

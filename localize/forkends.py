@@ -62,6 +62,14 @@ SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the neares
 # its own rows next to the fork not read, with no child curve to confirm it (seed 264's fork, colour
 # masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
 LONE_SIDE_WITHHELD = True
+# ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
+# px the two are carried past their spans (tipends' carried rule, doubled at its base): no fit error
+# explains such a gap, the sides are two branches at different depths meeting in the image (seed 355's
+# fork, colour masks: a side carried 79 rows at 248 px, the other a thicker branch behind the parent,
+# its silhouette holding it, at 210; truth 230.5, the fork took 210: +74 mm)
+SIDES_APART_WITHHELD = True
+SIDES_APART_PX = 4.0
+SIDES_APART_PER_PX = 0.1
 
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
@@ -225,6 +233,7 @@ class ForkPlacing:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        d_sides = list(d_par)
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -308,6 +317,9 @@ class ForkPlacing:
             # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
             self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
+            agree = False
+        if agree and SIDES_APART_WITHHELD and final and len(d_sides) == 2 and abs(d_sides[0] - d_sides[1]) > \
+                SIDES_APART_PX + SIDES_APART_PER_PX * sum(self._carried_px(s, xy) for s in parents):
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
                 and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:

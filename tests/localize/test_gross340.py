@@ -67,3 +67,33 @@ def test_a_flat_tip_behind_a_branch_in_the_right_view_keeps_no_end_from_it(scene
         assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
     else:
         assert row.result_id >= 0 and row.dz_mm >= 40.0
+
+
+@pytest.fixture(scope="module")
+def scene_355():
+    """Rendered scene 355 and the rig's calibration."""
+    from appliance.synth.rig import default_rig
+    from appliance.synth.scene import make_scene, render
+    rig = default_rig()
+    left, right, truth = render(make_scene(355), rig, seed=355, ss=2)
+    return left, right, truth, rig.calibration()
+
+
+@pytest.mark.parametrize("apart_check", [False, True])
+def test_a_fork_whose_parent_sides_are_far_apart_in_depth_is_withheld(scene_355, monkeypatch, apart_check):
+    # seed 355's fork 7 (Z 763 mm, colour masks): the parent runs in front of a thicker branch whose
+    # silhouette holds it; one side is that thicker branch's piece (210 px at the fork), the other a side
+    # fitted on 11 rows carried 79 rows (248 px), the child carried 77 px (238): truth 230.5. The median
+    # (238) then the one side reaching the fork (210) were taken: +74 mm. Sides 38 px apart, where carrying
+    # explains 4 + 0.1 * 79 px: withheld.
+    import appliance.localize.forkends as forkends
+    from appliance.synth.evaluate import score_result
+    monkeypatch.setattr(forkends, "SIDES_APART_WITHHELD", apart_check)
+    left, right, truth, calib = scene_355
+    res = Localizer(calib, load_config().localize).localize(left, right)
+    row = next(r for r in score_result(res, truth).rows if r.truth_index == 7)
+    assert row.kind == "bifurcation"
+    if apart_check:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 60.0

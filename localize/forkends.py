@@ -63,10 +63,12 @@ SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the neares
 # masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
 LONE_SIDE_WITHHELD = True
 # ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
-# px the two are carried past their spans (tipends' carried rule, doubled at its base): no fit error
-# explains such a gap, the sides are two branches at different depths meeting in the image (seed 355's
-# fork, colour masks: a side carried 79 rows at 248 px, the other a thicker branch behind the parent,
-# its silhouette holding it, at 210; truth 230.5, the fork took 210: +74 mm)
+# px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error
+# explains such a gap, one side is another branch at another depth) unless the child's curve confirms the
+# fork's disparity within the same allowance for its own carry (seed 355's fork, colour masks: a side
+# carried 79 rows at 248 px, the other a thicker branch behind the parent, its silhouette holding it, at
+# 210, the child carried 77 px at 238; truth 230.5, the fork took 210: +74 mm; seeds 122 and 128: sides
+# 20 and 80 px apart, the child within 1.5 px of the fork, right)
 SIDES_APART_WITHHELD = True
 SIDES_APART_PX = 4.0
 SIDES_APART_PER_PX = 0.1
@@ -319,7 +321,9 @@ class ForkPlacing:
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
             agree = False
         if agree and SIDES_APART_WITHHELD and final and len(d_sides) == 2 and abs(d_sides[0] - d_sides[1]) > \
-                SIDES_APART_PX + SIDES_APART_PER_PX * sum(self._carried_px(s, xy) for s in parents):
+                SIDES_APART_PX + SIDES_APART_PER_PX * sum(self._carried_px(s, xy) for s in parents) and not (
+                child_ok and abs(at(child) - self.uvd[node][2]) <= SIDES_APART_PX
+                + SIDES_APART_PER_PX * self._carried_px(child, xy)):
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
                 and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:

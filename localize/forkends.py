@@ -44,6 +44,8 @@ LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px 
 # a flat parent's fork takes its child's right outline's disparity (1-3 px from the parent's) only if that
 # lies no further than the parent's from the child's own curve there, when the child has one
 OUTLINE_TOWARDS_CHILD = True
+# the most (px) the child's right outline may move a flat parent's fork off its texture's disparity
+OUTLINE_MAX_SHIFT_PX = 3.0
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -282,7 +284,7 @@ class ForkPlacing:
                 seen_right = abs(d_out - d) <= 3.0
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
-            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)) \
+            elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
                     and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)

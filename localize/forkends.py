@@ -44,8 +44,10 @@ LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px 
 # a flat parent's fork takes its child's right outline's disparity (1-3 px from the parent's) only if that
 # lies no further than the parent's from the child's own curve there, when the child has one
 OUTLINE_TOWARDS_CHILD = True
-# the most (px) the child's right outline may move a flat parent's fork off its texture's disparity
-OUTLINE_MAX_SHIFT_PX = 3.0
+# the most (px) the child's right outline may move a flat parent's fork off its texture's disparity: 3 px took
+# 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact
+# masks: +0.45 -> -1.9 px, +5 mm); none of the 60 scenes' or seeds 260-323's forks moved 2-3 px by it
+OUTLINE_MAX_SHIFT_PX = 2.0
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there

@@ -41,8 +41,9 @@ FLAT_TAPER = True
 LONE_TAPER = True
 LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px between them (a branch's taper)
 
-# a flat parent's fork takes its child's right outline's disparity (1-3 px from the parent's) only if that
-# lies no further than the parent's from the child's own curve there, when the child has one
+# a flat parent's fork takes its child's right outline's disparity (1 px to OUTLINE_MAX_SHIFT_PX from the
+# parent's) only if that lies no further than the parent's from the child's own curve there, when the
+# child has one
 OUTLINE_TOWARDS_CHILD = True
 # the most (px) the child's right outline may move a flat parent's fork off its texture's disparity: 3 px took
 # 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact

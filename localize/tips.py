@@ -459,9 +459,9 @@ def reads_round(shapes: list | None) -> bool:
 
 
 # a flat tip's run end moved > 2 px off its texture stands only if the right view's flanks beside the end
-# (the square ring 1.3-2.3 radii off the centre line, from one radius back to the end) hold no more than this
-# share of mask more than the left's: a round cap leaves its flanks empty, a branch touching it in the right
-# view only fills them there (seed 340 T13: 0.50 against 0.00; at the texture's disparity 0.05)
+# (the bands 1.3-2.3 radii each side of the centre line, from one radius back to the end) hold no more
+# than this share of mask more than the left's: a round cap leaves its flanks empty, a branch touching it
+# in the right view only fills them there (seed 340 T13: 0.50 against 0.00; at the texture's disparity 0.05)
 FLANK_SHARE = 0.25
 
 

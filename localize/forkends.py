@@ -41,9 +41,14 @@ FLAT_TAPER = True
 LONE_TAPER = True
 LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px between them (a branch's taper)
 
-# a flat parent's fork takes its child's right outline's disparity (1-3 px from the parent's) only if that
-# lies no further than the parent's from the child's own curve there, when the child has one
+# a flat parent's fork takes its child's right outline's disparity (1 px to OUTLINE_MAX_SHIFT_PX from the
+# parent's) only if that lies no further than the parent's from the child's own curve there, when the
+# child has one
 OUTLINE_TOWARDS_CHILD = True
+# the most (px) the child's right outline may move a flat parent's fork off its texture's disparity: 3 px took
+# 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact
+# masks: +0.45 -> -1.9 px, +5 mm); none of the 60 scenes' or seeds 260-323's forks moved 2-3 px by it
+OUTLINE_MAX_SHIFT_PX = 2.0
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -62,6 +67,16 @@ SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the neares
 # its own rows next to the fork not read, with no child curve to confirm it (seed 264's fork, colour
 # masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
 LONE_SIDE_WITHHELD = True
+# ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
+# px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error
+# explains such a gap, one side is another branch at another depth) unless the child's curve confirms the
+# fork's disparity within the same allowance for its own carry (seed 355's fork, colour masks: a side
+# carried 79 rows at 248 px, the other a thicker branch behind the parent, its silhouette holding it, at
+# 210, the child carried 77 px at 238; truth 230.5, the fork took 210: +74 mm; seeds 122 and 128: sides
+# 20 and 80 px apart, the child within 1.5 px of the fork, right)
+SIDES_APART_WITHHELD = True
+SIDES_APART_PX = 4.0
+SIDES_APART_PER_PX = 0.1
 
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
@@ -225,6 +240,7 @@ class ForkPlacing:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        d_sides = list(d_par)
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -271,7 +287,7 @@ class ForkPlacing:
                 seen_right = abs(d_out - d) <= 3.0
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
-            elif 1.0 < abs(d_out - d) <= 3.0 and not (child_ok and _agree(at(child), d)) \
+            elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
                     and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
@@ -308,6 +324,11 @@ class ForkPlacing:
             # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
             self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
+            agree = False
+        if agree and SIDES_APART_WITHHELD and final and len(d_sides) == 2 and abs(d_sides[0] - d_sides[1]) > \
+                SIDES_APART_PX + SIDES_APART_PER_PX * sum(self._carried_px(s, xy) for s in parents) and not (
+                child_ok and abs(at(child) - self.uvd[node][2]) <= SIDES_APART_PX
+                + SIDES_APART_PER_PX * self._carried_px(child, xy)):
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
                 and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:

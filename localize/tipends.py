@@ -15,7 +15,7 @@ from appliance.localize.curves import BranchCurve
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
-                                     cap_shapes_offsets, occluder_confirmed, reads_round)
+                                     cap_shapes_offsets, occluder_confirmed, reads_round, right_flanks_filled)
 from appliance.localize.walks import WALK_EDGE_BIAS
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
@@ -178,13 +178,15 @@ class TipPlacing:
                 return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
                 self.uvd[node][2] = d_end
-            elif self._end_outline_agrees(uv_edge, out, d_end, r):
+            elif self._end_outline_agrees(uv_edge, out, d_end, r) and not right_flanks_filled(
+                    self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r):
                 # an occluder's edge lies in front of the branch it cuts: an end further away
                 # than the texture says is the cap's own (the texture's is off, and so is the
                 # end shift below, measured with it)
                 cap_behind = d_end < self.uvd[node][2]
                 self.uvd[node][2] = d_end
-            # else the right run's end is not the cap's (something touches it there): the texture's stands
+            # else the right run's end is not the cap's (something touches it there, along the row or
+            # beside the cap: tips.right_flanks_filled): the texture's stands
         if not self._seen_right(self.uvd[node], r):
             self.hidden.add(int(node))                # hidden in the right view: no depth of its own
             return None

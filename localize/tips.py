@@ -456,3 +456,40 @@ def cap_centre(shapes: list | None, offset_px: float, r: float) -> tuple[float, 
 def reads_round(shapes: list | None) -> bool:
     """:func:`round_cap`'s rule on :func:`cap_shape`'s readings ``shapes``."""
     return _is_round(shapes)
+
+
+# a flat tip's run end moved > 2 px off its texture stands only if the right view's flanks beside the end
+# (the bands 1.3-2.3 radii each side of the centre line, from one radius back to the end) hold no more
+# than this share of mask more than the left's: a round cap leaves its flanks empty, a branch touching it
+# in the right view only fills them there (seed 340 T13: 0.50 against 0.00; at the texture's disparity 0.05)
+FLANK_SHARE = 0.25
+
+
+def right_flanks_filled(left_mask: np.ndarray, right_mask: np.ndarray, uv_edge: np.ndarray, out: np.ndarray,
+                        d_px: float, r: float) -> bool:
+    """Whether the right view has clearly more mask than the left beside a tip's end at disparity ``d_px``.
+
+    Parameters
+    ----------
+    left_mask, right_mask : (H, W) uint8 masks (>= 128: branch), rectified.
+    uv_edge : (2,) left px where the centre line leaves the mask; ``out`` its unit direction outwards.
+    d_px : the end's disparity (px); r : the piece's radius (px).
+
+    Returns
+    -------
+    bool
+        True when the right flanks' mask share exceeds the left's by more than :data:`FLANK_SHARE`
+        (something touches the cap in the right view only: its run end is not the cap's).
+    """
+    h = int(math.ceil(2.5 * r))
+    ys, xs = np.mgrid[-h:h + 1, -h:h + 1]
+    along = xs * out[0] + ys * out[1]
+    across = np.abs(ys * out[0] - xs * out[1])
+    sel = (along >= -r) & (along <= 0.5) & (across > 1.3 * r) & (across <= 2.3 * r)
+    yy = np.rint(uv_edge[1]).astype(int) + ys[sel]
+    share = []
+    for mask, x0 in ((left_mask, uv_edge[0]), (right_mask, uv_edge[0] - d_px)):
+        xx = int(np.rint(x0)) + xs[sel]
+        inside = (yy >= 0) & (yy < mask.shape[0]) & (xx >= 0) & (xx < mask.shape[1])
+        share.append(np.count_nonzero(mask[yy[inside], xx[inside]] >= 128) / max(len(yy), 1))
+    return bool(share[1] - share[0] > FLANK_SHARE)

@@ -1,7 +1,5 @@
 """The compiled kernels (numba) against the numpy steps they replace."""
 
-from dataclasses import replace
-
 import numpy as np
 
 from appliance.localize import kernels

@@ -72,14 +72,10 @@ def test_a_fork_whose_sides_agree_within_a_pixel_stands():
     assert len(found) == 1 and abs((found[0].left_px[0] - found[0].right_px[0]) - d) <= 0.4
 
 
-@pytest.fixture(scope="module")
-def scene_264():
-    """Rendered scene 264 (the benchmark's seed, rendered here: ~9 s) and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(264), rig, seed=264, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_264(rendered_scene):
+    """Rendered scene 264 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(264)
 
 
 @pytest.mark.parametrize("withheld", [False, True])

@@ -5,14 +5,10 @@ from appliance.config import load_config
 from appliance.localize import Localizer
 
 
-@pytest.fixture(scope="module")
-def scene_308():
-    """Rendered scene 308 (the benchmark's seed, rendered here) and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(308), rig, seed=308, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_308(rendered_scene):
+    """Rendered scene 308 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(308)
 
 
 @pytest.mark.parametrize("masks", ["true", "colour"])

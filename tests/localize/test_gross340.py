@@ -35,14 +35,10 @@ def test_a_branch_beside_the_cap_in_the_right_view_only_fills_its_flanks(touchin
         assert not right_flanks_filled(left, right, np.array([300.0, float(y)]), out, d_end, r)
 
 
-@pytest.fixture(scope="module")
-def scene_340():
-    """Rendered scene 340 (the benchmark's seed, rendered here) and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(340), rig, seed=340, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_340(rendered_scene):
+    """Rendered scene 340 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(340)
 
 
 @pytest.mark.parametrize("masks", ["true", "colour"])
@@ -73,14 +69,10 @@ def test_a_flat_tip_behind_a_branch_in_the_right_view_keeps_no_end_from_it(scene
         assert row.result_id >= 0 and row.dz_mm >= 40.0
 
 
-@pytest.fixture(scope="module")
-def scene_355():
-    """Rendered scene 355 and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(355), rig, seed=355, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_355(rendered_scene):
+    """Rendered scene 355 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(355)
 
 
 @pytest.mark.parametrize("apart_check", [False, True])
@@ -104,18 +96,16 @@ def test_a_fork_whose_parent_sides_are_far_apart_in_depth_is_withheld(scene_355,
 
 
 @pytest.mark.parametrize("max_shift_px", [3.0, 2.0])
-def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(monkeypatch, max_shift_px):
+def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(rendered_scene, monkeypatch,
+                                                                              max_shift_px):
     # seed 328's fork 14 (Z 1269 mm, colour masks): the flat parent's texture reads 137.35 px (truth 137.88),
     # the child (no curve of its own) leaves it in the right view's outline at 135.05: 2.3 px off the texture,
     # within the old 3 px bound, taken: +27 mm. Bound at 2 px the texture stands (-0.5 px)
     import appliance.localize.forkends as forkends
     from appliance.synth.evaluate import score_result
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
     monkeypatch.setattr(forkends, "OUTLINE_MAX_SHIFT_PX", max_shift_px)
-    rig = default_rig()
-    left, right, truth = render(make_scene(328), rig, seed=328, ss=2)
-    res = Localizer(rig.calibration(), load_config().localize).localize(left, right)
+    left, right, truth, calib = rendered_scene(328)
+    res = Localizer(calib, load_config().localize).localize(left, right)
     row = next(r for r in score_result(res, truth).rows if r.truth_index == 14)
     assert row.kind == "bifurcation"
     if max_shift_px == 2.0:

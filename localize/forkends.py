@@ -67,6 +67,12 @@ SIDE_KNOWN_PX = 12.0                # (a side read from its own rows: the neares
 # its own rows next to the fork not read, with no child curve to confirm it (seed 264's fork, colour
 # masks: one side carried 53 rows, +0.6 px; read from its rows with the exact masks, +0.2)
 LONE_SIDE_WITHHELD = True
+# ... and so is a fork whose lone steep parent side is read from its own crossings further than LONE_FAR_PX
+# (px) from the fork, its only confirmation a child curve carried further than that too: two lines carried
+# across the same gap agree where both were read, not at the fork (seed 333's fork, exact masks: the side read
+# 82 rows off, 141.03 px, the child carried 86 rows, 140.74, agreeing; truth 142.09, +9.2 mm)
+LONE_FAR_WITHHELD = True
+LONE_FAR_PX = 40.0
 # ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
 # px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error
 # explains such a gap, one side is another branch at another depth) unless the child's curve confirms the
@@ -332,6 +338,10 @@ class ForkPlacing:
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
                 and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:
+            agree = False
+        if agree and LONE_FAR_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
+                and parents[0] in side_near and side_near[parents[0]].nearest_px > LONE_FAR_PX \
+                and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
             agree = False
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the

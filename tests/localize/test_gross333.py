@@ -5,14 +5,10 @@ from appliance.config import load_config
 from appliance.localize import Localizer
 
 
-@pytest.fixture(scope="module")
-def scene_333():
-    """Rendered scene 333 (the benchmark's seed, rendered here) and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(333), rig, seed=333, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_333(rendered_scene):
+    """Rendered scene 333 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(333)
 
 
 @pytest.mark.parametrize("far_check", [False, True])
@@ -35,14 +31,10 @@ def test_a_lone_side_read_far_off_is_not_confirmed_by_a_child_carried_as_far(sce
         assert row.result_id >= 0 and row.dz_mm >= 8.0
 
 
-@pytest.fixture(scope="module")
-def scene_327():
-    """Rendered scene 327 and the rig's calibration."""
-    from appliance.synth.rig import default_rig
-    from appliance.synth.scene import make_scene, render
-    rig = default_rig()
-    left, right, truth = render(make_scene(327), rig, seed=327, ss=2)
-    return left, right, truth, rig.calibration()
+@pytest.fixture
+def scene_327(rendered_scene):
+    """Rendered scene 327 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(327)
 
 
 @pytest.mark.parametrize("blob_check", [False, True])

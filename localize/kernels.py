@@ -1059,6 +1059,47 @@ def _ncc_row(left, right, y0, nh, lx0, nw, rx0, n_pos, st, st2, acc, buf, cs, cs
 
 
 @numba.njit(**_JIT)
+def _strip_buffers(sx0, sx1):
+    """Work arrays of :func:`_strip_scores` for strips ``sx0[i]:sx1[i]``: acc, buf (int32) and cs, cs2, c."""
+    big = 0
+    for i in range(len(sx0)):
+        big = max(big, sx1[i] - sx0[i])
+    return (np.empty(big + 1, np.int32), np.empty(big + 1, np.int32), np.empty(big + 1), np.empty(big + 1),
+            np.empty(big + 1))
+
+
+@numba.njit(**_JIT)
+def _strip_scores(left, right, y0, nh, lx0, nw, sx0, sx1, min_std, acc, buf, cs, cs2, c):
+    """One patch's (``left[y0:y0 + nh, lx0:lx0 + nw]``) TM_CCOEFF_NORMED scores along the strip of ``right``
+    from column ``sx0`` to ``sx1`` written into ``c``; returns their count, 0 for a flat patch
+    (``texture._flat`` with ``min_std``) or a strip of fewer than 3 positions."""
+    st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
+    if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+        return 0
+    n_pos = sx1 - sx0 - nw + 1
+    if n_pos < 3:
+        return 0
+    _ncc_row(left, right, y0, nh, lx0, nw, sx0, n_pos, st, st2, acc, buf, cs, cs2, c)
+    return n_pos
+
+
+@numba.njit(**_JIT)
+def _peak(c, n_pos):
+    """The first position ``k`` of the highest of ``c[:n_pos]`` and the offset of the parabola through it and
+    its neighbours (0 at the strip's ends or where the parabola does not open downwards)."""
+    k = 0
+    for p in range(1, n_pos):
+        if c[p] > c[k]:
+            k = p
+    off = 0.0
+    if 0 < k < n_pos - 1:
+        denom = c[k - 1] - 2 * c[k] + c[k + 1]
+        if denom < 0:
+            off = 0.5 * (c[k - 1] - c[k + 1]) / denom
+    return k, off
+
+
+@numba.njit(**_JIT)
 def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
     """``texture._search``'s one-by-one loop: for each patch ``i`` (centre ``(tx[i], ty[i])`` in ``left``,
     half height ``hh[i]``, half width ``hw``) not flat (``texture._flat`` with ``min_std``), its
@@ -1068,34 +1109,17 @@ def ncc_peaks(left, right, ty, tx, hh, hw, sx0, sx1, min_std):
     Returns ok (N,) bool (False: flat, or a strip too short), k (N,) int64, off (N,), score (N,)."""
     n = len(ty)
     nw = 2 * hw + 1
-    big = 0
-    for i in range(n):
-        big = max(big, sx1[i] - sx0[i])
     ok = np.zeros(n, np.bool_)
     ks = np.zeros(n, np.int64)
     offs = np.zeros(n)
     best = np.full(n, -1.0)
-    acc, buf = np.empty(big + 1, np.int32), np.empty(big + 1, np.int32)
-    cs, cs2, c = np.empty(big + 1), np.empty(big + 1), np.empty(big + 1)
+    acc, buf, cs, cs2, c = _strip_buffers(sx0, sx1)
     for i in range(n):
-        nh = 2 * hh[i] + 1
-        y0, lx0 = ty[i] - hh[i], tx[i] - hw
-        st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
-        if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+        n_pos = _strip_scores(left, right, ty[i] - hh[i], 2 * hh[i] + 1, tx[i] - hw, nw, sx0[i], sx1[i], min_std,
+                              acc, buf, cs, cs2, c)
+        if n_pos == 0:
             continue
-        n_pos = sx1[i] - sx0[i] - nw + 1
-        if n_pos < 3:
-            continue
-        _ncc_row(left, right, y0, nh, lx0, nw, sx0[i], n_pos, st, st2, acc, buf, cs, cs2, c)
-        k = 0
-        for p in range(1, n_pos):
-            if c[p] > c[k]:
-                k = p
-        off = 0.0
-        if 0 < k < n_pos - 1:
-            denom = c[k - 1] - 2 * c[k] + c[k + 1]
-            if denom < 0:
-                off = 0.5 * (c[k - 1] - c[k + 1]) / denom
+        k, off = _peak(c, n_pos)
         ok[i], ks[i], offs[i], best[i] = True, k, off, c[k]
     return ok, ks, offs, best
 

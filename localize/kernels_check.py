@@ -16,7 +16,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _is_flat, _ncc_row, _patch_sums
+from appliance.localize.kernels import _JIT, _peak, _strip_buffers, _strip_scores
 
 
 @numba.njit(**_JIT)
@@ -301,33 +301,19 @@ def wide_peaks(left, right, ty, tx, hh, hw, sx0, sx1, n0, n1, away, min_std):
     (the best local maximum more than ``away`` positions from the best; -1 where none)."""
     n = len(ty)
     nw = 2 * hw + 1
-    big = 0
-    for i in range(n):
-        big = max(big, sx1[i] - sx0[i])
     ok = np.zeros(n, np.bool_)
     ks = np.zeros(n, np.int64)
     offs, best = np.zeros(n), np.full(n, -1.0)
     near, second = np.full(n, -1.0), np.full(n, -1.0)
-    acc, buf = np.empty(big + 1, np.int32), np.empty(big + 1, np.int32)
-    cs, cs2, c = np.empty(big + 1), np.empty(big + 1), np.empty(big + 1)
+    acc, buf, cs, cs2, c = _strip_buffers(sx0, sx1)
     for i in range(n):
-        nh = 2 * hh[i] + 1
-        y0, lx0 = ty[i] - hh[i], tx[i] - hw
-        st, st2, lo, hi = _patch_sums(left, y0, nh, lx0, nw)
-        if _is_flat(st, st2, lo, hi, nh * nw, min_std):
+        n_pos = _strip_scores(left, right, ty[i] - hh[i], 2 * hh[i] + 1, tx[i] - hw, nw, sx0[i], sx1[i], min_std,
+                              acc, buf, cs, cs2, c)
+        if n_pos == 0:
             continue
-        n_pos = sx1[i] - sx0[i] - nw + 1
-        if n_pos < 3:
-            continue
-        _ncc_row(left, right, y0, nh, lx0, nw, sx0[i], n_pos, st, st2, acc, buf, cs, cs2, c)
-        k = 0
-        for p in range(1, n_pos):
-            if c[p] > c[k]:
-                k = p
+        k, off = _peak(c, n_pos)
         if k == 0 or k == n_pos - 1:
             continue
-        denom = c[k - 1] - 2 * c[k] + c[k + 1]
-        off = 0.5 * (c[k - 1] - c[k + 1]) / denom if denom < 0 else 0.0
         ok[i], ks[i], offs[i], best[i] = True, k, off, c[k]
         for p in range(max(n0[i], 0), min(n1[i], n_pos - 1) + 1):
             near[i] = max(near[i], c[p])

@@ -75,16 +75,20 @@ def test_edge_hidden_in_one_view_does_not_bend_the_disparity(occluded):
     assert np.abs(tip_err).max() <= BOUND_PX, f"tip disparity off by up to {np.abs(tip_err).max():.2f} px"
 
 
-def test_width_disagree_drops_the_occluded_rows_only():
-    # 30 rows of one piece: both views 40 px wide, then 10 rows whose right run narrows by 1..10 px
+def _narrowed_piece():
+    """30 rows of one piece, both views 40 px wide, then its rows 20-29 whose right run narrows by 1..10 px:
+    arc lengths, left widths, right widths, picks, groups and the rule's tolerances."""
     n = 30
-    t = np.arange(n, dtype=float)
-    w_l = np.full(n, 40.0)
-    cw = w_l.copy()
+    cw = np.full(n, 40.0)
     cw[20:] -= np.arange(1, 11)
     q = np.arange(n, dtype=np.int64)
-    gq = np.zeros(n, np.int64)
-    tol = kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE
+    return (np.arange(n, dtype=float), np.full(n, 40.0), cw, q, np.zeros(n, np.int64),
+            (kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE))
+
+
+def test_width_disagree_drops_the_occluded_rows_only():
+    # 30 rows of one piece: both views 40 px wide, then 10 rows whose right run narrows by 1..10 px
+    t, w_l, cw, q, gq, tol = _narrowed_piece()
     keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol,
                                                       _NO_JUNCTION)
     np.testing.assert_array_equal(keep, np.abs(cw - w_l) <= tol[0] + tol[1] * 40.0)
@@ -102,14 +106,7 @@ def test_width_disagree_keeps_a_piece_narrowed_next_to_its_fork():
     # the same piece, its narrowed rows 20-29 at one end: a junction 3 rows past that end (within one width,
     # 40 px): the rows are the crotch's or an occluder's next to the fork, and the side is not shortened there
     # (seed 273 T9); a junction at the clean end, or 60 rows past the narrowed one, leaves the rule as it is
-    n = 30
-    t = np.arange(n, dtype=float)
-    w_l = np.full(n, 40.0)
-    cw = w_l.copy()
-    cw[20:] -= np.arange(1, 11)
-    q = np.arange(n, dtype=np.int64)
-    gq = np.zeros(n, np.int64)
-    tol = kernels_dense.OCCL_TOL_PX, kernels_dense.OCCL_SHARE
+    t, w_l, cw, q, gq, tol = _narrowed_piece()
     for junction, dropped in (((np.nan, 32.0), False), ((-3.0, np.nan), True), ((np.nan, 89.0), True)):
         keep, degree, lost = kernels_dense.width_disagree(q, q, cw, gq, t, w_l, np.array([2], np.int64), 1, *tol,
                                                           np.array([junction]))

@@ -16,6 +16,10 @@ Three threads and two bounded queues::
   (whose stamps are the recording's).
 - With ``opts.workers`` > 1 the pairs are localized in that many processes (the localizer is
   Python-heavy: threads would share one core); results still leave in capture order.
+- A pair the localizer fails on (an exception) is counted (``failed_localize``), noted in the
+  log's ``/diagnostics`` with its sequence number and stamp, logged as frames without a result
+  (so the replay reproduces the failure) and skipped: nothing is sent to the arm for it, never
+  an empty "no obstacles". ``MAX_FAILED_IN_ROW`` failures in a row stop the run with the error.
 - A camera lost mid-run is reopened with back-off (``camera.reconnect_min_s`` doubling up
   to ``camera.reconnect_max_s``); the gap is counted and logged. A camera that cannot be
   opened at start is an error.
@@ -43,11 +47,17 @@ from appliance.acquire import AcquireError, StereoFrame, open_driver
 from appliance.calibrate.model import StereoCalibration
 from appliance.config import Config
 from appliance.config.load import config_to_dict
+from appliance.errors import ApplianceError
 from appliance.localize import Localizer
 from appliance.shared_frames import SharedFrames, SlotRef, attach, pair_view
 
 _END = object()  # end-of-stream marker in the queues
+MAX_FAILED_IN_ROW = 30  # pairs in a row the localizer fails on before the run stops (1 s at 30 Hz)
 _WORKER: dict = {}  # in a localizer worker process only: its Localizer and the shared frames it reads
+
+
+class LocalizeFailed(ApplianceError):
+    """The localizer failed on too many pairs in a row for the run to go on."""
 
 
 def _start_worker(calib: StereoCalibration, cfg, variant: str) -> None:
@@ -88,6 +98,7 @@ class RunStatus:
     dropped_localize: int = 0       # pairs the localizer had no time for
     dropped_log: int = 0            # pairs not logged because the writer was behind
     dropped_driver: int = 0         # pairs the driver dropped (stamp skew)
+    failed_localize: int = 0        # pairs the localizer failed on (skipped; see /diagnostics)
     reconnects: int = 0             # times the camera was reopened
     camera_ok: bool = True
     rate_hz: float = 0.0            # localized pairs per second
@@ -166,6 +177,7 @@ class _Loop:
         self._done_ns: deque = deque(maxlen=120)      # result times, for the rate
         self._latency_ms: deque = deque(maxlen=300)
         self.error: BaseException | None = None
+        self._failed_in_row = 0
 
     # -- wiring --------------------------------------------------------------------------
     def run(self) -> RunStatus:
@@ -353,8 +365,8 @@ class _Loop:
         if self.opts.workers == 1:
             while (item := self.frames_q.get()) is not _END:
                 frame, received_ns = item
-                self._emit(frame, received_ns,
-                           self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns))
+                self._emit(frame, received_ns, self._result_of(
+                    frame, lambda: self.localizer.localize(frame.left, frame.right, stamp_ns=frame.stamp_ns)))
             return
         pending: deque = deque()                        # (frame, received_ns, future), oldest first
         while (item := self.frames_q.get()) is not _END:
@@ -365,12 +377,41 @@ class _Loop:
             # (the machine is busy) then delays the next instead of dropping it
             while pending and (len(pending) > self.opts.workers or pending[0][2].done()):
                 frame, received_ns, future = pending.popleft()
-                self._emit(frame, received_ns, future.result())
+                self._emit(frame, received_ns, self._result_of(frame, future.result))
         for frame, received_ns, future in pending:
-            self._emit(frame, received_ns, future.result())
+            self._emit(frame, received_ns, self._result_of(frame, future.result))
+
+    def _result_of(self, frame: StereoFrame, localize: Callable):
+        """``localize()``'s result for one pair, or None when it raised (counted, noted, skipped).
+
+        Raises
+        ------
+        LocalizeFailed
+            The localizer failed on ``MAX_FAILED_IN_ROW`` pairs in a row.
+        """
+        try:
+            result = localize()
+        except Exception as exc:                        # one bad pair must not blind the arm for good
+            self.status.failed_localize += 1
+            self._failed_in_row += 1
+            what = f"pair {frame.seq} (stamp_ns {frame.stamp_ns}): {type(exc).__name__}: {exc}"
+            self._note(f"localize failed on {what}")
+            if self._failed_in_row >= MAX_FAILED_IN_ROW:
+                raise LocalizeFailed(f"{self.opts.device}: the localizer failed on {self._failed_in_row} pairs "
+                                     f"in a row, the last {what}") from exc
+            return None
+        self._failed_in_row = 0
+        return result
 
     def _emit(self, frame: StereoFrame, received_ns: int, result) -> None:
-        """Hand one result to the outputs (arm, live view, log) and count it."""
+        """Hand one result to the outputs (arm, live view, log) and count it; None: log the frames only."""
+        if result is None:                              # the localizer failed: the arm hears nothing
+            if self.writer is not None:
+                try:
+                    self.log_q.put_nowait((frame, None))
+                except queue.Full:
+                    self.status.dropped_log += 1
+            return
         if self.replay:                                 # replayed stamps: time from arrival
             age_ns = time.monotonic_ns() - received_ns
         else:
@@ -401,7 +442,8 @@ class _Loop:
                 continue
             frame, result = item
             self.writer.write_frame(frame)
-            self.writer.write_result(result, frame.seq, self.camera_to_base)
+            if result is not None:
+                self.writer.write_result(result, frame.seq, self.camera_to_base)
 
     # -- status --------------------------------------------------------------------------
     def _note(self, message: str) -> None:

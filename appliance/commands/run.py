@@ -81,14 +81,16 @@ def status_line(s) -> str:
     log = "" if not s.log_paths else ("  logging" if s.logging else "  [red]logging stopped[/]")
     log += f"  live {s.live['url']}" if s.live else ""
     return (f"{cam}  {s.rate_hz:5.1f} pairs/s  latency p50 {s.latency_p50_ms:5.1f} ms "
-            f"p99 {s.latency_p99_ms:5.1f} ms  pairs {s.pairs} localized {s.localized}  "
+            f"p99 {s.latency_p99_ms:5.1f} ms  pairs {s.pairs} localized {s.localized}"
+            f"{f'  [red]failed {s.failed_localize}[/]' if s.failed_localize else ''}  "
             f"dropped {s.dropped_localize}+{s.dropped_log} (localize+log)  "
             f"features {s.features} branches {s.branches}{arm}{log}")
 
 
 def summary(s) -> None:
     """What the run did, on stdout."""
-    typer.echo(f"pairs {s.pairs}, localized {s.localized}, dropped: localizer {s.dropped_localize}, "
+    typer.echo(f"pairs {s.pairs}, localized {s.localized}, failed {s.failed_localize}, "
+               f"dropped: localizer {s.dropped_localize}, "
                f"log {s.dropped_log}, driver {s.dropped_driver}; reconnects {s.reconnects}")
     for path in s.log_paths:
         typer.echo(f"log: {path}")

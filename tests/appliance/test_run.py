@@ -206,6 +206,55 @@ def test_a_lost_camera_is_reopened_and_the_run_goes_on(tmp_path):
     assert reconnects >= 2
 
 
+def _scenes_with_small_pairs(tmp_path: Path, pairs: int, small: range) -> Path:
+    """A folder of ``pairs`` fixture pairs (cycled) whose pairs ``small`` are half size: the localizer
+    refuses them."""
+    import cv2
+
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    for i in range(pairs):
+        for side in ("left", "right"):
+            source = SCENES / f"{side}_{i % N_SCENES:02d}.png"
+            if i in small:
+                cv2.imwrite(str(scenes / f"{side}_{i:02d}.png"), cv2.resize(cv2.imread(str(source)), (640, 480)))
+            else:
+                shutil.copy(source, scenes / f"{side}_{i:02d}.png")
+    return scenes
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_pair_the_localizer_fails_on_is_counted_logged_and_skipped(tmp_path, workers):
+    scenes = _scenes_with_small_pairs(tmp_path, N_SCENES, small=range(1, 2))
+    r = appliance("run", "--device", f"fake:{scenes}", "--calib", str(RIG), "--log", str(tmp_path / "logs"),
+                  "--workers", workers, "-q")
+    assert r.returncode == 0, r.stderr
+    assert f"pairs {N_SCENES}, localized {N_SCENES - 1}, failed 1," in r.stdout
+    log = only_log(tmp_path / "logs")
+    assert check_log(log).intact
+    assert [seq for seq, _, _ in read_results(log)] == [i for i in range(N_SCENES) if i != 1]
+    assert [f.seq for f in iter_stereo_frames(log)] == list(range(N_SCENES))   # its frames kept, for replay
+    diagnostics = read_diagnostics(log)
+    notes = [d["message"] for d in diagnostics if "message" in d]
+    assert any(n.startswith("localize failed on pair 1 (stamp_ns ") and "640x480" in n for n in notes), notes
+    assert diagnostics[-1]["failed_localize"] == 1
+
+
+def test_a_localizer_failing_on_every_pair_stops_the_run_in_one_line(tmp_path):
+    from appliance.run import MAX_FAILED_IN_ROW as limit
+
+    scenes = _scenes_with_small_pairs(tmp_path, limit + 3, small=range(1, limit + 3))
+    cfg = write_config(tmp_path / "fast.yaml", "camera:\n  fake_rate_hz: -1\n")
+    r = appliance("run", "--device", f"fake:{scenes}", "--calib", str(RIG), "--log", str(tmp_path / "logs"),
+                  "--config", str(cfg), "-q")
+    assert r.returncode == 1
+    assert r.stderr.startswith("error: ") and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert f"failed on {limit} pairs in a row" in r.stderr and str(scenes) in r.stderr
+    log = only_log(tmp_path / "logs")
+    assert check_log(log).intact
+    assert read_diagnostics(log)[-1]["failed_localize"] >= limit
+
+
 def test_a_full_disk_stops_logging_but_not_localizing(tmp_path):
     cfg = write_config(tmp_path / "c.yaml", "logging:\n  min_free_bytes: 1000000000000000\n")
     r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / "logs"),

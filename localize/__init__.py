@@ -2,6 +2,6 @@
 
 from appliance.localize.errors import LocalizeError
 from appliance.localize.localizer import Localizer, paper_config
-from appliance.localize.result import Branch, Feature, LocalizationResult
+from appliance.localize.result import Branch, Feature, LocalizationResult, WithheldFeature
 
-__all__ = ["Branch", "Feature", "LocalizationResult", "LocalizeError", "Localizer", "paper_config"]
+__all__ = ["Branch", "Feature", "LocalizationResult", "LocalizeError", "Localizer", "WithheldFeature", "paper_config"]

@@ -31,7 +31,7 @@ from appliance.localize.prune import prune
 from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover
 from appliance.localize.rectify import LazyRectified, Rectifier
-from appliance.localize.result import Branch, Feature, LocalizationResult
+from appliance.localize.result import Branch, Feature, LocalizationResult, WithheldFeature
 from appliance.localize.segment import as_mask, bark_lut, occluder_at, segment_mask
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.triangulate import disparity_range_px, triangulate
@@ -206,6 +206,7 @@ class Localizer:
         r.check_size(right, "right image")
         clock = _Clock()
         ml, mr, occluder = self._masks(left, right, mask_left, mask_right, clock)
+        withheld: list = []                              # (matched feature, its FeatureCheck)
         if cv2.minMaxLoc(ml)[1] <= 127 or cv2.minMaxLoc(mr)[1] <= 127:     # a view without branch pixels
             clock.lap("rectify")
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
@@ -226,19 +227,23 @@ class Localizer:
                 clock.lap("match")
                 checks = check_features(matching.features, matching.pieces, gl, gr, ml, self.d_range_px,
                                         sm.f_px, sm.offset_px, c.feature_check.max_diff_px)
+                withheld = [(f, k) for f, k in zip(matching.features, checks) if k.withheld]
                 matching = replace(matching, features=[f for f, k in zip(matching.features, checks) if not k.withheld],
                                    stats={**matching.stats, "feature_check": checks})
                 clock.lap("check")
         clock.lap("match")
-        result = self._assemble(matching, stamp_ns)
+        result = self._assemble(matching, stamp_ns, withheld)
         clock.lap("triangulate")
         timings = dict(clock.timings)
         timings["total"] = sum(timings.values())
         return replace(result, timings_ms=timings)
 
     # -- output -------------------------------------------------------------------------------
-    def _assemble(self, m: Matching, stamp_ns: int) -> LocalizationResult:
-        """Rectified (u, v, d) -> the result contract (left camera frame, original pixels)."""
+    def _assemble(self, m: Matching, stamp_ns: int, withheld: list = ()) -> LocalizationResult:
+        """Rectified (u, v, d) -> the result contract (left camera frame, original pixels).
+
+        ``withheld``: (matched feature, its FeatureCheck) of features the check withheld.
+        """
         calib, k = self.calib, self.cfg.safety_factor_k
         f = calib.f_px
         features, node_id = [], {}
@@ -278,4 +283,8 @@ class Localizer:
                 radius_mm = float(p.radius_px * median(poly[:, 2]) / f)
                 ids = tuple(node_id.get(n, -1) for n in p.nodes)
                 branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
-        return LocalizationResult(tuple(features), tuple(branches), int(stamp_ns))
+        if withheld:
+            at = self.rectifier.to_original(np.array([[ft.u, ft.v] for ft, _ in withheld]), 0)
+            withheld = [WithheldFeature(ft.kind, tuple(at[i]), float(ft.d), float(k.d_check_px))
+                        for i, (ft, k) in enumerate(withheld)]
+        return LocalizationResult(tuple(features), tuple(branches), int(stamp_ns), withheld=tuple(withheld))

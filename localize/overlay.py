@@ -32,7 +32,8 @@ def draw_overlay(left: np.ndarray, right: np.ndarray, result: LocalizationResult
 
     Branch axes are drawn as lines coloured by depth (``range_mm``: near red, far blue;
     dashed-looking thin lines for recovered pieces), features as numbered '+' (yellow:
-    endpoint, magenta: fork) at their ``left_px``/``right_px``.
+    endpoint, magenta: fork) at their ``left_px``/``right_px``, withheld features as a grey 'x'
+    in the left image.
 
     Returns
     -------
@@ -59,6 +60,9 @@ def draw_overlay(left: np.ndarray, right: np.ndarray, result: LocalizationResult
             cv2.drawMarker(img, c, colour, cv2.MARKER_CROSS, 12 * scale, 2 * scale)
             cv2.putText(img, str(f.id), (c[0] + 5 * scale, c[1] - 5 * scale), cv2.FONT_HERSHEY_SIMPLEX,
                         0.5 * scale, colour, scale, cv2.LINE_AA)
+    for wf in result.withheld:                          # found, but its depth failed a check
+        c = tuple(int(round(x)) for x in wf.left_px)
+        cv2.drawMarker(imgs[0], c, (160, 160, 160), cv2.MARKER_TILTED_CROSS, 12 * scale, 2 * scale)
     out = np.hstack(imgs)
     if legend:
         bar_w, bar_h = 256, 12 * scale

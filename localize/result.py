@@ -7,8 +7,11 @@ JSON form (units mm, coordinates in the left camera's unrectified optical frame;
                    "right_px": [u, v], "xyz_mm": [X, Y, Z], "radius_mm",
                    "safe_depth_mm"}],
      "branches": [{"id", "feature_ids": [a, b], "polyline_mm": [[X, Y, Z], ...],
-                   "radius_mm", "recovered": bool}]}
+                   "radius_mm", "recovered": bool}],
+     "withheld": [{"kind", "left_px": [u, v], "disparity_px", "check_disparity_px", "reason"}]}
 
+``withheld`` lists tips and forks the matcher found but did not report because an independent
+check disagreed with their depth: not obstacles for the arm, an explanation for a replay.
 Extra fields are allowed (``timings_ms`` and ``stamp_ns`` at the top level).
 """
 
@@ -76,6 +79,32 @@ class Branch:
                    bool(d.get("recovered", False)))
 
 
+@dataclass(frozen=True)
+class WithheldFeature:
+    """A tip or fork found but not reported: an independent check disagreed with its depth.
+
+    ``left_px`` is in the original (distorted) left image; ``disparity_px`` is the matcher's
+    rectified disparity, ``check_disparity_px`` the check's (``localize.featurecheck``: the
+    branches' bark texture carried to the feature). ``reason`` names the check.
+    """
+
+    kind: Literal["endpoint", "bifurcation"]
+    left_px: tuple[float, float]
+    disparity_px: float
+    check_disparity_px: float
+    reason: str = "feature_check"
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "left_px": [float(v) for v in self.left_px],
+                "disparity_px": float(self.disparity_px), "check_disparity_px": float(self.check_disparity_px),
+                "reason": self.reason}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> WithheldFeature:
+        return cls(d["kind"], tuple(d["left_px"]), float(d["disparity_px"]), float(d["check_disparity_px"]),
+                   d.get("reason", "feature_check"))
+
+
 @dataclass(frozen=True, eq=False)
 class LocalizationResult:
     """Everything the localizer found in one stereo pair."""
@@ -84,12 +113,14 @@ class LocalizationResult:
     branches: tuple[Branch, ...] = ()
     stamp_ns: int = 0
     timings_ms: dict = field(default_factory=dict)
+    withheld: tuple[WithheldFeature, ...] = ()
 
     def to_dict(self) -> dict:
         return {
             "stamp_ns": int(self.stamp_ns),
             "features": [f.to_dict() for f in self.features],
             "branches": [b.to_dict() for b in self.branches],
+            "withheld": [w.to_dict() for w in self.withheld],
             "timings_ms": {k: round(float(v), 3) for k, v in self.timings_ms.items()},
         }
 
@@ -100,4 +131,5 @@ class LocalizationResult:
             tuple(Branch.from_dict(b) for b in d.get("branches", [])),
             int(d.get("stamp_ns", 0)),
             dict(d.get("timings_ms", {})),
+            tuple(WithheldFeature.from_dict(w) for w in d.get("withheld", [])),
         )

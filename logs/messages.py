@@ -66,6 +66,10 @@ RESULT_SCHEMA = {
             "feature_ids": {"type": "array", "items": {"type": "integer"}},
             "polyline_mm": {"type": "array", "items": _XYZ},
             "radius_mm": {"type": "number"}, "recovered": {"type": "boolean"}}}},
+        "withheld": {"type": "array", "items": {"type": "object", "properties": {
+            "kind": {"type": "string", "enum": ["endpoint", "bifurcation"]}, "left_px": _UV,
+            "disparity_px": {"type": "number"}, "check_disparity_px": {"type": "number"},
+            "reason": {"type": "string"}}}},
         "timings_ms": {"type": "object", "additionalProperties": {"type": "number"}},
     },
 }

@@ -258,3 +258,29 @@ def test_agreement_is_its_definition_on_random_tables():
         np.testing.assert_allclose(got, want, atol=1e-9)
         seen |= {("nan" if np.isnan(a) else "zero" if a == 0 else "pos" if a > 0 else "neg") for a in got}
     assert seen == {"nan", "zero", "pos", "neg"}
+
+
+@pytest.fixture
+def scene_375(rendered_scene):
+    """Rendered scene 375 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(375)
+
+
+@pytest.mark.parametrize("agreement", [False, True])
+def test_seed375_fork_whose_pieces_agree_is_withheld(scene_375, monkeypatch, agreement):
+    # seed 375's fork 1 (Z 1094 mm, exact masks) is placed 1.37 px off (-9.3 mm). Its texture check reads
+    # -0.46 px (the least alarming reading, under max_diff_px), but its two thick pieces' own lines both
+    # read -1.35 px at the fork: the pieces' agreement withholds it. (Should a fix of the fork's placing
+    # bring it within 3 mm, the case without the agreement no longer shows the error.)
+    from appliance.synth.evaluate import score_result
+    if not agreement:
+        monkeypatch.setattr(FC, "AGREE_PX", float("inf"))
+    left, right, truth, calib = scene_375
+    res = Localizer(calib, load_config().localize).localize(left, right, mask_left=truth.mask_left,
+                                                            mask_right=truth.mask_right)
+    row = next(r for r in score_result(res, truth).rows if r.truth_index == 1)
+    assert row.kind == "bifurcation"
+    if agreement:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm <= -5.0

@@ -11,9 +11,11 @@ sub-pixel parabola; a patch without a confident peak near the feature's disparit
 whole working range, its peak counting only when unique: :func:`patch_disparities`), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
 and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
 and the matched piece's slopes). Where that differs from the feature's disparity by more than
-``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
+``max_diff_px`` the feature is withheld; so is a fork two of whose pieces' own texture estimates lie
+beyond ``AGREE_PX`` on one side of its disparity with none beyond ``OPPOSE_PX`` on the other (the
+pieces' agreement: :func:`estimate`). Patches without texture, off the branch or matched weakly,
 and pieces turning steeply in depth give no verdict: the feature is kept.
-Measured on 60 scenes and seeds 260-291: docs/localize-featurecheck.md.
+Measured on 60 scenes and seeds 260-387: docs/localize-featurecheck.md.
 """
 
 from __future__ import annotations

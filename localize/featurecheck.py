@@ -11,9 +11,11 @@ sub-pixel parabola; a patch without a confident peak near the feature's disparit
 whole working range, its peak counting only when unique: :func:`patch_disparities`), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
 and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
 and the matched piece's slopes). Where that differs from the feature's disparity by more than
-``max_diff_px`` the feature is withheld. Patches without texture, off the branch or matched weakly,
+``max_diff_px`` the feature is withheld; so is a fork two of whose pieces' own texture estimates lie
+beyond ``AGREE_PX`` on one side of its disparity with none beyond ``OPPOSE_PX`` on the other (the
+pieces' agreement: :func:`estimate`). Patches without texture, off the branch or matched weakly,
 and pieces turning steeply in depth give no verdict: the feature is kept.
-Measured on 60 scenes and seeds 260-291: docs/localize-featurecheck.md.
+Measured on 60 scenes and seeds 260-387: docs/localize-featurecheck.md.
 """
 
 from __future__ import annotations
@@ -50,6 +52,8 @@ MAX_SPREAD_PX = 0.5          # patches carried along the piece's slope agreeing 
 FIT_MIN_PATCHES = 3          # the texture's own line: at least this many patches ...
 FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
 FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
+AGREE_PX = 0.9               # a feature two of whose pieces' own texture estimates lie beyond this on one side ...
+OPPOSE_PX = 0.3              # ... and none beyond this on the other is withheld (issue 5, seeds 356-387's forks)
 
 
 @dataclass(frozen=True)
@@ -69,7 +73,11 @@ class FeatureCheck:
     spread_px : float
         The largest spread (max - min, px) of a piece's patches carried along its slope.
     withheld : bool
-        ``|d_check_px - d_px| > max_diff_px``.
+        ``|d_check_px - d_px| > max_diff_px`` or ``|agree_px| > agree_px`` (:func:`check_features`).
+    agree_px : float
+        The pieces' agreement (:func:`estimate`: the second largest of the pieces' own texture estimates
+        minus the feature's disparity when none reads under -``OPPOSE_PX``, or the mirror; 0: they do not
+        agree; NaN: fewer than two pieces give one), px.
     """
 
     node: int
@@ -78,6 +86,7 @@ class FeatureCheck:
     n_patches: int
     spread_px: float
     withheld: bool
+    agree_px: float = math.nan
 
     @property
     def diff_px(self) -> float:
@@ -87,7 +96,7 @@ class FeatureCheck:
 
 def check_features(features: list, pieces: list, left, right, left_mask: np.ndarray,
                    d_range_px: tuple[float, float], f_px: float, offset_px: float = 0.0,
-                   max_diff_px: float = 1.6) -> list[FeatureCheck]:
+                   max_diff_px: float = 1.6, agree_px: float | None = None) -> list[FeatureCheck]:
     """The texture check of every feature (see module docstring).
 
     Parameters
@@ -106,6 +115,9 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
         Rectified focal length and ``cx_left - cx_right``.
     max_diff_px : float
         A feature whose texture disparity differs by more is withheld.
+    agree_px : float, optional
+        A feature whose pieces agree (:func:`estimate`'s ``agree``) beyond this is withheld too (None:
+        ``AGREE_PX``, read at the call; inf: never).
 
     Returns
     -------
@@ -114,10 +126,11 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
     """
     t = patch_table(features, pieces, left, right, left_mask, d_range_px, f_px, offset_px)
     d_px = np.array([ft.d for ft in features], float)
-    d_check, n, spread = estimate(t, d_px)
-    withheld = np.abs(d_check - d_px) > max_diff_px                    # (NaN: False)
+    d_check, n, spread, agree = estimate(t, d_px)
+    limit = AGREE_PX if agree_px is None else agree_px
+    withheld = (np.abs(d_check - d_px) > max_diff_px) | (np.abs(agree) > limit)     # (NaN: False)
     return [FeatureCheck(int(ft.node), float(d_px[i]), float(d_check[i]), int(n[i]), float(spread[i]),
-                         bool(withheld[i])) for i, ft in enumerate(features)]
+                         bool(withheld[i]), float(agree[i])) for i, ft in enumerate(features)]
 
 
 def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray, d_range_px, f_px: float,
@@ -277,7 +290,7 @@ def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.nda
     return tuple(out)
 
 
-def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The texture's disparity at each feature from the patch table ``t`` (:func:`patch_table`; rows grouped
     by feature, then piece) and the features' disparities ``d_px`` (F,).
 
@@ -291,16 +304,25 @@ def estimate(t: dict, d_px: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     nearest its disparity when all lie on one side of it, its own disparity (agreement) when they
     straddle it: the least alarming reading of the texture.
 
+    The pieces' agreement: each piece's own texture estimate at the feature (its line's value where it
+    fits one, else its patches carried along its slope, as above; not the least alarming bound); where two
+    or more pieces give one, the second largest minus the feature's disparity when none lies under
+    -``OPPOSE_PX``, the second smallest when none lies over ``OPPOSE_PX`` (0 otherwise). Two pieces (a
+    parent and a child) both reading ~1 px off on the same side: each alone is within the texture's
+    noise at a fork (patches 30-80 px out), together they are not (issue 5, seeds 356-387).
+
     Returns
     -------
-    d_check, n, spread : ndarray (F,)
-        The estimate (NaN: no verdict), the confident patches of the pieces that gave one (int), and the
-        largest spread (max - min, px) of their values carried along the pieces' slopes.
+    d_check, n, spread, agree : ndarray (F,)
+        The estimate (NaN: no verdict), the confident patches of the pieces that gave one (int), the
+        largest spread (max - min, px) of their values carried along the pieces' slopes, and the pieces'
+        agreement (px; NaN: fewer than two pieces with an estimate).
     """
     nf = len(d_px)
     d_check, n_used, spread = np.full(nf, np.nan), np.zeros(nf, np.int64), np.full(nf, np.nan)
+    agree = np.full(nf, np.nan)
     consts = np.array([MIN_SCORE, MIN_PATCHES, MAX_SPREAD_PX, FIT_MIN_PATCHES, FIT_MIN_SPAN_PX, FIT_MAX_RES_PX,
-                       MAX_PIECE_SLOPE], float)
+                       MAX_PIECE_SLOPE, OPPOSE_PX], float)
     kernels_check.estimate_pieces(t["feature"], t["piece"], t["s"], t["d_axis"], t["slope"], t["score"],
-                                  np.asarray(d_px, float), consts, d_check, n_used, spread)
-    return d_check, n_used, spread
+                                  np.asarray(d_px, float), consts, d_check, n_used, spread, agree)
+    return d_check, n_used, spread, agree

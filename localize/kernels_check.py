@@ -207,9 +207,13 @@ def _sum_at(a, idx, n):
 
 
 @numba.njit(**_JIT)
-def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_used, spread):
+def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_used, spread, agree):
     """:func:`featurecheck.estimate`'s steps (its values: numpy's sums in numpy's order) into ``d_check``,
-    ``n_used``, ``spread`` (F,) (NaN, 0, NaN where no verdict).
+    ``n_used``, ``spread`` (F,) (NaN, 0, NaN where no verdict) and ``agree`` (F,): where two or more pieces
+    give a texture estimate (each piece's: its own line's value at the feature where it fits one, else its
+    patches carried along its slope), the second largest of them when none lies under ``-oppose``, the
+    second smallest when none lies over ``oppose`` (the one larger in magnitude), 0 otherwise; NaN where
+    fewer than two pieces give one (relative to the feature's disparity, px).
 
     Parameters
     ----------
@@ -220,12 +224,13 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
         (px per px) and the correlation.
     d_px : ndarray (F,) float64
         The features' disparities.
-    consts : ndarray (7,) float64
+    consts : ndarray (8,) float64
         ``MIN_SCORE``, ``MIN_PATCHES``, ``MAX_SPREAD_PX``, ``FIT_MIN_PATCHES``, ``FIT_MIN_SPAN_PX``,
-        ``FIT_MAX_RES_PX``, ``MAX_PIECE_SLOPE``.
+        ``FIT_MAX_RES_PX``, ``MAX_PIECE_SLOPE``, ``OPPOSE_PX`` (``oppose``).
     """
     min_score, min_patches, max_spread = consts[0], consts[1], consts[2]
     fit_min, fit_span, fit_res, max_slope = consts[3], consts[4], consts[5], consts[6]
+    oppose = consts[7]
     n = len(s)
     idx = np.empty(n, np.int64)
     e, r2, sd = np.empty(n), np.empty(n), np.empty(n)
@@ -234,6 +239,8 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
         r2[i] = s[i] * s[i]
         sd[i] = s[i] * d[i]
     cur_f, lo, hi, cnt_f, ext_f = -1, 0.0, 0.0, 0, 0.0
+    # each feature's pieces' own texture estimates: how many, the two largest and the two smallest
+    tex_f, t_n, t_hi1, t_hi2, t_lo1, t_lo2 = -1, 0, 0.0, 0.0, 0.0, 0.0
     i = 0
     while i <= n:
         # the next group: the confident rows of one (feature, piece)
@@ -255,6 +262,12 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
             n_used[cur_f] = cnt_f
             spread[cur_f] = ext_f
             cur_f = -1
+        if tex_f >= 0 and f0 != tex_f:
+            if t_n >= 2:
+                up = t_hi2 if (t_lo1 >= -oppose and t_hi2 > 0) else 0.0
+                down = t_lo2 if (t_hi1 <= oppose and t_lo2 < 0) else 0.0
+                agree[tex_f] = up if up >= -down else down
+            tex_f = -1
         if m == 0:
             break
         e_lo, e_hi, s_lo, s_hi = e[idx[0]], e[idx[0]], s[idx[0]], s[idx[0]]
@@ -279,8 +292,23 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
             a_piece = (y1 - g[idx[0]] * s1) / m
             lo_b, hi_b = min(a0, a_piece) - dp, max(a0, a_piece) - dp
             diff = lo_b if lo_b > 0 else (hi_b if hi_b < 0 else 0.0)
+            tex = a0 - dp
         else:
             diff = carry - dp
+            tex = diff
+        if np.isfinite(tex):
+            if tex_f < 0:
+                tex_f, t_n, t_hi1, t_hi2, t_lo1, t_lo2 = f0, 1, tex, -np.inf, tex, np.inf
+            else:
+                t_n += 1
+                if tex > t_hi1:
+                    t_hi1, t_hi2 = tex, t_hi1
+                elif tex > t_hi2:
+                    t_hi2 = tex
+                if tex < t_lo1:
+                    t_lo1, t_lo2 = tex, t_lo1
+                elif tex < t_lo2:
+                    t_lo2 = tex
         if not np.isfinite(diff):
             continue
         if cur_f < 0:
@@ -337,6 +365,6 @@ def warm_up() -> None:
     place_patches(np.zeros((2, 3)), np.array([0, 2], np.int64), np.zeros(1, np.int64), np.zeros((1, 2)), f + 1, f,
                   f, f + 3, np.zeros((2, 2), np.uint8), 1, np.zeros(4))
     i = np.zeros(1, np.int64)
-    estimate_pieces(i, i, f, f, f, f, f, np.zeros(7), f.copy(), i.copy(), f.copy())
+    estimate_pieces(i, i, f, f, f, f, f, np.zeros(8), f.copy(), i.copy(), f.copy(), f.copy())
     img = np.zeros((3, 8), np.uint8)
     wide_peaks(img, img, i + 1, i + 1, i + 1, 1, i, i + 8, i, i, 2, 2.0)

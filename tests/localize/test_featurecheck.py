@@ -12,9 +12,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from appliance.calibrate.model import load_calibration
 from appliance.config import load_config
 from appliance.localize import Localizer
+from appliance.localize import featurecheck as FC
 from appliance.localize.featurecheck import check_features, patch_table
 from appliance.localize.localizer import paper_config
 from appliance.localize.matching import FeatureUVD, PieceUVD
@@ -156,3 +158,129 @@ def test_localizer_runs_the_check_and_only_withholds():
     few = Localizer(calib, strict).localize(left, right)
     assert len(few.features) < len(off.features)                      # (the check does read the texture)
     assert {f.xyz_mm for f in few.features} <= {f.xyz_mm for f in off.features}
+
+
+def test_fork_whose_pieces_agree_withheld_tip_kept():
+    """Issue 5 (seeds 356-387): a fork 1.2 px off (under max_diff_px 1.6) whose pieces' texture all
+    reads ~1.2 px away on the same side is withheld by the pieces' agreement; a tip with the same error
+    (one piece: no agreement) is kept; 0.5 px off, both are kept."""
+    left, right, mask = _pair()
+    off = check_features(_features(D_PX - 1.2, D_PX - 1.2), _pieces(), left, right, mask, D_RANGE, F_PX, 0.0,
+                         max_diff_px=1.6)
+    tip, fork = off
+    assert not tip.withheld and np.isnan(tip.agree_px) and abs(tip.diff_px) < 1.6
+    assert fork.withheld and abs(fork.diff_px) < 1.6 and 0.9 < fork.agree_px < 1.6
+    near = check_features(_features(D_PX - 0.5, D_PX - 0.5), _pieces(), left, right, mask, D_RANGE, F_PX, 0.0,
+                          max_diff_px=1.6)
+    assert not any(c.withheld for c in near) and abs(near[1].agree_px) < 0.9
+    never = check_features(_features(D_PX - 1.2, D_PX - 1.2), _pieces(), left, right, mask, D_RANGE, F_PX, 0.0,
+                           max_diff_px=1.6, agree_px=float("inf"))
+    assert not any(c.withheld for c in never) and never[1].agree_px == fork.agree_px
+
+
+def _piece_rows(feature: int, piece: int, s: np.ndarray, d: np.ndarray, slope: float = 0.0) -> dict:
+    n = len(s)
+    return {"feature": np.full(n, feature), "piece": np.full(n, piece), "s": np.asarray(s, float),
+            "d_axis": np.broadcast_to(np.asarray(d, float), (n,)).copy(), "slope": np.full(n, slope), "score": np.full(n, 0.95)}
+
+
+def _table_of(*parts: dict) -> dict:
+    return {c: np.concatenate([p[c] for p in parts]) for c in parts[0]}
+
+
+def _agree_numpy(t: dict, d_px: np.ndarray) -> np.ndarray:
+    """The pieces' agreement by its definition (FC.estimate's docstring), piece by piece in numpy."""
+    out = np.full(len(d_px), np.nan)
+    for f in range(len(d_px)):
+        est = []
+        for j in np.unique(t["piece"][t["feature"] == f]):
+            k = (t["feature"] == f) & (t["piece"] == j) & np.isfinite(t["d_axis"]) & (t["score"] >= FC.MIN_SCORE)
+            s, d, g = t["s"][k], t["d_axis"][k], t["slope"][k]
+            if len(s) < FC.MIN_PATCHES:
+                continue
+            if len(s) >= FC.FIT_MIN_PATCHES and np.ptp(s) >= FC.FIT_MIN_SPAN_PX:
+                b, a = np.polyfit(s, d, 1)
+                if np.abs(d - a - b * s).max() <= FC.FIT_MAX_RES_PX and abs(b) <= FC.MAX_PIECE_SLOPE:
+                    est.append(a - d_px[f])
+                    continue
+            carried = d - g * s
+            if np.ptp(carried) <= 2 * FC.MAX_SPREAD_PX:
+                est.append(carried.mean() - d_px[f])
+        if len(est) >= 2:
+            e = np.sort(est)
+            up = e[-2] if e[0] >= -FC.OPPOSE_PX and e[-2] > 0 else 0.0
+            down = e[1] if e[-1] <= FC.OPPOSE_PX and e[1] < 0 else 0.0
+            out[f] = up if up >= -down else down
+    return out
+
+
+def test_agreement_needs_two_pieces_on_one_side():
+    """The pieces' agreement (FC.estimate) on patch tables: two pieces reading +1.2 and +1.0 px: +1.0
+    (the second largest); a third reading -0.5 (over OPPOSE_PX on the other side): 0; a single piece: NaN;
+    pieces read by their own lines (texture slope 0.02 px/px over 30-70 px) and by the pieces' slopes."""
+    s = np.arange(30.0, 71.0, 8.0)
+    d0 = 100.0
+    two = _table_of(_piece_rows(0, 0, s, d0 + 1.2 + 0.02 * s), _piece_rows(0, 1, s, d0 + 1.0 - 0.01 * s))
+    assert FC.estimate(two, np.array([d0]))[3][0] == pytest.approx(1.0)
+    three = _table_of(_piece_rows(0, 0, s, d0 + 1.2 + 0.02 * s), _piece_rows(0, 1, s, d0 + 1.0 - 0.01 * s),
+                      _piece_rows(0, 2, s, d0 - 0.5))
+    assert FC.estimate(three, np.array([d0]))[3][0] == 0.0
+    one = _piece_rows(0, 0, s, d0 + 1.2 + 0.02 * s)
+    assert np.isnan(FC.estimate(one, np.array([d0]))[3][0])
+    # two patches each (no line of their own): carried along the pieces' slopes
+    carried = _table_of(_piece_rows(0, 0, s[:2], d0 - 1.3 + 0.05 * s[:2], 0.05),
+                        _piece_rows(0, 1, s[:2], d0 - 1.1, 0.0))
+    assert FC.estimate(carried, np.array([d0]))[3][0] == pytest.approx(-1.1)
+
+
+def test_agreement_is_its_definition_on_random_tables():
+    """FC.estimate's agreement (kernels_check.estimate_pieces) against :func:`_agree_numpy` on 300 random
+    tables of 1-4 features with 1-3 pieces each: equal (NaN alike); agreements of both signs, zero and NaN occur."""
+    rng = np.random.default_rng(21)
+    seen = set()
+    for _ in range(300):
+        parts, d_px = [], []
+        piece = 0
+        for f in range(int(rng.integers(1, 5))):
+            d_px.append(100.0 + rng.normal(0, 1))
+            for _ in range(int(rng.integers(1, 4))):
+                n = int(rng.integers(1, 7))
+                s = np.sort(rng.uniform(5, 70, n))
+                g = rng.normal(0, 0.03)
+                d = 100.0 + rng.normal(0, 1.0) + rng.normal(0, 0.03) * s + rng.normal(0, rng.choice([0.05, 0.4]), n)
+                d[rng.random(n) < 0.1] = np.nan
+                p = _piece_rows(f, piece, s, d, g)
+                p["score"] = rng.choice([0.5, 0.9, 0.99], n)
+                parts.append(p)
+                piece += 1
+        t, d_px = _table_of(*parts), np.array(d_px)
+        got, want = FC.estimate(t, d_px)[3], _agree_numpy(t, d_px)
+        np.testing.assert_allclose(got, want, atol=1e-9)
+        seen |= {("nan" if np.isnan(a) else "zero" if a == 0 else "pos" if a > 0 else "neg") for a in got}
+    assert seen == {"nan", "zero", "pos", "neg"}
+
+
+@pytest.fixture
+def scene_375(rendered_scene):
+    """Rendered scene 375 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(375)
+
+
+@pytest.mark.parametrize("agreement", [False, True])
+def test_seed375_fork_whose_pieces_agree_is_withheld(scene_375, monkeypatch, agreement):
+    # seed 375's fork 1 (Z 1094 mm, exact masks) is placed 1.37 px off (-9.3 mm). Its texture check reads
+    # -0.46 px (the least alarming reading, under max_diff_px), but its two thick pieces' own lines both
+    # read -1.35 px at the fork: the pieces' agreement withholds it. (Should a fix of the fork's placing
+    # bring it within 3 mm, the case without the agreement no longer shows the error.)
+    from appliance.synth.evaluate import score_result
+    if not agreement:
+        monkeypatch.setattr(FC, "AGREE_PX", float("inf"))
+    left, right, truth, calib = scene_375
+    res = Localizer(calib, load_config().localize).localize(left, right, mask_left=truth.mask_left,
+                                                            mask_right=truth.mask_right)
+    row = next(r for r in score_result(res, truth).rows if r.truth_index == 1)
+    assert row.kind == "bifurcation"
+    if agreement:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm <= -5.0

@@ -20,6 +20,9 @@ def test_a_lone_side_read_far_off_is_not_confirmed_by_a_child_carried_as_far(sce
     import appliance.localize.forkends as forkends
     from appliance.synth.evaluate import score_result
     monkeypatch.setattr(forkends, "LONE_FAR_WITHHELD", far_check)
+    if not far_check:            # (the feature check's pieces' agreement withholds it as well: forknet)
+        import appliance.localize.featurecheck as featurecheck
+        monkeypatch.setattr(featurecheck, "AGREE_PX", float("inf"))
     left, right, truth, calib = scene_333
     res = Localizer(calib, load_config().localize).localize(left, right, mask_left=truth.mask_left,
                                                             mask_right=truth.mask_right)

@@ -8,7 +8,8 @@ JSON form (units mm, coordinates in the left camera's unrectified optical frame;
                    "safe_depth_mm"}],
      "branches": [{"id", "feature_ids": [a, b], "polyline_mm": [[X, Y, Z], ...],
                    "radius_mm", "recovered": bool}],
-     "withheld": [{"kind", "left_px": [u, v], "disparity_px", "check_disparity_px", "reason"}]}
+     "withheld": [{"kind", "left_px": [u, v], "disparity_px", "check_disparity_px",
+                   "reason": "texture"|"pieces_agree"}]}
 
 ``withheld`` lists tips and forks the matcher found but did not report because an independent
 check disagreed with their depth: not obstacles for the arm, an explanation for a replay.
@@ -85,14 +86,16 @@ class WithheldFeature:
 
     ``left_px`` is in the original (distorted) left image; ``disparity_px`` is the matcher's
     rectified disparity, ``check_disparity_px`` the check's (``localize.featurecheck``: the
-    branches' bark texture carried to the feature). ``reason`` names the check.
+    branches' bark texture carried to the feature). ``reason``: ``"texture"`` (the texture's
+    estimate is too far) or ``"pieces_agree"`` (two of the feature's pieces read it on one side;
+    ``check_disparity_px`` is then the second of them).
     """
 
     kind: Literal["endpoint", "bifurcation"]
     left_px: tuple[float, float]
     disparity_px: float
     check_disparity_px: float
-    reason: str = "feature_check"
+    reason: Literal["texture", "pieces_agree"] = "texture"
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "left_px": [float(v) for v in self.left_px],
@@ -102,7 +105,7 @@ class WithheldFeature:
     @classmethod
     def from_dict(cls, d: dict) -> WithheldFeature:
         return cls(d["kind"], tuple(d["left_px"]), float(d["disparity_px"]), float(d["check_disparity_px"]),
-                   d.get("reason", "feature_check"))
+                   d.get("reason", "texture"))
 
 
 @dataclass(frozen=True, eq=False)

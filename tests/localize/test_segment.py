@@ -55,8 +55,8 @@ def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():
 
 
 def test_mirrored_hue_range_equals_the_wrapped_one():
-    """A range wrapping through red tested on RGB2HSV hues (one inRange) picks the same pixels as
-    the two inRanges on BGR2HSV hues, but for hue rounding at the bounds and exactly grey pixels."""
+    """A range wrapping through red tested on RGB2HSV hues (one inRange each for the brown and the
+    olive range) picks the same pixels as two on BGR2HSV hues, but for hue rounding at the bounds."""
     from dataclasses import replace
 
     from appliance.config import load_config
@@ -65,7 +65,7 @@ def test_mirrored_hue_range_equals_the_wrapped_one():
     cfg = replace(load_config().localize.segment, hue_min=170, hue_max=30)
     img = np.random.default_rng(1).integers(0, 256, (400, 500, 3), dtype=np.uint8)
     hsv, fast = bark_hsv(img, cfg)
-    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg)
+    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg, img)
     assert np.array_equal(hsv[..., 1:], cv2.cvtColor(img, cv2.COLOR_BGR2HSV)[..., 1:])   # S, V as before
     assert cv2.countNonZero(ref) > 2000
     assert cv2.countNonZero(fast ^ ref) <= 5e-3 * cv2.countNonZero(ref)

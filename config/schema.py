@@ -59,6 +59,7 @@ class SegmentConfig:
     olive_hue_max: int = rng(min=0, max=90)
     olive_saturation_max: int = rng(min=0, max=255)
     grey_chroma_max: int = rng(min=0, max=255)
+    pale_value_max: int = rng(min=0, max=255)
     open_px: int = rng(min=0)
     close_px: int = rng(min=0)
     min_area_px: int = rng(min=0)

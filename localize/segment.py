@@ -36,18 +36,20 @@ def _mirrored(cfg: SegmentConfig) -> bool:
 
 def _boxes(cfg: SegmentConfig, mirrored: bool) -> list[tuple[tuple[int, int, int], tuple[int, int, int]]]:
     """``cv2.inRange`` bounds (lo, hi) of bark's colour boxes, in the HSV reading given by ``mirrored``
-    (:func:`_mirrored`); a colour in any box is bark. All boxes take value in [value_min, value_max]:
+    (:func:`_mirrored`); a colour in any box is bark:
 
-    - brown: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max), saturation <= saturation_max;
+    - brown: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max), saturation <= saturation_max,
+      value in [value_min, value_max];
     - olive: hue from hue_min on to ``olive_hue_max`` (past hue_max: greener), saturation <= olive_saturation_max
-      (0: no olive box).
+      (0: no olive box), value in [value_min, min(value_max, pale_value_max)] (pale green-grey brighter than
+      that is hazy foliage).
 
     The grey test is not a box of HSV: see :func:`_grey`.
     """
-    v0, v1 = cfg.value_min, cfg.value_max
+    v0 = cfg.value_min
     out = []
 
-    def hue_box(h0: int, h1: int, s_max: int) -> None:
+    def hue_box(h0: int, h1: int, s_max: int, v1: int) -> None:
         if mirrored:
             out.append(((120 - h1, 0, v0), (300 - h0, s_max, v1)))
         elif h0 <= h1:
@@ -55,15 +57,15 @@ def _boxes(cfg: SegmentConfig, mirrored: bool) -> list[tuple[tuple[int, int, int
         else:
             out.extend((((h0, 0, v0), (180, s_max, v1)), ((0, 0, v0), (h1, s_max, v1))))
 
-    hue_box(cfg.hue_min, cfg.hue_max, cfg.saturation_max)
+    hue_box(cfg.hue_min, cfg.hue_max, cfg.saturation_max, cfg.value_max)
     if cfg.olive_saturation_max > 0 and cfg.olive_hue_max > cfg.hue_max:
-        hue_box(cfg.hue_min, cfg.olive_hue_max, cfg.olive_saturation_max)
+        hue_box(cfg.hue_min, cfg.olive_hue_max, cfg.olive_saturation_max, min(cfg.value_max, cfg.pale_value_max))
     return out
 
 
 def _grey(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray | None:
     """Grey bark, uint8 0/255 (H, W): chroma (max - min of B, G, R) at most ``grey_chroma_max`` and value
-    in [value_min, value_max], any hue (None with ``grey_chroma_max`` 0). A near-grey's hue is noise, and
+    in [value_min, min(value_max, pale_value_max)], any hue (None with ``grey_chroma_max`` 0). A near-grey's hue is noise, and
     so is a dark one's saturation (chroma / value): sensor noise of a few levels in dark grey bark
     (value ~30) gives saturations up to ~80, its chroma stays small."""
     if cfg.grey_chroma_max <= 0:
@@ -71,7 +73,8 @@ def _grey(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray | None:
     c0, c1, c2 = cv2.split(bgr)
     v = cv2.max(cv2.max(c0, c1), c2)                                        # HSV's value
     chroma = cv2.subtract(v, cv2.min(cv2.min(c0, c1), c2))
-    return cv2.bitwise_and(cv2.inRange(chroma, 0, cfg.grey_chroma_max), cv2.inRange(v, cfg.value_min, cfg.value_max))
+    return cv2.bitwise_and(cv2.inRange(chroma, 0, cfg.grey_chroma_max),
+                           cv2.inRange(v, cfg.value_min, min(cfg.value_max, cfg.pale_value_max)))
 
 
 def _in_boxes(hsv: np.ndarray, boxes: list, dst: np.ndarray | None = None,
@@ -124,7 +127,7 @@ def bark_lut(cfg: SegmentConfig) -> np.ndarray:
 
 
 _LUT_KEYS = ("hue_min", "hue_max", "saturation_max", "value_min", "value_max", "olive_hue_max",
-             "olive_saturation_max", "grey_chroma_max")      # (the thresholds _hsv_threshold reads)
+             "olive_saturation_max", "grey_chroma_max", "pale_value_max")      # (the thresholds _hsv_threshold reads)
 
 
 @lru_cache(maxsize=4)

@@ -65,9 +65,10 @@ def _boxes(cfg: SegmentConfig, mirrored: bool) -> list[tuple[tuple[int, int, int
 
 def _grey(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray | None:
     """Grey bark, uint8 0/255 (H, W): chroma (max - min of B, G, R) at most ``grey_chroma_max`` and value
-    in [value_min, min(value_max, pale_value_max)], any hue (None with ``grey_chroma_max`` 0). A near-grey's hue is noise, and
-    so is a dark one's saturation (chroma / value): sensor noise of a few levels in dark grey bark
-    (value ~30) gives saturations up to ~80, its chroma stays small."""
+    in [value_min, min(value_max, pale_value_max)], any hue (None with ``grey_chroma_max`` 0). A near-grey's
+    hue is noise, and so is a dark one's saturation (chroma / value): sensor noise of a few levels in dark
+    grey bark (value ~30) gives saturations up to ~80, its chroma stays small. Pale grey-green brighter than
+    ``pale_value_max`` is hazy foliage (tree.avi), not bark."""
     if cfg.grey_chroma_max <= 0:
         return None
     c0, c1, c2 = cv2.split(bgr)
@@ -122,7 +123,8 @@ def bark_lut(cfg: SegmentConfig) -> np.ndarray:
     """:func:`bark_hsv`'s test of every 8-bit colour, bit-packed: bit ``k & 7`` of byte ``k >> 3`` is
     that of BGR colour ``k = b << 16 | g << 8 | r``; (2^21,) uint8 (2 MB), read-only. Taken by OpenCV's
     own conversion and thresholds (:func:`_hsv_threshold`) of all 2^24 colours, so a look-up is their
-    value exactly; ~40 ms, once per process and set of thresholds (the localizer's, when it is built)."""
+    value exactly; ~90 ms (the brown box alone: ~45), once per process and set of thresholds (the
+    localizer's, when it is built)."""
     return _bark_lut(*(getattr(cfg, k) for k in _LUT_KEYS))
 
 
@@ -163,7 +165,7 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     along the rows (or columns) between two sampled ones for 3 tiles or more, or along the image's
     bottom (right) edge below (right of) the last sampled row (column), which the clean-up keeps if
     its area reaches ``min_area_px`` (a strip 3 px wide and ~130 px long). The fixture scenes and the
-    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The tiles' pixels are
+    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The sample and the tiles' pixels are
     tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels_front.bark_lookup`, one
     run of pixels per image row and run of tiles), so small tiles cost no calls: 16 px tiles cover
     ~21 % of fixture 00's image (32 px: 35 %), ~0.2 ms against ~1.6 ms per 1280x960 image for

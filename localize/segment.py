@@ -19,6 +19,7 @@ from appliance.localize.skeleton import binary, block_mean
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 _K3 = np.ones((3, 3), np.uint8)
+_ONE_TILE = np.ones((1, 1), np.uint8)   # bark_lookup's tiles: the whole image
 FULL_SHARE = 0.6               # bark_mask: above this share of tiles to test, the whole image (rows whole)
 _MIN_SIN2 = 0.05 ** 2          # unmix_edges: background and bark chromaticities at least ~3 deg apart
 
@@ -27,16 +28,73 @@ def _kernel(size_px: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size_px, size_px))
 
 
-def hsv_bark(hsv: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
-    """Raw bark mask from colour thresholds of an HSV image (OpenCV scale), uint8 0/255, shape (H, W).
+def _mirrored(cfg: SegmentConfig) -> bool:
+    """Whether the bark test reads the image as RGB (hues mirrored, h -> 120 - h mod 180): the hue
+    range wraps through red and holds 120 (every range of :func:`_boxes` then maps to one interval)."""
+    return cfg.hue_min > cfg.hue_max and cfg.hue_min >= 120 >= cfg.hue_max
 
-    Bark: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max),
-    saturation <= saturation_max, value in [value_min, value_max].
+
+def _boxes(cfg: SegmentConfig, mirrored: bool) -> list[tuple[tuple[int, int, int], tuple[int, int, int]]]:
+    """``cv2.inRange`` bounds (lo, hi) of bark's colour boxes, in the HSV reading given by ``mirrored``
+    (:func:`_mirrored`); a colour in any box is bark:
+
+    - brown: hue in [hue_min, hue_max] (wrapping past 180 when hue_min > hue_max), saturation <= saturation_max,
+      value in [value_min, value_max];
+    - olive: hue from hue_min on to ``olive_hue_max`` (past hue_max: greener), saturation <= olive_saturation_max
+      (0: no olive box), value in [value_min, min(value_max, pale_value_max)] (pale green-grey brighter than
+      that is hazy foliage).
+
+    The grey test is not a box of HSV: see :func:`_grey`.
     """
-    lo, hi = (cfg.hue_min, 0, cfg.value_min), (cfg.hue_max, cfg.saturation_max, cfg.value_max)
-    if cfg.hue_min <= cfg.hue_max:
-        return cv2.inRange(hsv, lo, hi)       # three channels at once: no split, ~2x faster
-    return cv2.inRange(hsv, lo, (180, *hi[1:])) | cv2.inRange(hsv, (0, *lo[1:]), hi)
+    v0 = cfg.value_min
+    out = []
+
+    def hue_box(h0: int, h1: int, s_max: int, v1: int) -> None:
+        if mirrored:
+            out.append(((120 - h1, 0, v0), (300 - h0, s_max, v1)))
+        elif h0 <= h1:
+            out.append(((h0, 0, v0), (h1, s_max, v1)))
+        else:
+            out.extend((((h0, 0, v0), (180, s_max, v1)), ((0, 0, v0), (h1, s_max, v1))))
+
+    hue_box(cfg.hue_min, cfg.hue_max, cfg.saturation_max, cfg.value_max)
+    if cfg.olive_saturation_max > 0 and cfg.olive_hue_max > cfg.hue_max:
+        hue_box(cfg.hue_min, cfg.olive_hue_max, cfg.olive_saturation_max, min(cfg.value_max, cfg.pale_value_max))
+    return out
+
+
+def _grey(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray | None:
+    """Grey bark, uint8 0/255 (H, W): chroma (max - min of B, G, R) at most ``grey_chroma_max`` and value
+    in [value_min, min(value_max, pale_value_max)], any hue (None with ``grey_chroma_max`` 0). A near-grey's
+    hue is noise, and so is a dark one's saturation (chroma / value): sensor noise of a few levels in dark
+    grey bark (value ~30) gives saturations up to ~80, its chroma stays small. Pale grey-green brighter than
+    ``pale_value_max`` is hazy foliage (tree.avi), not bark."""
+    if cfg.grey_chroma_max <= 0:
+        return None
+    c0, c1, c2 = cv2.split(bgr)
+    v = cv2.max(cv2.max(c0, c1), c2)                                        # HSV's value
+    chroma = cv2.subtract(v, cv2.min(cv2.min(c0, c1), c2))
+    return cv2.bitwise_and(cv2.inRange(chroma, 0, cfg.grey_chroma_max),
+                           cv2.inRange(v, cfg.value_min, min(cfg.value_max, cfg.pale_value_max)))
+
+
+def _in_boxes(hsv: np.ndarray, boxes: list, dst: np.ndarray | None = None,
+              extra: np.ndarray | None = None) -> np.ndarray:
+    """Union of ``cv2.inRange`` over ``boxes`` (:func:`_boxes`) and the mask ``extra``, uint8 0/255 (H, W),
+    into ``dst`` when given."""
+    m = cv2.inRange(hsv, *boxes[0], dst=dst)        # three channels at once: no split, ~2x faster
+    for lo, hi in boxes[1:]:
+        cv2.bitwise_or(m, cv2.inRange(hsv, lo, hi), dst=m)
+    if extra is not None:
+        cv2.bitwise_or(m, extra, dst=m)
+    return m
+
+
+def hsv_bark(hsv: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = None) -> np.ndarray:
+    """Raw bark mask from colour thresholds of an HSV image (OpenCV scale, read as BGR), uint8 0/255,
+    shape (H, W): the colour in one of :func:`_boxes`' (brown, olive), or (with the BGR image ``bgr``)
+    grey (:func:`_grey`)."""
+    return _in_boxes(hsv, _boxes(cfg, False), extra=None if bgr is None else _grey(bgr, cfg))
 
 
 def bark_hsv(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -45,46 +103,38 @@ def bark_hsv(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarra
     A hue range wrapping through red (``hue_min`` >= 120 >= ``hue_max``) is tested on the hues
     of the image read as RGB: red and blue swapped mirror every hue h to 120 - h (mod 180),
     so the range becomes [120 - hue_max, 300 - hue_min], one ``inRange`` instead of two and an
-    OR (0.6 ms less per 1280x960 image). Saturation and value are the same either way; exactly
-    grey pixels (saturation 0, hue 0 in both readings) are then never bark.
+    OR (0.6 ms less per 1280x960 image); the olive range likewise. Saturation and value are the
+    same either way; exactly grey pixels (saturation 0, hue 0 in both readings) are bark by the
+    grey test alone (:func:`_grey`; with ``grey_chroma_max`` 0: never).
     """
-    if cfg.hue_min > cfg.hue_max and cfg.hue_min >= 120 >= cfg.hue_max:
-        hsv = cv2.cvtColor(bgr, cv2.COLOR_RGB2HSV)
-        lo = (120 - cfg.hue_max, 0, cfg.value_min)
-        hi = (300 - cfg.hue_min, cfg.saturation_max, cfg.value_max)
-        return hsv, cv2.inRange(hsv, lo, hi)
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    return hsv, hsv_bark(hsv, cfg)
+    mirrored = _mirrored(cfg)
+    hsv = cv2.cvtColor(bgr, cv2.COLOR_RGB2HSV if mirrored else cv2.COLOR_BGR2HSV)
+    return hsv, _in_boxes(hsv, _boxes(cfg, mirrored), extra=_grey(bgr, cfg))
 
 
 def _hsv_threshold(bgr: np.ndarray, cfg: SegmentConfig, dst: np.ndarray | None = None) -> np.ndarray:
     """:func:`bark_hsv`'s raw bark mask alone (uint8 0/255), into ``dst`` when given."""
-    if cfg.hue_min > cfg.hue_max and cfg.hue_min >= 120 >= cfg.hue_max:
-        hsv = cv2.cvtColor(bgr, cv2.COLOR_RGB2HSV)
-        return cv2.inRange(hsv, (120 - cfg.hue_max, 0, cfg.value_min),
-                           (300 - cfg.hue_min, cfg.saturation_max, cfg.value_max), dst=dst)
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    if cfg.hue_min <= cfg.hue_max:
-        return cv2.inRange(hsv, (cfg.hue_min, 0, cfg.value_min), (cfg.hue_max, cfg.saturation_max, cfg.value_max),
-                           dst=dst)
-    m = hsv_bark(hsv, cfg)
-    if dst is not None:
-        dst[...] = m
-    return m
+    mirrored = _mirrored(cfg)
+    hsv = cv2.cvtColor(bgr, cv2.COLOR_RGB2HSV if mirrored else cv2.COLOR_BGR2HSV)
+    return _in_boxes(hsv, _boxes(cfg, mirrored), dst=dst, extra=_grey(bgr, cfg))
 
 
 def bark_lut(cfg: SegmentConfig) -> np.ndarray:
     """:func:`bark_hsv`'s test of every 8-bit colour, bit-packed: bit ``k & 7`` of byte ``k >> 3`` is
     that of BGR colour ``k = b << 16 | g << 8 | r``; (2^21,) uint8 (2 MB), read-only. Taken by OpenCV's
     own conversion and thresholds (:func:`_hsv_threshold`) of all 2^24 colours, so a look-up is their
-    value exactly; ~40 ms, once per process and set of thresholds (the localizer's, when it is built)."""
-    return _bark_lut(cfg.hue_min, cfg.hue_max, cfg.saturation_max, cfg.value_min, cfg.value_max)
+    value exactly; ~90 ms (the brown box alone: ~45), once per process and set of thresholds (the
+    localizer's, when it is built)."""
+    return _bark_lut(*(getattr(cfg, k) for k in _LUT_KEYS))
+
+
+_LUT_KEYS = ("hue_min", "hue_max", "saturation_max", "value_min", "value_max", "olive_hue_max",
+             "olive_saturation_max", "grey_chroma_max", "pale_value_max")      # (the thresholds _hsv_threshold reads)
 
 
 @lru_cache(maxsize=4)
-def _bark_lut(hue_min: int, hue_max: int, saturation_max: int, value_min: int, value_max: int) -> np.ndarray:
-    cfg = SimpleNamespace(hue_min=hue_min, hue_max=hue_max, saturation_max=saturation_max, value_min=value_min,
-                          value_max=value_max)                 # (the thresholds _hsv_threshold reads)
+def _bark_lut(*values: int) -> np.ndarray:
+    cfg = SimpleNamespace(**dict(zip(_LUT_KEYS, values)))
     lut = np.zeros(1 << 21, np.uint8)
     g, r = np.meshgrid(np.arange(256, dtype=np.uint8), np.arange(256, dtype=np.uint8), indexing="ij")
     img = np.dstack([np.zeros_like(g), g, r])                  # (256 g, 256 r) BGR: colours b << 16 + g << 8 + r
@@ -115,7 +165,7 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     along the rows (or columns) between two sampled ones for 3 tiles or more, or along the image's
     bottom (right) edge below (right of) the last sampled row (column), which the clean-up keeps if
     its area reaches ``min_area_px`` (a strip 3 px wide and ~130 px long). The fixture scenes and the
-    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The tiles' pixels are
+    28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The sample and the tiles' pixels are
     tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels_front.bark_lookup`, one
     run of pixels per image row and run of tiles), so small tiles cost no calls: 16 px tiles cover
     ~21 % of fixture 00's image (32 px: 35 %), ~0.2 ms against ~1.6 ms per 1280x960 image for
@@ -132,7 +182,9 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
         return _hsv_threshold(bgr, cfg, dst=out)
     if small is None:
         small = sample_nearest(bgr, sample)
-    hit = _hsv_threshold(small, cfg)
+    lut = bark_lut(cfg)
+    hit = np.zeros((hs, ws), np.uint8)                           # the sample's test, by the table too
+    kernels_front.bark_lookup(np.ascontiguousarray(small).reshape(-1), ws, lut, _ONE_TILE, max(hs, ws), hit.reshape(-1))
     b = max(1, tile_px // sample)                                # sampled pixels per tile side
     th, tw = -(-hs // b), -(-ws // b)
     if (th * b, tw * b) != (hs, ws):
@@ -142,8 +194,8 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     if n_tiles == 0:
         return out
     if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
-        tiles = np.ones((1, 1), np.uint8)
-    kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, bark_lut(cfg), tiles, tile_px,
+        tiles = _ONE_TILE
+    kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, lut, tiles, tile_px,
                               out.reshape(-1))                   # (compiled: no call per tile)
     return out
 

@@ -55,8 +55,8 @@ def test_reddish_grey_bark_is_bark_but_a_red_apple_is_not():
 
 
 def test_mirrored_hue_range_equals_the_wrapped_one():
-    """A range wrapping through red tested on RGB2HSV hues (one inRange) picks the same pixels as
-    the two inRanges on BGR2HSV hues, but for hue rounding at the bounds and exactly grey pixels."""
+    """A range wrapping through red tested on RGB2HSV hues (one inRange each for the brown and the
+    olive range) picks the same pixels as two on BGR2HSV hues, but for hue rounding at the bounds."""
     from dataclasses import replace
 
     from appliance.config import load_config
@@ -65,7 +65,7 @@ def test_mirrored_hue_range_equals_the_wrapped_one():
     cfg = replace(load_config().localize.segment, hue_min=170, hue_max=30)
     img = np.random.default_rng(1).integers(0, 256, (400, 500, 3), dtype=np.uint8)
     hsv, fast = bark_hsv(img, cfg)
-    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg)
+    ref = hsv_bark(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), cfg, img)
     assert np.array_equal(hsv[..., 1:], cv2.cvtColor(img, cv2.COLOR_BGR2HSV)[..., 1:])   # S, V as before
     assert cv2.countNonZero(ref) > 2000
     assert cv2.countNonZero(fast ^ ref) <= 5e-3 * cv2.countNonZero(ref)
@@ -228,3 +228,103 @@ def test_drop_small_keeps_wide_pieces_only_of_the_bark_chromaticity():
     alone = m.copy()
     alone[100:] = 0                                            # no large component: no bark to compare with
     assert not drop_small(alone, 400, keep_radius_px=3.5, bgr=img, keep_chroma_deg=3.0).any()
+
+
+# backgrounds as the renderer's (two colours mixed by smooth noise; BGR) and bark from grey to brown to olive
+_BACKS = {"sky": ((219, 168, 115), (237, 235, 230)), "foliage": ((25, 56, 31), (64, 140, 107)),
+          "grass": ((38, 115, 102), (77, 158, 158))}
+_BARKS = {"brown": (69, 84, 102), "grey": (40, 47, 45), "blue-grey": (50, 46, 43), "olive": (44, 66, 58)}
+
+
+def _smooth(rng, h, w, sigma_px):
+    t = cv2.GaussianBlur(rng.random((h, w)), (0, 0), sigma_px)
+    return (t - t.min()) / (t.max() - t.min())
+
+
+def _textured_branch(bark_bgr, back, seed=0, h=240, w=320, noise=2.0):
+    """A slanted branch (radius ~9 px, anti-aliased) lit from one side, its bark textured (brightness x
+    0.75-1.25), over a background of two colours mixed by smooth noise, with sensor noise; the image (H, W, 3)
+    uint8 and the branch's coverage (H, W) 0-1."""
+    rng = np.random.default_rng(seed)
+    a, b = (np.array(c, float) for c in back)
+    t = _smooth(rng, h, w, 10)[..., None]
+    img = a * (1 - t) + b * t
+    k = 4                                                      # supersamples per side
+    big = np.zeros((h * k, w * k), np.uint8)
+    cv2.line(big, (120 * k, -10), (200 * k, h * k + 10), 255, 18 * k)
+    cover = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA).astype(float) / 255
+    ys, xs = np.mgrid[0:h, 0:w]
+    across = ((xs - 120) - (ys * 80 / h)) / 9.0                # -1..1 across the branch
+    light = np.clip(0.95 + 0.3 * across, 0.6, 1.25)            # lit side right, shaded left
+    tex = 0.75 + 0.5 * _smooth(rng, h, w, 1.5)
+    bark = np.array(bark_bgr, float) * (light * tex)[..., None]
+    img = cover[..., None] * bark + (1 - cover[..., None]) * img + rng.normal(0, noise, img.shape)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8), cover
+
+
+@pytest.mark.parametrize("back", sorted(_BACKS))
+@pytest.mark.parametrize("bark", sorted(_BARKS))
+def test_grey_brown_and_olive_bark_is_found_on_sky_foliage_and_grass(bark, back):
+    """Real bark runs from grey to brown to olive-green-grey: with the default thresholds each is the
+    branch over each background (the inside whole, nothing off it); grey bark's hue is noise (any hue,
+    by its chroma), olive's is past the brown range (hue 30-45)."""
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_color, segment_mask
+
+    cfg = load_config().localize.segment
+    img, cover = _textured_branch(_BARKS[bark], _BACKS[back])
+    mask = segment_mask(img, cfg)
+    inside = cv2.erode((cover >= 0.99).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    off = cv2.dilate((cover > 0).astype(np.uint8), np.ones((7, 7), np.uint8)) == 0
+    assert (mask[inside] >= 128).mean() > (0.99 if bark in ("brown", "grey") else 0.95)   # (olive: hue ~41 +- noise,
+    assert not (mask[off] >= 128).any()                     # blue-grey's lit side: chroma 11-13; holes in the texture)
+    assert np.array_equal(mask, segment_color(img, cfg)[0])
+
+
+def test_grey_and_olive_bark_need_their_thresholds():
+    """Grey bark on sky and olive bark on grass were lost whole by the brown range alone (seeds 370, 165,
+    199, 279); each of the two keys brings its own back, and 0 turns it off."""
+    from dataclasses import replace
+
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_mask
+
+    cfg = load_config().localize.segment
+    grey, area = _textured_branch((34, 40, 38), _BACKS["sky"])    # seed 370's bark: hue ~40, chroma ~6
+    olive, _ = _textured_branch((40, 61, 54), _BACKS["grass"])    # seed 165's: hue ~40, saturation ~88
+    n = area.sum()                                                # the branch's area, px
+
+    def found(img, **keys):
+        return (segment_mask(img, replace(cfg, **keys)) >= 128).sum() / n
+
+    assert found(grey) > 0.95 and found(olive) > 0.85
+    assert found(grey, olive_saturation_max=0, grey_chroma_max=0) == 0          # the brown range alone
+    assert found(olive, olive_saturation_max=0, grey_chroma_max=0) == 0
+    assert found(grey, olive_saturation_max=0) > 0.95                           # the grey test alone
+    assert found(olive, grey_chroma_max=0) > 0.85 and found(olive, olive_saturation_max=0) < 0.1
+
+
+def test_sky_leaves_apples_and_grass_are_not_bark():
+    """No branch in the view: blue sky with clouds, leaves lit and in shadow, red and red-yellow apples,
+    grass: the recogniser finds nothing (a leaf in deep shadow, BGR 22/35/27, is the nearest: chroma 13)."""
+    from appliance.config import load_config
+    from appliance.localize.segment import segment_color, segment_mask
+
+    cfg = load_config().localize.segment
+    rng = np.random.default_rng(3)
+    h, w = 240, 320
+    t = _smooth(rng, h, w, 10)[..., None]
+    sky_a, sky_b = (np.array(c, float) for c in _BACKS["sky"])
+    img = sky_a * (1 - t) + sky_b * t
+    g_a, g_b = (np.array(c, float) for c in _BACKS["grass"])
+    img[180:] = (g_a * (1 - t) + g_b * t)[180:]                    # grass below
+    for (x, y), col in (((40, 40), (25, 56, 31)), ((100, 50), (64, 140, 107)), ((160, 40), (22, 35, 27)),
+                        ((220, 60), (40, 170, 60))):                # leaves: dark, light, in shadow, bright
+        cv2.ellipse(img, (x, y), (22, 10), 30, 0, 360, col, -1)
+    cv2.circle(img, (80, 130), 28, (30, 30, 180), -1)               # a red apple
+    cv2.circle(img, (200, 130), 28, (40, 110, 200), -1)             # a red-yellow one
+    cv2.circle(img, (200, 130), 12, (30, 40, 150), -1)              # ... with a darker blush
+    img = cv2.GaussianBlur(img, (0, 0), 0.7) + rng.normal(0, 2.0, img.shape)
+    img = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    assert not (segment_mask(img, cfg) >= 128).any()
+    assert not (segment_color(img, cfg)[0] >= 128).any()

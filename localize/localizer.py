@@ -142,7 +142,7 @@ class Localizer:
         self.rectifier = Rectifier.from_calibration(calib)
         self.d_range_px = disparity_range_px(calib, self.cfg.working_range_mm)
         kernels.warm_up()               # (compiled or loaded now, not on the first frame)
-        bark_lut(self.cfg.segment)      # (the colour recogniser's table, ~40 ms once per process)
+        bark_lut(self.cfg.segment)      # (the colour recogniser's table, ~90 ms once per process)
 
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):

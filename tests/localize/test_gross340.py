@@ -1,5 +1,7 @@
 """The worst features of seeds 324-355 (issue 5, docs/localize-gross340.md)."""
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -100,12 +102,16 @@ def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(
                                                                               max_shift_px):
     # seed 328's fork 14 (Z 1269 mm, colour masks): the flat parent's texture reads 137.35 px (truth 137.88),
     # the child (no curve of its own) leaves it in the right view's outline at 135.05: 2.3 px off the texture,
-    # within the old 3 px bound, taken: +27 mm. Bound at 2 px the texture stands (-0.5 px)
+    # within the old 3 px bound, taken: +27 mm. Bound at 2 px the texture stands (-0.5 px). (With the brown-only
+    # colour recogniser the case was found: seggrey's olive and grey tests move this mask and the fork to +4.9 mm
+    # under either bound.)
     import appliance.localize.forkends as forkends
     from appliance.synth.evaluate import score_result
     monkeypatch.setattr(forkends, "OUTLINE_MAX_SHIFT_PX", max_shift_px)
     left, right, truth, calib = rendered_scene(328)
-    res = Localizer(calib, load_config().localize).localize(left, right)
+    cfg = load_config().localize
+    cfg = replace(cfg, segment=replace(cfg.segment, olive_saturation_max=0, grey_chroma_max=0))
+    res = Localizer(calib, cfg).localize(left, right)
     row = next(r for r in score_result(res, truth).rows if r.truth_index == 14)
     assert row.kind == "bifurcation"
     if max_shift_px == 2.0:

@@ -99,6 +99,14 @@ SIDE_OUTLINE_PX = 0.5
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
 
+# the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
+# past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
+# carried 68 px, +1.1 px, over the parent read from its own rows, right; docs/localize-forkd.md: curves
+# carried 60+ rows are off by 1.6 px at p90). (Capping the sides' too lost seed 364's fork, exact masks:
+# one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
+KNOWN_VOUCH_CAPPED = True
+KNOWN_VOUCH_MAX_PX = 40.0
+
 # a fork placed from the child's outline is placed again against the parent's axis from its own
 # cross-sections clear of the crotch (forkplace.parent_axis)
 PARENT_FROM_SECTIONS = True
@@ -227,7 +235,8 @@ class ForkPlacing:
         for s in parents if final and outline is not None else ():
             c = self.curves[s]
             if c.by_row:
-                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
+                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]), f_px=self.sm.f_px,
+                                        cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
                                    self.sm.f_px, self.sm.offset_px,
@@ -439,7 +448,8 @@ class ForkPlacing:
         clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
         the fork; ``near``: {piece: :class:`forkdisp.SideNear`} of the sides read from their own crossings
         nearest the fork (known there if one lies within 12 px)."""
-        reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
+        reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
             reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
@@ -465,13 +475,14 @@ class ForkPlacing:
         lo, hi = self.curves[s].t_range
         return hi - lo, self._carried_px(s, xy)
 
-    def _reach(self, s: int, xy: np.ndarray) -> float:
+    def _reach(self, s: int, xy: np.ndarray, vouch_max_px: float = math.inf) -> float:
         """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,
-        beyond what its span vouches for (half the span, at least 12): <= 0 when it is known there."""
+        beyond what its span vouches for (half the span, at least 12, at most ``vouch_max_px``): <= 0
+        when it is known there."""
         c = self.curves[s]
         lo, hi = c.t_range
         t = c.t_of(xy)[0]
-        return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
+        return max(lo - t, t - hi) - max(12.0, min(0.5 * (hi - lo), vouch_max_px))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
                                  mask: np.ndarray | None = None) -> np.ndarray | None:

@@ -105,7 +105,7 @@ CHILD_DEPTH_PX = 6.0
 # carried 60+ rows are off by 1.6 px at p90). (Capping the sides' too lost seed 364's fork, exact masks:
 # one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
 KNOWN_VOUCH_CAPPED = True
-KNOWN_VOUCH_MAX_PX = 40.0
+KNOWN_VOUCH_MAX_PX = 60.0
 
 # a fork placed from the child's outline is placed again against the parent's axis from its own
 # cross-sections clear of the crotch (forkplace.parent_axis)

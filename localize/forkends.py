@@ -49,6 +49,12 @@ OUTLINE_TOWARDS_CHILD = True
 # 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact
 # masks: +0.45 -> -1.9 px, +5 mm); none of the 60 scenes' or seeds 260-323's forks moved 2-3 px by it
 OUTLINE_MAX_SHIFT_PX = 2.0
+# ... nor where the parent's disparity is its bark texture next to the fork, read there and taken over its
+# curve (forkdisp.flat_side_near, moving it by more than FLAT_NEAR_MIN_PX): the fork's own measurement,
+# which the outline (its place ~1 px off in each view) confirms but does not move (seed 365's fork, the
+# child leaving at 17 deg from the columns without a curve: the texture -0.15 / -0.1 px, the outline +1.0
+# px with the exact masks, -1.5 px with the colour ones)
+OUTLINE_NOT_OVER_TEXTURE = True
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -303,7 +309,8 @@ class ForkPlacing:
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
-                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))):
+                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))) \
+                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True

@@ -95,6 +95,12 @@ SIDES_APART_PER_PX = 0.1
 # the nearer side); the outline within 1 px of the parent's confirms the fork
 FLAT_PICK = True
 FLAT_SIDES_DIFFER_PX = 0.5
+# ... but two sides more than this apart (px) where the outline lies within 1 px of one and the child's curve
+# agrees with that one (_agree) take that side and the outline only: the other is off (seed 359's fork,
+# colour masks: a 66 px side's curve sloped +1.6 to -1.4 px along it, carried 33 px to +3.0, its texture
+# searched about it; the other side +0.7, the outline -0.05, the child +0.1; the mean of three +1.2 px)
+FLAT_PICK_ONE = True
+FLAT_PICK_APART_PX = 1.5
 
 # a flat parent whose two sides disagree at a fork, the child's curve carried further than this to
 # it (px), takes the side its child's right outline agrees with (within this, px) and the outline
@@ -112,6 +118,13 @@ CHILD_DEPTH_PX = 6.0
 # one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
 KNOWN_VOUCH_CAPPED = True
 KNOWN_VOUCH_MAX_PX = 60.0
+
+# a flat side's texture read next to the fork (forkdisp.flat_side_near) does not make it known there in
+# _known_disparity as a steep side's own crossings do: it is searched within 3 px of the side's curve carried
+# to the fork, and finds the bark's match there only if that curve is (seed 364's fork, colour masks: a
+# 26 px flat side carried 32 px, -2.7 px, its texture 12-24 px off -2.7 px too, "known"; the steep side, 2
+# rows past its span, +0.4 px; the median of three took the child carried 34 rows, -0.9 px)
+FLAT_READ_VOUCHES = False
 
 # a fork placed from the child's outline is placed again against the parent's axis from its own
 # cross-sections clear of the crotch (forkplace.parent_axis)
@@ -299,7 +312,13 @@ class ForkPlacing:
                 # the two sides' textures next to the fork disagree: the outline's disparity too, if
                 # within the outline check's tolerance of one (each view's outline place is ~1 px off)
                 # (picking the nearer side alone was worse: the outline's place is noisy)
-                if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
+                d_one = min(d_par, key=lambda v: abs(v - d_out))
+                if FLAT_PICK_ONE and abs(d_par[0] - d_par[1]) > FLAT_PICK_APART_PX and abs(d_one - d_out) <= 1.0 \
+                        and child_ok and _agree(at(child), d_one):
+                    # sides too far apart for the textures' noise: one is off (its curve's slope carried past a
+                    # short span anchors its texture's search); the one the outline and the child confirm
+                    d, agree = 0.5 * (d_one + d_out), True
+                elif min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
                     d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
             elif FLAT_TAPER and len(d_par) == 2 and all(s in flat_read for s in parents):
                 # the two sides' textures next to the fork agree: two measurements of the parent there,
@@ -458,7 +477,8 @@ class ForkPlacing:
         vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
         reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
-            reach[s] = min(reach[s], v.nearest_px - 12.0)
+            if FLAT_READ_VOUCHES or self.curves[s].by_row:
+                reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):
             d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)

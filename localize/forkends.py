@@ -119,12 +119,15 @@ CHILD_DEPTH_PX = 6.0
 KNOWN_VOUCH_CAPPED = True
 KNOWN_VOUCH_MAX_PX = 60.0
 
-# a flat side's texture read next to the fork (forkdisp.flat_side_near) does not make it known there in
-# _known_disparity as a steep side's own crossings do: it is searched within 3 px of the side's curve carried
-# to the fork, and finds the bark's match there only if that curve is (seed 364's fork, colour masks: a
-# 26 px flat side carried 32 px, -2.7 px, its texture 12-24 px off -2.7 px too, "known"; the steep side, 2
-# rows past its span, +0.4 px; the median of three took the child carried 34 rows, -0.9 px)
+# a flat side's texture read next to the fork (forkdisp.flat_side_near) makes it known there in
+# _known_disparity, as a steep side's own crossings do, only if its patches agree (scaled MAD within this,
+# px): it is searched within 3 px of the side's curve carried to the fork, and where that curve is off the
+# bark's match lies at the search's edge or beyond, the patches scattered (seed 364's fork, colour masks: a
+# 26 px flat side carried 32 px, -2.7 px, its 3 patches 12-24 px off -2.7 px too, MAD 0.51, "known"; the
+# steep side, 2 rows past its span, +0.4 px; the median of three took the child carried 34 rows, -0.9 px;
+# seed 368's, exact masks: 5 patches from the fork, MAD 0.03, -0.1 px, known)
 FLAT_READ_VOUCHES = False
+FLAT_READ_VOUCH_MAD_PX = 0.25
 
 # a fork placed from the child's outline is placed again against the parent's axis from its own
 # cross-sections clear of the crotch (forkplace.parent_axis)
@@ -477,7 +480,7 @@ class ForkPlacing:
         vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
         reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
-            if FLAT_READ_VOUCHES or self.curves[s].by_row:
+            if FLAT_READ_VOUCHES or self.curves[s].by_row or v.mad_px <= FLAT_READ_VOUCH_MAD_PX:
                 reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):

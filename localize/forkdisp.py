@@ -139,7 +139,7 @@ FLAT_ALONG = True
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
                    offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
                    min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3,
-                   radius_px: float | None = None, search_px: float = 3.0) -> SideNear | None:
+                   radius_px: float | None = None) -> SideNear | None:
     """A flat parent side's disparity at a fork from its bark texture next to the fork.
 
     A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
@@ -186,7 +186,7 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     d_s = (d_c - offset_px) * scale + offset_px          # the curve's value on the surface
     hh = max(1, int(0.6 * c.radius_px))                 # (the flat fit's patches: the side's own radius)
     d_surf, score = _patch_disparity(left_gray, right_gray, uv, hh, 12,
-                                     int(math.floor(d_s - search_px)), int(math.ceil(d_s + search_px)))
+                                     int(math.floor(d_s - 3.0)), int(math.ceil(d_s + 3.0)))
     ok = np.isfinite(d_surf) & (score >= min_score)
     if np.count_nonzero(ok) < min_patches:
         return None

@@ -476,7 +476,8 @@ class ForkPlacing:
         average out the crotch's bias on each), or, when none reaches it, from the one carried
         clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
         the fork; ``near``: {piece: :class:`forkdisp.SideNear`} of the sides read from their own crossings
-        nearest the fork (known there if one lies within 12 px)."""
+        nearest the fork (known there if one lies within 12 px; a flat side's texture patches only if they
+        agree, ``FLAT_READ_VOUCH_MAD_PX``). The child's span vouches for at most ``KNOWN_VOUCH_MAX_PX``."""
         vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
         reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)

@@ -97,8 +97,9 @@ FLAT_PICK = True
 FLAT_SIDES_DIFFER_PX = 0.5
 # ... but two sides more than this apart (px) where the outline lies within 1 px of one and the child's curve
 # agrees with that one (_agree) take that side and the outline only: the other is off (seed 359's fork,
-# colour masks: a 66 px side's curve sloped +1.6 to -1.4 px along it, carried 33 px to +3.0, its texture
-# searched about it; the other side +0.7, the outline -0.05, the child +0.1; the mean of three +1.2 px)
+# colour masks: a 66 px side, a constant (flat pieces under 100 px) where the branch turns 3 px in depth along
+# it, carried 33 px to +3.0, its texture searched about that; the other side +0.7, the outline -0.05, the
+# child +0.1; the mean of three +1.2 px)
 FLAT_PICK_ONE = True
 FLAT_PICK_APART_PX = 1.5
 
@@ -318,8 +319,8 @@ class ForkPlacing:
                 d_one = min(d_par, key=lambda v: abs(v - d_out))
                 if FLAT_PICK_ONE and abs(d_par[0] - d_par[1]) > FLAT_PICK_APART_PX and abs(d_one - d_out) <= 1.0 \
                         and child_ok and _agree(at(child), d_one):
-                    # sides too far apart for the textures' noise: one is off (its curve's slope carried past a
-                    # short span anchors its texture's search); the one the outline and the child confirm
+                    # sides too far apart for the textures' noise: one is off (a short piece's constant carried
+                    # past it anchors its texture's search); the one the outline and the child confirm
                     d, agree = 0.5 * (d_one + d_out), True
                 elif min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
                     d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True

@@ -28,11 +28,16 @@ SIDE_GAP_MIN_PX = 6.0
 SIDE_SPAN_ROWS = 40
 # the two views' row crossings compared at their own slopes (``_carried``)
 SIDE_WIDTH_SLOPE = True
+# ... and at their own distances from each view's principal point (``perspective_width_ratio``): a thick
+# branch off the image's middle is crossed 2-3 % narrower in the view it lies nearer the middle of (seed
+# 375's fork: a 62.6 px left crossing 60.5 px in the right view, every row failing the 1.2 px check)
+SIDE_WIDTH_PERSPECTIVE = True
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
                         span_rows: int = SIDE_SPAN_ROWS, tol_d_px: float = 2.5, width_tol_px: float = 1.2,
-                        min_rows: int = 12, max_gap_px: int = 300) -> SideNear | None:
+                        min_rows: int = 12, max_gap_px: int = 300, f_px: float | None = None,
+                        cx_px: float | None = None, offset_px: float = 0.0) -> SideNear | None:
     """A steep parent side's disparity at a fork from its own crossings nearest the fork.
 
     A piece's fit leaves out the rows near its junction (the crotch's blob) and is carried to the
@@ -50,6 +55,10 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         Both views' row crossings.
     t_fork : float
         The fork's row.
+    f_px, cx_px, offset_px : float, optional
+        The rectified focal length, the left view's principal-point column and ``cx_left - cx_right``:
+        the right crossing's width is expected at :func:`perspective_width_ratio` times the left's
+        (``SIDE_WIDTH_PERSPECTIVE``; without ``f_px`` and ``cx_px``, at the slopes' ratio alone).
 
     Returns
     -------
@@ -69,6 +78,8 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     # the rows from the fork's to span_rows into the span (the first 20 of those also give the width),
     # the crossings, the checks and the line compiled (kernels_forks.side_near)
     s_end, slope_s, d_end, slope_d, ratio = _carried(c, end)
+    if SIDE_WIDTH_PERSPECTIVE and f_px is not None and cx_px is not None:
+        ratio *= perspective_width_ratio(s_end, d_end, f_px, cx_px, offset_px)
     tl, tr = runs_l._find_tables, runs_r._find_tables
     ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(
         *tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px,
@@ -78,6 +89,26 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         # (no row past the span: a short span's fit is already a line through these rows)
         return None
     return SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
+
+
+def perspective_width_ratio(u_px: float, d_px: float, f_px: float, cx_px: float, offset_px: float = 0.0) -> float:
+    """The right view's row crossing width of a branch over the left's, from their columns alone.
+
+    A cylinder of radius R at depth Z whose centre line is seen at ``x`` px from the principal point is
+    crossed along the row over ``2 R f sqrt(1 + (x / f)^2) / Z`` (its angular width ``2 R / rho``, the
+    image stretched by ``sec^2`` of the ray's angle; ``rho = Z sqrt(1 + (x / f)^2)``); the two views see
+    it at the same Z, at ``x_l = u - cx`` and ``x_r = u - d - (cx - offset)``.
+
+    Parameters
+    ----------
+    u_px, d_px : float
+        The left view's column of the centre line and its disparity (px).
+    f_px, cx_px, offset_px : float
+        Rectified focal length, the left principal point's column, ``cx_left - cx_right`` (px).
+    """
+    x_l = u_px - cx_px
+    x_r = x_l - (d_px - offset_px)
+    return math.hypot(f_px, x_r) / math.hypot(f_px, x_l)
 
 
 def line_carry_var(n_rows: float, gap_rows: float) -> float:

@@ -49,6 +49,12 @@ OUTLINE_TOWARDS_CHILD = True
 # 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact
 # masks: +0.45 -> -1.9 px, +5 mm); none of the 60 scenes' or seeds 260-323's forks moved 2-3 px by it
 OUTLINE_MAX_SHIFT_PX = 2.0
+# ... nor where the parent's disparity is its bark texture next to the fork, read there and taken over its
+# curve (forkdisp.flat_side_near, moving it by more than FLAT_NEAR_MIN_PX): the fork's own measurement,
+# which the outline (its place ~1 px off in each view) confirms but does not move (seed 365's fork, the
+# child leaving at 17 deg from the columns without a curve: the texture -0.15 / -0.1 px, the outline +1.0
+# px with the exact masks, -1.5 px with the colour ones)
+OUTLINE_NOT_OVER_TEXTURE = True
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -89,6 +95,13 @@ SIDES_APART_PER_PX = 0.1
 # the nearer side); the outline within 1 px of the parent's confirms the fork
 FLAT_PICK = True
 FLAT_SIDES_DIFFER_PX = 0.5
+# ... but two sides more than this apart (px) where the outline lies within 1 px of one and the child's curve
+# agrees with that one (_agree) take that side and the outline only: the other is off (seed 359's fork,
+# colour masks: a 66 px side, a constant (flat pieces under 100 px) where the branch turns 3 px in depth along
+# it, carried 33 px to +3.0, its texture searched about that; the other side +0.7, the outline -0.05, the
+# child +0.1; the mean of three +1.2 px)
+FLAT_PICK_ONE = True
+FLAT_PICK_APART_PX = 1.5
 
 # a flat parent whose two sides disagree at a fork, the child's curve carried further than this to
 # it (px), takes the side its child's right outline agrees with (within this, px) and the outline
@@ -98,6 +111,24 @@ SIDE_OUTLINE_PX = 0.5
 # a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
+
+# the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
+# past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
+# carried 68 px, +1.1 px, over the parent read from its own rows, right; docs/localize-forkd.md: curves
+# carried 60+ rows are off by 1.6 px at p90). (Capping the sides' too lost seed 364's fork, exact masks:
+# one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
+KNOWN_VOUCH_CAPPED = True
+KNOWN_VOUCH_MAX_PX = 60.0
+
+# a flat side's texture read next to the fork (forkdisp.flat_side_near) makes it known there in
+# _known_disparity, as a steep side's own crossings do, only if its patches agree (scaled MAD within this,
+# px): it is searched within 3 px of the side's curve carried to the fork, and where that curve is off the
+# bark's match lies at the search's edge or beyond, the patches scattered (seed 364's fork, colour masks: a
+# 26 px flat side carried 32 px, -2.7 px, its 3 patches 12-24 px off -2.7 px too, MAD 0.51, "known"; the
+# steep side, 2 rows past its span, +0.4 px; the median of three took the child carried 34 rows, -0.9 px;
+# seed 368's, exact masks: 5 patches from the fork, MAD 0.03, -0.1 px, known)
+FLAT_READ_VOUCHES = False
+FLAT_READ_VOUCH_MAD_PX = 0.25
 
 # a fork placed from the child's outline is placed again against the parent's axis from its own
 # cross-sections clear of the crotch (forkplace.parent_axis)
@@ -227,7 +258,8 @@ class ForkPlacing:
         for s in parents if final and outline is not None else ():
             c = self.curves[s]
             if c.by_row:
-                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]))
+                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]), f_px=self.sm.f_px,
+                                        cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
                                    self.sm.f_px, self.sm.offset_px,
@@ -284,7 +316,13 @@ class ForkPlacing:
                 # the two sides' textures next to the fork disagree: the outline's disparity too, if
                 # within the outline check's tolerance of one (each view's outline place is ~1 px off)
                 # (picking the nearer side alone was worse: the outline's place is noisy)
-                if min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
+                d_one = min(d_par, key=lambda v: abs(v - d_out))
+                if FLAT_PICK_ONE and abs(d_par[0] - d_par[1]) > FLAT_PICK_APART_PX and abs(d_one - d_out) <= 1.0 \
+                        and child_ok and _agree(at(child), d_one):
+                    # sides too far apart for the textures' noise: one is off (a short piece's constant carried
+                    # past it anchors its texture's search); the one the outline and the child confirm
+                    d, agree = 0.5 * (d_one + d_out), True
+                elif min(abs(v - d_out) for v in d_par) <= max(1.6, 0.009 * abs(d)):
                     d, agree = float((d_par[0] + d_par[1] + d_out) / 3.0), True
             elif FLAT_TAPER and len(d_par) == 2 and all(s in flat_read for s in parents):
                 # the two sides' textures next to the fork agree: two measurements of the parent there,
@@ -294,7 +332,8 @@ class ForkPlacing:
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
-                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))):
+                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))) \
+                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
@@ -438,10 +477,13 @@ class ForkPlacing:
         average out the crotch's bias on each), or, when none reaches it, from the one carried
         clearly least far; None to keep ``d``. ``at(s)``: piece s's disparity at
         the fork; ``near``: {piece: :class:`forkdisp.SideNear`} of the sides read from their own crossings
-        nearest the fork (known there if one lies within 12 px)."""
-        reach = {s: self._reach(s, xy) for s in (*parents, child) if s in self.curves}
+        nearest the fork (known there if one lies within 12 px; a flat side's texture patches only if they
+        agree, ``FLAT_READ_VOUCH_MAD_PX``). The child's span vouches for at most ``KNOWN_VOUCH_MAX_PX``."""
+        vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
+        reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
-            reach[s] = min(reach[s], v.nearest_px - 12.0)
+            if FLAT_READ_VOUCHES or self.curves[s].by_row or v.mad_px <= FLAT_READ_VOUCH_MAD_PX:
+                reach[s] = min(reach[s], v.nearest_px - 12.0)
         near_p = [s for s in parents if reach[s] <= 0]
         if near_p and len(near_p) < len(parents):
             d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
@@ -465,13 +507,14 @@ class ForkPlacing:
         lo, hi = self.curves[s].t_range
         return hi - lo, self._carried_px(s, xy)
 
-    def _reach(self, s: int, xy: np.ndarray) -> float:
+    def _reach(self, s: int, xy: np.ndarray, vouch_max_px: float = math.inf) -> float:
         """How far (px of t) piece ``s``'s curve is carried past its fitted span to reach ``xy``,
-        beyond what its span vouches for (half the span, at least 12): <= 0 when it is known there."""
+        beyond what its span vouches for (half the span, at least 12, at most ``vouch_max_px``): <= 0
+        when it is known there."""
         c = self.curves[s]
         lo, hi = c.t_range
         t = c.t_of(xy)[0]
-        return max(lo - t, t - hi) - max(12.0, 0.5 * (hi - lo))
+        return max(lo - t, t - hi) - max(12.0, min(0.5 * (hi - lo), vouch_max_px))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
                                  mask: np.ndarray | None = None) -> np.ndarray | None:

@@ -221,7 +221,8 @@ class Localizer:
             gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
-                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid)
+                             float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid,
+                             cx_px=float(self.calib.P1[0, 2]))
             matching = match_dense(graph_l, sm, c.match)
             if c.feature_check.enabled and matching.features:   # (withheld features: not triangulated)
                 clock.lap("match")

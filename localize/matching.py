@@ -59,6 +59,8 @@ class StereoMasks:
         Rectified focal length and principal-point difference ``cx_left - cx_right``.
     valid_left, valid_right : ndarray (H, W) bool, optional
         Where each rectified image sees the scene; a branch end at its edge leaves the view.
+    cx_px : float, optional
+        The left rectified view's principal-point column (the right's: ``cx_px - offset_px``).
     """
 
     left_mask: np.ndarray
@@ -71,3 +73,4 @@ class StereoMasks:
     offset_px: float = 0.0
     valid_left: np.ndarray | None = None
     valid_right: np.ndarray | None = None
+    cx_px: float | None = None

@@ -83,10 +83,13 @@ def test_a_fork_on_one_side_carried_past_its_span_unread_and_unconfirmed_is_with
                                                                                       withheld):
     # seed 264's fork 5 with the colour recogniser's masks: one parent side (its other side and the
     # child without a fitted curve), its fit carried 53 rows past a 97-row span, its own rows next
-    # to the fork not read; 0.6 px (2.9 mm) off on main. Withheld.
+    # to the fork not read; 0.6 px (2.9 mm) off on main. Withheld. (Its rows are read since the right
+    # crossings' widths allow for perspective, forkdisp.SIDE_WIDTH_PERSPECTIVE: off here; test_fork356.)
+    import appliance.localize.forkdisp as forkdisp
     import appliance.localize.forkends as forkends
     from appliance.synth.evaluate import score_result
     monkeypatch.setattr(forkends, "LONE_SIDE_WITHHELD", withheld)
+    monkeypatch.setattr(forkdisp, "SIDE_WIDTH_PERSPECTIVE", False)
     left, right, truth, calib = scene_264
     res = Localizer(calib, load_config().localize).localize(left, right)
     row = next(r for r in score_result(res, truth).rows if r.truth_index == 5)

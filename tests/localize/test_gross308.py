@@ -44,6 +44,8 @@ def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_chi
     from appliance.synth.evaluate import score_result
     monkeypatch.setattr(forkends, "LONE_TAPER", False)
     monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
+    # (the texture read next to the fork now keeps the outline off whatever the child: test_fork356)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", False)
     left, right, truth, calib = scene_308
     res = Localizer(calib, load_config().localize).localize(left, right)
     row = next(r for r in score_result(res, truth).rows if r.truth_index == 12)

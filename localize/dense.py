@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels, kernels_dense
+from appliance.localize import kernels, kernels_dense, kernels_speedM
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -391,6 +391,9 @@ def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None)
     return uvd
 
 
+_NO_POINT2, _NO_POINT3 = np.zeros(2), np.zeros(3)
+
+
 def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float = 60.0) -> np.ndarray:
     """A piece's samples (N, 3) from its start node to its end node.
 
@@ -400,6 +403,13 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     end) the curve itself is carried on towards the end's skeleton position, at most
     ``reach_px``.
     """
+    args = kernels_speedM.curve_args(c)
+    if args is not None:                # compiled: the same sums (kernels_speedM.piece_uvd)
+        has_end = np.array([e is not None for e in ends])
+        has_xy = np.array([xy is not None for xy in node_xy])
+        e = np.array([e if e is not None else _NO_POINT3 for e in ends], float)
+        xy = np.array([p if p is not None else _NO_POINT2 for p in node_xy], float)
+        return kernels_speedM.piece_uvd(*args, bool(c.by_row), e, has_end, xy, has_xy, float(reach_px), 4.0)
     uvd = _oriented(c.uvd(), *ends)
     ax = 1 if c.by_row else 0           # (a point's parameter, c.t_of's, and the curve there, c.d_at's, as floats)
     ends = [e if e is not None and abs(float(e[2]) - c._at(c.d_poly, float(e[ax]), c.d_end_slopes))

@@ -1,0 +1,205 @@
+"""Compiled kernels of the match stage, ninth pass (speedM; docs/localize-numba.md).
+
+:func:`piece_uvd` is :func:`dense._piece_uvd` of a curve whose centre line and disparity are
+:class:`curves.Poly`: the samples along the span (``BranchCurve.uvd``), their orientation
+(``dense._oriented``), the end nodes joined or the curve carried towards them. The same sums as the
+numpy and Python-float steps (``curves.linspace``, ``Poly.__call__``, ``BranchCurve._at``,
+``kernels.eval_clamped``); the orientation's two distances are libm's ``hypot`` (Python's
+``math.hypot`` may differ in the last bit: it decides only between two distances that equal).
+
+:func:`wider_on_right` is :meth:`tipends.TipPlacing._wider_on_right` of a Poly curve.
+Tests: tests/localize/test_kernels_speedM.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from appliance.localize.curves import Poly
+from appliance.localize.kernels import _JIT, _horner, _pairwise, eval_clamped, runs_find
+
+
+_NO_SLOPES = np.zeros(2)
+
+
+def curve_args(c) -> tuple | None:
+    """A :class:`curves.BranchCurve`'s polynomials as the kernels here take them: ``(s_coef, s_dcoef, s_t0,
+    s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes)`` (contiguous float64 coefficients,
+    the derivatives' from ``Poly.deriv``); None unless both are :class:`curves.Poly` over a finite span."""
+    sp, dp = c.s_poly, c.d_poly
+    lo, hi = c.t_range
+    if type(sp) is not Poly or type(dp) is not Poly or not (math.isfinite(lo) and math.isfinite(hi)):
+        return None
+    sl = c.d_end_slopes
+    f = np.ascontiguousarray
+    return (f(sp.coef, float), f(sp._deriv.coef, float), float(sp.t0), float(sp.ts), f(dp.coef, float),
+            f(dp._deriv.coef, float), float(dp.t0), float(dp.ts), float(lo), float(hi),
+            _NO_SLOPES if sl is None else np.array(sl, float), sl is None)
+
+
+@numba.njit(**_JIT)
+def _linspace(lo, hi, n):
+    """``curves.linspace(lo, hi, n)`` (n >= 2): numpy's steps, the same values."""
+    t = np.empty(n)
+    delta = hi - lo
+    div = n - 1
+    step = delta / div
+    for i in range(n):
+        t[i] = (i / div) * delta + lo if step == 0 else i * step + lo
+    t[n - 1] = hi
+    return t
+
+
+@numba.njit(**_JIT)
+def _at(coef, dcoef, t0, ts, lo, hi, slopes, own_slopes, t1):
+    """``BranchCurve._at``: the polynomial at ``t1`` inside [lo, hi], beyond it carried on along the end's
+    slope (the derivative's when ``own_slopes``, else ``slopes`` (2,))."""
+    tc1 = min(max(t1, lo), hi)
+    if tc1 == t1:
+        return _horner(coef, (tc1 - t0) / ts)
+    if own_slopes:
+        slope = _horner(dcoef, (tc1 - t0) / ts)
+    else:
+        slope = slopes[0] if t1 < lo else slopes[1]
+    return _horner(coef, (tc1 - t0) / ts) + slope * (t1 - tc1)
+
+
+@numba.njit(**_JIT)
+def piece_uvd(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, by_row,
+              ends, has_end, node_xy, has_xy, reach_px, step_px):
+    """``dense._piece_uvd`` of a curve with Poly centre line and disparity.
+
+    Parameters
+    ----------
+    s_coef, s_dcoef, s_t0, s_ts : ndarray (K,), ndarray (K - 1 or 1,), float, float
+        The centre line ``s(t)``: its coefficients, its derivative's, its scaling.
+    d_coef, d_dcoef, d_t0, d_ts
+        The disparity ``d(t)``, likewise.
+    lo, hi : float
+        The fitted span of t (finite), px.
+    d_slopes : ndarray (2,)
+        The disparity's end slopes (``d_end_slopes``), px per px; its own derivative's when ``own_d_slopes``.
+    by_row : bool
+        t is the row v (else the column u).
+    ends : ndarray (2, 3)
+        The start and end nodes' placed (u, v, d), px, where ``has_end``.
+    has_end : ndarray (2,) bool
+    node_xy : ndarray (2, 2)
+        Their skeleton positions (x, y), px, where ``has_xy``.
+    has_xy : ndarray (2,) bool
+    reach_px, step_px : float
+        How far the curve is carried towards an end node at most; the samples' step in t.
+
+    Returns
+    -------
+    ndarray (N, 3)
+        (u, v, d) from the start node to the end node, px.
+    """
+    ax = 1 if by_row else 0
+    n = max(2, int(np.ceil((hi - lo) / step_px)) + 1)
+    t = _linspace(lo, hi, n)
+    uvd = np.empty((n, 3))
+    for i in range(n):                      # BranchCurve.uvd: the polynomials themselves
+        uvd[i, ax] = t[i]
+        uvd[i, 1 - ax] = _horner(s_coef, (t[i] - s_t0) / s_ts)
+        uvd[i, 2] = _horner(d_coef, (t[i] - d_t0) / d_ts)
+    # dense._oriented: from the start node's point (or towards the end node's)
+    flip = False
+    if has_end[0] or has_end[1]:
+        k = 0 if has_end[0] else 1
+        p, q = (n - 1, 0) if k == 0 else (0, n - 1)
+        flip = math.hypot(uvd[p, 0] - ends[k, 0], uvd[p, 1] - ends[k, 1]) < \
+            math.hypot(uvd[q, 0] - ends[k, 0], uvd[q, 1] - ends[k, 1])
+    if flip:
+        uvd = uvd[::-1].copy()
+    # each end: joined where its disparity is the curve's there (2 px or 3 %), else the curve carried on
+    ext = np.empty((2, 5, 3))
+    n_ext = np.zeros(2, np.int64)
+    for k in range(2):
+        keep = False
+        if has_end[k]:
+            dk = _at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, ends[k, ax])
+            keep = abs(ends[k, 2] - dk) <= max(2.0, 0.03 * ends[k, 2])
+        if keep:
+            ext[k, 0, :] = ends[k, :]
+            n_ext[k] = 1
+            continue
+        if not has_xy[k]:
+            continue
+        t_n = node_xy[k, ax]
+        t_near = uvd[0 if k == 0 else n - 1, ax]
+        if abs(t_n - t_near) < 2:
+            continue
+        te = _linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
+        sv = eval_clamped(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, te)
+        dv = eval_clamped(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, te)
+        for i in range(5):
+            j = 4 - i if k == 0 else i           # (the start's run towards the curve)
+            ext[k, j, ax] = te[i]
+            ext[k, j, 1 - ax] = sv[i]
+            ext[k, j, 2] = dv[i]
+        n_ext[k] = 5
+    out = np.empty((n_ext[0] + n + n_ext[1], 3))
+    out[:n_ext[0]] = ext[0, :n_ext[0]]
+    out[n_ext[0]:n_ext[0] + n] = uvd
+    out[n_ext[0] + n:] = ext[1, :n_ext[1]]
+    return out
+
+
+@numba.njit(**_JIT)
+def wider_on_right(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes,
+                   t_edge, sign, r, height, fk_row, fk_x0, fk_x1, width, span_px):
+    """``TipPlacing._wider_on_right`` of a steep piece with Poly curves (t is the row): whether the right
+    view's runs (``Runs.find``'s tables ``fk_*``, ``width``; ``span_px`` (R,)) are clearly wider than
+    the branch (radius ``r`` px) on at least 80 % of the rows just past its left end ``t_edge`` in the
+    direction ``sign``, within the image's ``height``."""
+    m = max(2 * r, 4.0)
+    n = 0
+    k = 1.0
+    while k < m:                            # np.arange(1.0, m)'s count
+        n += 1
+        k += 1.0
+    rows = np.empty(n, np.int64)
+    q = 0
+    for i in range(n):
+        v = np.int64(np.rint(t_edge + sign * (1.0 + i)))
+        if 0 <= v < height:
+            rows[q] = v
+            q += 1
+    if q == 0:
+        return False
+    rows = rows[:q]
+    ds = np.empty(q)
+    for i in range(q):                      # the centre line's slope at the rows, clamped to the span
+        ds[i] = _horner(s_dcoef, (min(max(float(rows[i]), lo), hi) - s_t0) / s_ts)
+    slope = math.hypot(1.0, _pairwise(ds, 0, q) / q)          # (np.mean's sum: numpy's pairwise order)
+    tr = rows.astype(np.float64)
+    if q == 1:
+        sv = np.array([_at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, tr[0])])
+        dv = np.array([_at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, tr[0])])
+    else:
+        sv = eval_clamped(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, tr)
+        dv = eval_clamped(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, tr)
+    ir = runs_find(fk_row, fk_x0, fk_x1, width, rows, sv - dv)
+    wide = 0
+    lim = 1.6 * 2 * r * slope + 2
+    for i in range(q):
+        if ir[i] >= 0 and span_px[ir[i]] > lim:
+            wide += 1
+    return wide / q >= 0.8
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
+    f2, b2 = np.zeros(2), np.zeros(2, np.bool_)
+    piece_uvd(f2, f2[:1], 0.0, 1.0, f2, f2[:1], 0.0, 1.0, 0.0, 4.0, f2, True, True, np.zeros((2, 3)), b2,
+              np.zeros((2, 2)), b2, 60.0, 4.0)
+    ro_i = np.zeros(2, np.int64)
+    ro_i.setflags(write=False)                                # (Runs' cached tables are read-only)
+    ro_f = np.zeros(2)
+    ro_f.setflags(write=False)
+    wider_on_right(f2, f2[:1], 0.0, 1.0, f2, f2[:1], 0.0, 1.0, 0.0, 4.0, f2, True, 1.0, 1.0, 2.0, 4, ro_i, ro_i, ro_i,
+                   4, ro_f)

@@ -71,13 +71,13 @@ def _ends_disparity(graph: SkeletonGraph, curves: dict, d_range_px: tuple[float,
     ends = np.flatnonzero(graph.node_kind == ENDPOINT)
     xy = graph.to_full(graph.node_yx[ends])
     d = np.tile(np.asarray(d_range_px, float), (len(ends), 1))
-    row = {int(n): k for k, n in enumerate(ends)}
-    for s, nodes in enumerate(graph.seg_nodes):
+    row = {n: k for k, n in enumerate(ends.tolist())}
+    for s, nodes in enumerate(graph.seg_nodes.tolist()):
         c = curves.get(s)
         for n in nodes if c is not None else ():
-            k = row.get(int(n))
-            if k is not None:
-                d_end = float(c.d_at(c.t_of(xy[k]))[0])
+            k = row.get(n)
+            if k is not None:               # (c.d_at(c.t_of(xy[k]))[0]: its one-point path, in Python floats)
+                d_end = c._at(c.d_poly, float(xy[k, 1 if c.by_row else 0]), c.d_end_slopes)
                 d[k] = d_end - margin_px, d_end + margin_px
     return xy, d
 

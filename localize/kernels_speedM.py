@@ -192,6 +192,33 @@ def wider_on_right(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo,
     return wide / q >= 0.8
 
 
+@numba.njit(**_JIT)
+def _slice_end(b, n):
+    """Python's end of a slice ``[a:b]`` along ``n`` items (a negative ``b`` counts from the end)."""
+    if b < 0:
+        b += n
+    return min(max(b, 0), n)
+
+
+@numba.njit(**_JIT)
+def runs_near(row, x0, x1, box, n_rows, n_cols, cell_px):
+    """``subpixel.near_points``' grid and look-up: the cells (``n_rows``, ``n_cols``) of the boxes ``box`` (P, 4)
+    (first and last cell row and column, the firsts clamped to 0; the lasts as numpy's slices take
+    ``last + 1``, negative ones counting from the end) set, then each run (``row``, ``x0``, ``x1`` (R,))
+    looked up by its middle pixel's cell. Returns ndarray (R,) bool."""
+    grid = np.zeros((n_rows, n_cols), np.bool_)
+    for k in range(box.shape[0]):
+        y0, y1 = min(np.int64(box[k, 0]), n_rows), _slice_end(np.int64(box[k, 1]) + 1, n_rows)
+        c0, c1 = min(np.int64(box[k, 2]), n_cols), _slice_end(np.int64(box[k, 3]) + 1, n_cols)
+        for y in range(y0, y1):
+            for x in range(c0, c1):
+                grid[y, x] = True
+    out = np.empty(len(row), np.bool_)
+    for i in range(len(row)):
+        out[i] = grid[row[i] // cell_px, min((x0[i] + x1[i]) // (2 * cell_px), n_cols - 1)]
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     f2, b2 = np.zeros(2), np.zeros(2, np.bool_)
@@ -201,5 +228,7 @@ def warm_up() -> None:
     ro_i.setflags(write=False)                                # (Runs' cached tables are read-only)
     ro_f = np.zeros(2)
     ro_f.setflags(write=False)
+    i2 = np.zeros(2, np.int64)
+    runs_near(i2, i2, i2, np.zeros((1, 4)), 2, 2, 16)                 # (Runs' own row, x0, x1: writable)
     wider_on_right(f2, f2[:1], 0.0, 1.0, f2, f2[:1], 0.0, 1.0, 0.0, 4.0, f2, True, 1.0, 1.0, 2.0, 4, ro_i, ro_i, ro_i,
                    4, ro_f)

@@ -171,7 +171,7 @@ def test_warm_up_compiles_the_signatures_the_localizer_passes():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_speedM.piece_uvd, kernels_speedM.wider_on_right]
+    mine = [kernels_speedM.piece_uvd, kernels_speedM.wider_on_right, kernels_speedM.runs_near]
     before = [len(f.signatures) for f in mine]
     assert all(before)
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
@@ -215,3 +215,42 @@ def test_prewalk_right_walks_are_walk_outs(monkeypatch):
         for masks in ((None, None), (truth.mask_left, truth.mask_right)):
             loc.localize(left, right, mask_left=masks[0], mask_right=masks[1])
     assert n_walks[0] > 30 and n_edge[0] > 20
+
+
+def _near_points_numpy(runs, xy_px, reach_px, d_range_px=(0.0, 0.0), cell_px=16):
+    """subpixel.near_points before the kernel (88819ff)."""
+    xy = np.asarray(xy_px, float).reshape(-1, 2)
+    if len(xy) == 0 or len(runs.row) == 0:
+        return np.zeros(len(runs.row), bool)
+    d = np.broadcast_to(np.asarray(d_range_px, float), (len(xy), 2))
+    rows, cols = int(runs.row[-1]) // cell_px + 1, runs.width // cell_px + 1
+    box = np.column_stack([xy[:, 1] - reach_px, xy[:, 1] + reach_px,
+                           xy[:, 0] - d[:, 1] - reach_px, xy[:, 0] - d[:, 0] + reach_px]) // cell_px
+    box[:, [0, 2]] = np.maximum(box[:, [0, 2]], 0)
+    grid = np.zeros((rows, cols), bool)
+    for y0, y1, x0, x1 in box.astype(np.intp).tolist():
+        grid[y0:y1 + 1, x0:x1 + 1] = True
+    return grid[runs.row // cell_px, np.minimum((runs.x0 + runs.x1) // (2 * cell_px), cols - 1)]
+
+
+def test_near_points_is_the_numpy_grid():
+    """subpixel.near_points (kernels_speedM.runs_near) selects the former numpy code's runs on 300 random
+    masks and point sets, with boxes beyond every side of the grid (numpy's slices: a last cell below -1
+    counts from the grid's end) and per-point disparity ranges."""
+    from appliance.localize import subpixel
+
+    rng = np.random.default_rng(5)
+    n_sel = 0
+    for _ in range(300):
+        h, w = int(rng.integers(20, 200)), int(rng.integers(20, 300))
+        mask = (rng.random((h, w)) < rng.uniform(0.05, 0.5)).astype(np.uint8) * 255
+        runs = find_runs(mask, soft=True)
+        n = int(rng.integers(0, 12))
+        xy = np.column_stack([rng.uniform(-80, w + 80, n), rng.uniform(-80, h + 80, n)])
+        d = rng.uniform(-20, 120, (n, 2)) if rng.random() < 0.5 else (float(rng.uniform(0, 30)), float(rng.uniform(30, 120)))
+        reach = float(rng.choice([0.0, 10.0, 48.0]))
+        want = _near_points_numpy(runs, xy, reach, d)
+        got = subpixel.near_points(runs, xy, reach, d)
+        np.testing.assert_array_equal(got, want)
+        n_sel += int(want.sum())
+    assert n_sel > 1000

@@ -254,3 +254,22 @@ def test_near_points_is_the_numpy_grid():
         np.testing.assert_array_equal(got, want)
         n_sel += int(want.sum())
     assert n_sel > 1000
+
+
+def test_joint_is_the_curves_one_point_path():
+    """EndPlacer.joint in Python floats places a joint as c.uv_at / c.d_at at c.t_of's parameter did
+    (bit for bit), inside the span and beyond it (own and given end slopes), both directions."""
+    from appliance.localize.ends import EndPlacer
+
+    rng = np.random.default_rng(9)
+    for _ in range(300):
+        c = _curve(rng)
+        lo, hi = c.t_range
+        t = float(rng.uniform(lo - 50, hi + 50))
+        xy = c.uv_at(t)[0] + rng.normal(0, 2, 2)
+        self = SimpleNamespace(incident=[[3]], curves={3: c}, node_xy=np.array([xy]), uvd={}, radius={})
+        EndPlacer.joint(self, 0)
+        tt = c.t_of(xy)
+        want = np.array([*c.uv_at(tt)[0], c.d_at(tt)[0]])
+        np.testing.assert_array_equal(self.uvd[0], want)
+        assert self.radius[0] == c.radius_px

@@ -314,6 +314,20 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
     or None when the coarse search's stand."""
     g, sm = b.g, b.sm
+    rm = sm.radius_map
+    if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32 and isinstance(g.scale, int):
+        # compiled: the centre line, the patches and the boxes, the same values (kernels_speedM.flat_search_line)
+        nodes = g.seg_nodes[s]
+        status, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_speedM.flat_search_line(
+            np.ascontiguousarray(g.seg_yx[s], np.int64), g.scale,
+            np.ascontiguousarray(g.node_yx[np.maximum(nodes, 0)], float),
+            (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION), rm.image, int(rm.scale),
+            runs_lt._find_tables, runs_lt.centre_px, runs_lt.span_px, runs_lt.width, 6.0)
+        if status == 1:
+            return None
+        if status == 2:
+            v_poly = Poly(coef[3 - degree:].copy(), t0, ts)
+            return _flat_texture(sm, v_poly, radius, lo, hi, u, uv, half_h, coarse, *box.tolist())
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
     nodes = g.seg_nodes[s]                                                 # (2,): a junction at either end
@@ -335,8 +349,16 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     # both searches read one neighbourhood of each image: one lazy read each (the coarse search's
     # strips over the whole range, with 8 px to spare for the fine one's around its prior)
     ui = np.rint(uv).astype(int)
-    hh, hw = int(half_h[0]), 12
+    hh = int(half_h[0])
     y0, y1, u0, u1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1, int(ui[:, 0].min()), int(ui[:, 0].max())
+    return _flat_texture(sm, v_poly, radius, lo, hi, u, uv, half_h, coarse, y0, y1, u0, u1)
+
+
+def _flat_texture(sm: StereoMasks, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray, uv: np.ndarray,
+                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list | None:
+    """:func:`_flat_search`'s coarse texture search of the patches at ``u`` (``uv``, ``half_h``; the
+    coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and columns ``u0 .. u1``."""
+    hw = 12
     dmin, dmax = sm.d_range_px
     left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)

@@ -19,7 +19,8 @@ import numba
 import numpy as np
 
 from appliance.localize.curves import Poly
-from appliance.localize.kernels import _JIT, _horner, _pairwise, eval_clamped, runs_find
+from appliance.localize.kernels import _JIT, _horner, _pairwise, centre_line, eval_clamped, runs_find
+from appliance.localize.kernels_dense import flat_line
 
 
 _NO_SLOPES = np.zeros(2)
@@ -219,6 +220,108 @@ def runs_near(row, x0, x1, box, n_rows, n_cols, cell_px):
     return out
 
 
+@numba.njit(**_JIT)
+def _arange(start, stop, step):
+    """``np.arange(start, stop, step)`` of floats: numpy's length and values (``start``, ``start + step``,
+    then ``start + i * delta`` with ``delta = (start + step) - start``, as its fill)."""
+    n = max(np.int64(np.ceil((stop - start) / step)), 0)
+    out = np.empty(n)
+    if n > 0:
+        out[0] = start
+    if n > 1:
+        out[1] = start + step
+        delta = out[1] - start
+        for i in range(2, n):
+            out[i] = start + i * delta
+    return out
+
+
+@numba.njit(**_JIT)
+def flat_search_line(seg_yx, scale, node_yx, junction, rm_image, rm_scale, tab_t, centre_t, span_t, width, step_px):
+    """``dense._flat_search`` up to its image reads: a flat piece's centre line v(u) (``kernels_dense.flat_line``
+    from its skeleton's column centres, ``single_edge.centre_guess``, with the junctions' regions left out),
+    then its texture patches along it and the boxes the searches read; numpy's steps, the same values.
+
+    Parameters
+    ----------
+    seg_yx : ndarray (N, 2) int64
+        The piece's skeleton pixels (row, col); ``scale`` the skeleton's (``SkeletonGraph.to_full``).
+    node_yx : ndarray (2, 2) float64
+        Its end nodes' skeleton positions (row, col) (a missing node's: any node's); ``junction`` (2,)
+        bool: which are junctions.
+    rm_image, rm_scale : ndarray (h, w) float32, int
+        The radius map (``radius.radius_at``).
+    tab_t, centre_t, span_t, width
+        The transposed mask's runs (``Runs._find_tables``, ``centre_px``, ``span_px``, ``width``).
+    step_px : float
+        The patches' step along u (6 px).
+
+    Returns
+    -------
+    status : int
+        0: the skeleton's columns are not whole or half pixels (the caller's numpy path); 1: no centre line
+        (None); 2: found.
+    coef, t0, ts, degree, radius, lo, hi
+        The centre line (``flat_line``'s).
+    u, uv, half_h, coarse : ndarray (P,), (P, 2), (P,) int64, (C,) int64
+        The patches' columns, centres, half heights (``_patch_half_h``) and the coarse search's patches.
+    box : ndarray (4,) int64
+        ``y0, y1, u0, u1``: the rows and the first and last column the patches' centres need.
+    """
+    n = seg_yx.shape[0]
+    cx = np.empty(n)
+    cy = np.empty(n)
+    for i in range(n):                      # SkeletonGraph.to_full
+        cx[i] = (np.float64(seg_yx[i, 1]) + 0.5) * scale - 0.5
+        cy[i] = (np.float64(seg_yx[i, 0]) + 0.5) * scale - 0.5
+    ok, cols, yc = centre_line(cx, cy, (scale - 1) / 2)
+    z, zi = np.zeros(0), np.zeros(0, np.int64)
+    if not ok:
+        return 0, z, 0.0, 1.0, 0, 0.0, 0.0, 0.0, z, np.zeros((0, 2)), zi, zi, zi
+    nxy = np.empty((2, 2))
+    thr = np.empty(2)
+    h, w = rm_image.shape
+    for k in range(2):                      # the nodes' full-resolution points and radius_at's radii
+        nxy[k, 0] = (node_yx[k, 1] + 0.5) * scale - 0.5
+        nxy[k, 1] = (node_yx[k, 0] + 0.5) * scale - 0.5
+        x = min(max(np.int64(np.rint((nxy[k, 0] + 0.5) / rm_scale - 0.5)), 0), w - 1)
+        y = min(max(np.int64(np.rint((nxy[k, 1] + 0.5) / rm_scale - 0.5)), 0), h - 1)
+        thr[k] = 1.6 * np.float64(rm_image[y, x]) + scale + 1
+    found, coef, t0, ts, degree, radius, lo, hi = flat_line(cols, yc, junction, nxy, thr, tab_t, centre_t, span_t,
+                                                            width)
+    if not found:
+        return 1, coef, t0, ts, degree, radius, lo, hi, z, np.zeros((0, 2)), zi, zi, zi
+    c = coef[3 - degree:]
+    u = _arange(lo, hi + 1, step_px)
+    m = len(u)
+    uv = np.empty((m, 2))
+    for i in range(m):                      # Poly.__call__
+        uv[i, 0] = u[i]
+        uv[i, 1] = _horner(c, (u[i] - t0) / ts)
+    hh = max(1, np.int64(0.6 * radius))
+    half_h = np.full(m, hh)
+    nc = min(6, -(-m // 3))                 # the coarse patches: linspace(0, m - 1, nc), rounded, unique
+    if nc < 2:
+        coarse = np.zeros(min(nc, 1), np.int64)
+    else:
+        pos = _linspace(0.0, float(m - 1), nc)
+        coarse = np.empty(nc, np.int64)
+        q = 0
+        for i in range(nc):
+            k = np.int64(np.rint(pos[i]))
+            if q == 0 or k != coarse[q - 1]:    # (ascending: unique keeps the first of equal values)
+                coarse[q] = k
+                q += 1
+        coarse = coarse[:q]
+    y_lo, y_hi = np.int64(1) << 62, -(np.int64(1) << 62)
+    u_lo, u_hi = np.int64(1) << 62, -(np.int64(1) << 62)
+    for i in range(m):
+        ui, vi = np.int64(np.rint(uv[i, 0])), np.int64(np.rint(uv[i, 1]))
+        y_lo, y_hi, u_lo, u_hi = min(y_lo, vi), max(y_hi, vi), min(u_lo, ui), max(u_hi, ui)
+    box = np.array([y_lo - hh, y_hi + hh + 1, u_lo, u_hi])
+    return 2, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     f2, b2 = np.zeros(2), np.zeros(2, np.bool_)
@@ -229,6 +332,8 @@ def warm_up() -> None:
     ro_f = np.zeros(2)
     ro_f.setflags(write=False)
     i2 = np.zeros(2, np.int64)
+    flat_search_line(np.zeros((2, 2), np.int64), 4, np.zeros((2, 2)), b2, np.zeros((4, 4), np.float32), 4,
+                     (ro_i, ro_i, ro_i), ro_f, ro_f, 4, 6.0)
     runs_near(i2, i2, i2, np.zeros((1, 4)), 2, 2, 16)                 # (Runs' own row, x0, x1: writable)
     wider_on_right(f2, f2[:1], 0.0, 1.0, f2, f2[:1], 0.0, 1.0, 0.0, 4.0, f2, True, 1.0, 1.0, 2.0, 4, ro_i, ro_i, ro_i,
                    4, ro_f)

@@ -73,12 +73,12 @@ def _end(rng, c, t):
 
 def test_piece_uvd_is_the_numpy_steps_bit_for_bit():
     """dense._piece_uvd (the kernel for Poly curves) gives the former numpy code's samples exactly, on
-    1500 random curves (degrees 0-3, zero-length spans, own and given end slopes, both directions) with
+    1000 random curves (degrees 0-3, zero-length spans, own and given end slopes, both directions) with
     ends placed on the curve's disparity or off it, absent, near or far beyond the span (carried at most
     60 px), from either end."""
     rng = np.random.default_rng(7)
     n_joined = n_carried = n_flipped = 0
-    for _ in range(1500):
+    for _ in range(1000):
         c = _curve(rng)
         lo, hi = c.t_range
         ends, node_xy = [], []
@@ -95,7 +95,7 @@ def test_piece_uvd_is_the_numpy_steps_bit_for_bit():
         n_flipped += bool(want[0, 1 if c.by_row else 0] > want[-1, 1 if c.by_row else 0])
         n_joined += sum(e is not None and any((want == e).all(1)) for e in ends)
         n_carried += len(want) - len(c.uvd()) - sum(e is not None and any((want == e).all(1)) for e in ends)
-    assert n_joined > 200 and n_carried > 500 and n_flipped > 200       # every branch ran
+    assert n_joined > 130 and n_carried > 330 and n_flipped > 130       # every branch ran
 
 
 def test_piece_uvd_keeps_numpy_for_spliced_curves():
@@ -143,12 +143,14 @@ def test_wider_on_right_is_the_numpy_test():
         if i % 5 == 0:
             t_edge = float(rng.choice([1.0, h - 2.0, -3.0, h + 2.0]))
         r = float(rng.choice([rng.uniform(0.5, 2.0), rng.uniform(2, 14)]))
-        right = np.zeros((h, w), np.uint8)
-        for v in range(h):              # the branch in the right view, and past its end something wider
-            u = float(c.s_at(float(v))[0] - c.d_at(float(v))[0]) % w
-            past = sign * (v - t_edge) > 0
-            half = r * (rng.uniform(1.7, 4.0) if past and rng.random() < 0.7 else rng.uniform(0.5, 1.2))
-            right[v, max(int(u - half), 0):min(int(u + half) + 1, w)] = 255
+        # the branch in the right view, and past its end (mostly) something wider
+        v = np.arange(h, dtype=float)
+        u = (c.s_at(v) - c.d_at(v)) % w
+        wider = (sign * (v - t_edge) > 0) & (rng.random(h) < 0.7)
+        half = r * np.where(wider, rng.uniform(1.7, 4.0, h), rng.uniform(0.5, 1.2, h))
+        cols = np.arange(w)[None, :]
+        right = ((cols >= np.maximum((u - half).astype(int), 0)[:, None])
+                 & (cols <= (u + half).astype(int)[:, None])).astype(np.uint8) * 255
         runs = find_runs(right, soft=True)
         self = SimpleNamespace(sm=SimpleNamespace(right_mask=right), runs_r=runs)
         want = _wider_numpy(self, c, t_edge, sign, r)
@@ -171,7 +173,8 @@ def test_warm_up_compiles_the_signatures_the_localizer_passes():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_speedM.piece_uvd, kernels_speedM.wider_on_right, kernels_speedM.runs_near]
+    mine = [kernels_speedM.piece_uvd, kernels_speedM.wider_on_right, kernels_speedM.runs_near,
+            kernels_speedM.flat_search_line]
     before = [len(f.signatures) for f in mine]
     assert all(before)
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
@@ -273,3 +276,94 @@ def test_joint_is_the_curves_one_point_path():
         want = np.array([*c.uv_at(tt)[0], c.d_at(tt)[0]])
         np.testing.assert_array_equal(self.uvd[0], want)
         assert self.radius[0] == c.radius_px
+
+
+def _flat_line_numpy(g, rm, runs_lt, s):
+    """dense._flat_search before the kernel (88819ff) up to its reads: (v_poly, radius, lo, hi, u, uv, half_h,
+    coarse, (y0, y1, u0, u1)) or None."""
+    from appliance.localize import kernels_dense
+    from appliance.localize.graph import JUNCTION
+    from appliance.localize.radius import radius_at
+    from appliance.localize.single_edge import centre_guess
+
+    pts = g.to_full(g.seg_yx[s])
+    cols, yc = centre_guess(pts, 0, g.scale)
+    nodes = g.seg_nodes[s]
+    junction = (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION)
+    nxy = g.to_full(g.node_yx[np.maximum(nodes, 0)]).astype(float)
+    thr = 1.6 * radius_at(rm, nxy) + g.scale + 1
+    ok, coef, t0, ts, degree, radius, lo, hi = kernels_dense.flat_line(
+        np.ascontiguousarray(cols, float), np.ascontiguousarray(yc, float), junction, nxy, thr,
+        runs_lt._find_tables, runs_lt.centre_px, runs_lt.span_px, runs_lt.width)
+    if not ok:
+        return None
+    v_poly = Poly(coef[3 - degree:].copy(), t0, ts)
+    u = np.arange(lo, hi + 1, 6.0)
+    uv = np.column_stack([u, v_poly(u)])
+    half_h = np.full(len(u), max(1, int(0.6 * radius)))
+    coarse = np.unique(linspace(0, len(u) - 1, min(6, -(-len(u) // 3))).round().astype(int))
+    ui = np.rint(uv).astype(int)
+    hh = int(half_h[0])
+    box = (int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1, int(ui[:, 0].min()), int(ui[:, 0].max()))
+    return v_poly, radius, lo, hi, u, uv, half_h, coarse, box
+
+
+def test_flat_search_line_is_the_numpy_steps_bit_for_bit():
+    """kernels_speedM.flat_search_line gives _flat_search's former numpy steps exactly (the centre line, the
+    patches' columns by np.arange's values, their centres, the coarse patches, the boxes) on 250 random
+    flat bands (slopes, bends, radii 1.5-20 px, junctions at either end, skeleton scales 1-4, short pieces
+    with one patch), and the caller's None where no line is found."""
+    from appliance.localize.graph import ENDPOINT, JUNCTION
+    from appliance.localize.radius import RadiusMap
+
+    rng = np.random.default_rng(13)
+    h, w = 240, 400
+    n_found = n_none = 0
+    for _ in range(250):
+        scale = int(rng.integers(1, 5))
+        r = float(rng.uniform(1.5, 20))
+        x0 = float(rng.uniform(-20, 150))
+        x1 = x0 + float(rng.choice([rng.uniform(4, 20), rng.uniform(20, 300)]))
+        a, b, y0 = rng.normal(0, 0.3), rng.normal(0, 4e-4), rng.uniform(30, 210)
+        xs = np.arange(w, dtype=float)
+        yc = y0 + a * (xs - x0) + b * (xs - x0) ** 2
+        mask = np.zeros((h, w), np.uint8)
+        rows = np.arange(h)[:, None]
+        band = (np.abs(rows - yc[None, :]) <= r) & (xs[None, :] >= x0) & (xs[None, :] <= x1)
+        mask[band] = 255
+        runs_lt = find_runs(mask.T, soft=True)
+        for arr in runs_lt._find_tables + (runs_lt.centre_px, runs_lt.span_px):
+            assert not arr.flags.writeable
+        cols = np.arange(max(x0, 0), min(x1, w - 1), scale)
+        seg = np.column_stack([np.rint((yc[cols.astype(int)] + 0.5) / scale - 0.5),
+                               np.rint((cols + 0.5) / scale - 0.5)]).astype(np.int64)
+        if len(seg) < 2:
+            continue
+        seg = np.unique(seg, axis=0)[np.argsort(np.unique(seg, axis=0)[:, 1], kind="stable")]
+        node_yx = np.array([seg[0], seg[-1]], float) + rng.normal(0, 0.3, (2, 2))
+        kinds = np.array([rng.choice([ENDPOINT, JUNCTION]), rng.choice([ENDPOINT, JUNCTION])])
+        nodes = np.array([0, 1 if rng.random() < 0.8 else -1])
+        g = SimpleNamespace(seg_yx=[seg], seg_nodes=np.array([nodes]), node_kind=kinds, node_yx=node_yx, scale=scale,
+                            to_full=lambda yx, s=scale: (np.asarray(yx, np.float64).reshape(-1, 2)[:, ::-1] + 0.5) * s - 0.5)
+        dist = np.clip(r - np.abs(rows - yc[None, :]), 0, None).astype(np.float32)
+        rm = RadiusMap(np.ascontiguousarray(dist[::scale, ::scale]), scale)
+        want = _flat_line_numpy(g, rm, runs_lt, 0)
+        st, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_speedM.flat_search_line(
+            seg, scale, np.ascontiguousarray(node_yx[np.maximum(nodes, 0)]),
+            (nodes >= 0) & (kinds[np.maximum(nodes, 0)] == JUNCTION), rm.image, scale, runs_lt._find_tables,
+            runs_lt.centre_px, runs_lt.span_px, runs_lt.width, 6.0)
+        assert st in (1, 2)
+        if want is None:
+            assert st == 1
+            n_none += 1
+            continue
+        assert st == 2
+        n_found += 1
+        vp, rad, lo0, hi0, u0, uv0, hh0, coarse0, box0 = want
+        np.testing.assert_array_equal(coef[3 - degree:], vp.coef)
+        assert (t0, ts, radius, lo, hi) == (vp.t0, vp.ts, rad, lo0, hi0)
+        for x, y in ((u, u0), (uv, uv0), (half_h, hh0), (coarse, coarse0)):
+            assert x.shape == y.shape
+            np.testing.assert_array_equal(x, y)
+        assert tuple(box.tolist()) == box0
+    assert n_found > 150 and n_none > 5

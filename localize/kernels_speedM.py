@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 from appliance.localize.curves import Poly
-from appliance.localize.kernels import _JIT, _horner, _pairwise, centre_line, eval_clamped, runs_find
+from appliance.localize.kernels import _JIT, _horner, _pairwise, centre_line
 from appliance.localize.kernels_dense import flat_line
 
 
@@ -102,22 +102,18 @@ def piece_uvd(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, 
     ax = 1 if by_row else 0
     n = max(2, int(np.ceil((hi - lo) / step_px)) + 1)
     t = _linspace(lo, hi, n)
-    uvd = np.empty((n, 3))
-    for i in range(n):                      # BranchCurve.uvd: the polynomials themselves
-        uvd[i, ax] = t[i]
-        uvd[i, 1 - ax] = _horner(s_coef, (t[i] - s_t0) / s_ts)
-        uvd[i, 2] = _horner(d_coef, (t[i] - d_t0) / d_ts)
-    # dense._oriented: from the start node's point (or towards the end node's)
+    # dense._oriented: from the start node's point (or towards the end node's); its distances from the
+    # span's two ends (BranchCurve.uvd's first and last samples)
     flip = False
     if has_end[0] or has_end[1]:
         k = 0 if has_end[0] else 1
-        p, q = (n - 1, 0) if k == 0 else (0, n - 1)
-        flip = math.hypot(uvd[p, 0] - ends[k, 0], uvd[p, 1] - ends[k, 1]) < \
-            math.hypot(uvd[q, 0] - ends[k, 0], uvd[q, 1] - ends[k, 1])
-    if flip:
-        uvd = uvd[::-1].copy()
+        ta, tb = (t[n - 1], t[0]) if k == 0 else (t[0], t[n - 1])
+        sa, sb = _horner(s_coef, (ta - s_t0) / s_ts), _horner(s_coef, (tb - s_t0) / s_ts)
+        ua, va, ub, vb = (sa, ta, sb, tb) if by_row else (ta, sa, tb, sb)
+        flip = math.hypot(ua - ends[k, 0], va - ends[k, 1]) < math.hypot(ub - ends[k, 0], vb - ends[k, 1])
     # each end: joined where its disparity is the curve's there (2 px or 3 %), else the curve carried on
-    ext = np.empty((2, 5, 3))
+    # (n_ext[k] points, the start's run towards the curve)
+    ext = np.empty((10, 3))
     n_ext = np.zeros(2, np.int64)
     for k in range(2):
         keep = False
@@ -125,29 +121,57 @@ def piece_uvd(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, 
             dk = _at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, ends[k, ax])
             keep = abs(ends[k, 2] - dk) <= max(2.0, 0.03 * ends[k, 2])
         if keep:
-            ext[k, 0, :] = ends[k, :]
+            for c in range(3):
+                ext[5 * k, c] = ends[k, c]
             n_ext[k] = 1
             continue
         if not has_xy[k]:
             continue
         t_n = node_xy[k, ax]
-        t_near = uvd[0 if k == 0 else n - 1, ax]
+        t_near = t[(n - 1 if flip else 0) if k == 0 else (0 if flip else n - 1)]
         if abs(t_n - t_near) < 2:
             continue
-        te = _linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)[1:]
-        sv = eval_clamped(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, te)
-        dv = eval_clamped(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, te)
-        for i in range(5):
-            j = 4 - i if k == 0 else i           # (the start's run towards the curve)
-            ext[k, j, ax] = te[i]
-            ext[k, j, 1 - ax] = sv[i]
-            ext[k, j, 2] = dv[i]
+        te = _linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)
+        for i in range(5):                      # (kernels.eval_clamped's values, point by point: finite t)
+            j = 5 * k + (4 - i if k == 0 else i)
+            ext[j, ax] = te[i + 1]
+            ext[j, 1 - ax] = _at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, te[i + 1])
+            ext[j, 2] = _at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, te[i + 1])
         n_ext[k] = 5
-    out = np.empty((n_ext[0] + n + n_ext[1], 3))
-    out[:n_ext[0]] = ext[0, :n_ext[0]]
-    out[n_ext[0]:n_ext[0] + n] = uvd
-    out[n_ext[0] + n:] = ext[1, :n_ext[1]]
+    m0 = n_ext[0]
+    out = np.empty((m0 + n + n_ext[1], 3))
+    for i in range(m0):
+        for c in range(3):
+            out[i, c] = ext[i, c]
+    for i in range(n):                      # BranchCurve.uvd: the polynomials themselves (oriented)
+        ti = t[n - 1 - i if flip else i]
+        out[m0 + i, ax] = ti
+        out[m0 + i, 1 - ax] = _horner(s_coef, (ti - s_t0) / s_ts)
+        out[m0 + i, 2] = _horner(d_coef, (ti - d_t0) / d_ts)
+    for i in range(n_ext[1]):
+        for c in range(3):
+            out[m0 + n + i, c] = ext[5 + i, c]
     return out
+
+
+@numba.njit(**_JIT)
+def _run_at(keys, rows, x1, width, row, x):
+    """``kernels.runs_find`` of one query (``Runs.find``): the run containing pixel (row, rint(x)), -1 if none
+    (or ``x`` not finite); the last start key at or before the pixel's by bisection."""
+    if not np.isfinite(x):
+        return -1
+    xi = np.int64(np.rint(x))
+    key = row * width + xi
+    lo, hi = 0, len(keys)                   # keys[0] is the sentinel (the smallest): keys[lo] <= key
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if keys[mid] <= key:
+            lo = mid
+        else:
+            hi = mid
+    if rows[lo] == row and x1[lo] >= xi:
+        return lo - 1
+    return -1
 
 
 @numba.njit(**_JIT)
@@ -177,18 +201,14 @@ def wider_on_right(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo,
     for i in range(q):                      # the centre line's slope at the rows, clamped to the span
         ds[i] = _horner(s_dcoef, (min(max(float(rows[i]), lo), hi) - s_t0) / s_ts)
     slope = math.hypot(1.0, _pairwise(ds, 0, q) / q)          # (np.mean's sum: numpy's pairwise order)
-    tr = rows.astype(np.float64)
-    if q == 1:
-        sv = np.array([_at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, tr[0])])
-        dv = np.array([_at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, tr[0])])
-    else:
-        sv = eval_clamped(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, tr)
-        dv = eval_clamped(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, tr)
-    ir = runs_find(fk_row, fk_x0, fk_x1, width, rows, sv - dv)
     wide = 0
     lim = 1.6 * 2 * r * slope + 2
-    for i in range(q):
-        if ir[i] >= 0 and span_px[ir[i]] > lim:
+    for i in range(q):                      # (c.s_at - c.d_at: kernels.eval_clamped's values, point by point)
+        t = float(rows[i])
+        x = _at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, t) - \
+            _at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, t)
+        j = _run_at(fk_row, fk_x0, fk_x1, width, rows[i], x)
+        if j >= 0 and span_px[j] > lim:
             wide += 1
     return wide / q >= 0.8
 

@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels, kernels_dense
+from appliance.localize import kernels, kernels_dense, kernels_speedM
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -71,13 +71,13 @@ def _ends_disparity(graph: SkeletonGraph, curves: dict, d_range_px: tuple[float,
     ends = np.flatnonzero(graph.node_kind == ENDPOINT)
     xy = graph.to_full(graph.node_yx[ends])
     d = np.tile(np.asarray(d_range_px, float), (len(ends), 1))
-    row = {int(n): k for k, n in enumerate(ends)}
-    for s, nodes in enumerate(graph.seg_nodes):
+    row = {n: k for k, n in enumerate(ends.tolist())}
+    for s, nodes in enumerate(graph.seg_nodes.tolist()):
         c = curves.get(s)
         for n in nodes if c is not None else ():
-            k = row.get(int(n))
-            if k is not None:
-                d_end = float(c.d_at(c.t_of(xy[k]))[0])
+            k = row.get(n)
+            if k is not None:               # (c.d_at(c.t_of(xy[k]))[0]: its one-point path, in Python floats)
+                d_end = c._at(c.d_poly, float(xy[k, 1 if c.by_row else 0]), c.d_end_slopes)
                 d[k] = d_end - margin_px, d_end + margin_px
     return xy, d
 
@@ -314,6 +314,20 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
     or None when the coarse search's stand."""
     g, sm = b.g, b.sm
+    rm = sm.radius_map
+    if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32 and isinstance(g.scale, int):
+        # compiled: the centre line, the patches and the boxes, the same values (kernels_speedM.flat_search_line)
+        nodes = g.seg_nodes[s]
+        status, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_speedM.flat_search_line(
+            np.ascontiguousarray(g.seg_yx[s], np.int64), g.scale,
+            np.ascontiguousarray(g.node_yx[np.maximum(nodes, 0)], float),
+            (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION), rm.image, int(rm.scale),
+            runs_lt._find_tables, runs_lt.centre_px, runs_lt.span_px, runs_lt.width, 6.0)
+        if status == 1:
+            return None
+        if status == 2:
+            v_poly = Poly(coef[3 - degree:].copy(), t0, ts)
+            return _flat_texture(sm, v_poly, radius, lo, hi, u, uv, half_h, coarse, *box.tolist())
     pts = g.to_full(g.seg_yx[s])
     cols, yc = centre_guess(pts, 0, g.scale)
     nodes = g.seg_nodes[s]                                                 # (2,): a junction at either end
@@ -335,8 +349,16 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     # both searches read one neighbourhood of each image: one lazy read each (the coarse search's
     # strips over the whole range, with 8 px to spare for the fine one's around its prior)
     ui = np.rint(uv).astype(int)
-    hh, hw = int(half_h[0]), 12
+    hh = int(half_h[0])
     y0, y1, u0, u1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1, int(ui[:, 0].min()), int(ui[:, 0].max())
+    return _flat_texture(sm, v_poly, radius, lo, hi, u, uv, half_h, coarse, y0, y1, u0, u1)
+
+
+def _flat_texture(sm: StereoMasks, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray, uv: np.ndarray,
+                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list | None:
+    """:func:`_flat_search`'s coarse texture search of the patches at ``u`` (``uv``, ``half_h``; the
+    coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and columns ``u0 .. u1``."""
+    hw = 12
     dmin, dmax = sm.d_range_px
     left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
@@ -391,6 +413,9 @@ def _oriented(uvd: np.ndarray, start: np.ndarray | None, end: np.ndarray | None)
     return uvd
 
 
+_NO_POINT2, _NO_POINT3 = np.zeros(2), np.zeros(3)
+
+
 def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float = 60.0) -> np.ndarray:
     """A piece's samples (N, 3) from its start node to its end node.
 
@@ -400,6 +425,13 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     end) the curve itself is carried on towards the end's skeleton position, at most
     ``reach_px``.
     """
+    args = kernels_speedM.curve_args(c)
+    if args is not None:                # compiled: the same sums (kernels_speedM.piece_uvd)
+        has_end = np.array([e is not None for e in ends])
+        has_xy = np.array([xy is not None for xy in node_xy])
+        e = np.array([e if e is not None else _NO_POINT3 for e in ends], float)
+        xy = np.array([p if p is not None else _NO_POINT2 for p in node_xy], float)
+        return kernels_speedM.piece_uvd(*args, bool(c.by_row), e, has_end, xy, has_xy, float(reach_px), 4.0)
     uvd = _oriented(c.uvd(), *ends)
     ax = 1 if c.by_row else 0           # (a point's parameter, c.t_of's, and the curve there, c.d_at's, as floats)
     ends = [e if e is not None and abs(float(e[2]) - c._at(c.d_poly, float(e[ax]), c.d_end_slopes))

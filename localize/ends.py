@@ -128,6 +128,9 @@ class EndPlacer(ForkPlacing, TipPlacing, Walks):
         segs = [s for s in self.incident[node] if s in self.curves]
         if segs:
             c = self.curves[segs[0]]
-            t = c.t_of(self.node_xy[node])
-            self.uvd[node] = np.array([*c.uv_at(t)[0], c.d_at(t)[0]])
+            # (c.uv_at and c.d_at at c.t_of's one parameter: their one-point path, in Python floats)
+            t = float(self.node_xy[node][1 if c.by_row else 0])
+            s = c._at(c.s_poly, t)
+            self.uvd[node] = np.array([s, t, c._at(c.d_poly, t, c.d_end_slopes)] if c.by_row
+                                      else [t, s, c._at(c.d_poly, t, c.d_end_slopes)])
             self.radius[node] = c.radius_px

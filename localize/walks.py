@@ -36,7 +36,9 @@ class Walks:
         outwards until it leaves the left mask) of the ends ``nodes`` all at once, into the cache
         the walks read: the same parameters, points and results as walking each alone (a walk's
         points all lie beyond one end of the span: that end's value and slope, as
-        :meth:`BranchCurve.uv_at`), one mask read for all."""
+        :meth:`BranchCurve.uv_at`), one mask read for all. The right view's walks (``right=True``: the
+        points moved by the disparity, carried beyond the same end as :meth:`BranchCurve.d_at`) are made
+        with them, all in one read of the right mask (a walk is read only up to where it leaves the mask)."""
         ks, ts, vals = [], [], []
         for node in nodes:
             segs = [s for s in self.incident[node] if s in self.curves]
@@ -55,11 +57,13 @@ class Walks:
                 continue
             ks.append((node, c, sign))
             ts.append(n_t)
-            vals.append((start, sign, c.s_poly.at(start), c.s_poly.deriv().at(start), c.by_row))
+            d_slope = c.d_poly.deriv().at(start) if c.d_end_slopes is None else c.d_end_slopes[1 if sign > 0 else 0]
+            vals.append((start, sign, c.s_poly.at(start), c.s_poly.deriv().at(start), c.by_row, c.d_poly.at(start),
+                         d_slope))
         if not ks:
             return
         n = ts
-        start, sign, value, slope, by_row = (np.repeat(np.array(a), n) for a in zip(*vals))
+        start, sign, value, slope, by_row, d_value, d_slope = (np.repeat(np.array(a), n) for a in zip(*vals))
         ends = np.cumsum(n)
         steps = np.arange(ends[-1]) - (ends - n).repeat(n)       # each walk's 0, 1, 2, ...
         t_all = start + sign * (steps * 0.25)              # (np.arange(0, reach, 0.25)'s values, each walk's t)
@@ -67,12 +71,19 @@ class Walks:
         uv_all = np.empty((len(t_all), 2))
         uv_all[:, 0] = np.where(by_row, s_all, t_all)
         uv_all[:, 1] = np.where(by_row, t_all, s_all)
-        idx, crosses = walk_edges(self.sm.left_mask, uv_all, np.r_[0, ends])
+        bounds = np.r_[0, ends]
+        idx, crosses = walk_edges(self.sm.left_mask, uv_all, bounds)
+        # the right view's walks too (the line moved by the piece's disparity, carried beyond the same end:
+        # _walk_out's c.d_at, the same sums); a walk is read only up to where it leaves the mask
+        uv_r = uv_all.copy()
+        uv_r[:, 0] -= d_value + d_slope * (t_all - start)
+        idx_r, crosses_r = walk_edges(self.sm.right_mask, uv_r, bounds)
         for i, (node, c, sign) in enumerate(ks):
             a, b = ends[i] - n[i], ends[i]
             t = t_all[a:b]
             res = (self._walk_t(t, sign, idx[i], crosses[i]), sign)
-            self._walk_cache[node, id(c)] = [c, t, sign, uv_all[a:b], None, {(0.0, False): res}]
+            res_r = (self._walk_t(t, sign, idx_r[i], crosses_r[i]), sign)
+            self._walk_cache[node, id(c)] = [c, t, sign, uv_all[a:b], None, {(0.0, False): res, (0.0, True): res_r}]
 
     @classmethod
     def _walk_whole(cls, mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels, kernels_dense, kernels_speedM
+from appliance.localize import kernels, kernels_dense, kernels_match
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -316,9 +316,9 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
     g, sm = b.g, b.sm
     rm = sm.radius_map
     if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32 and isinstance(g.scale, int):
-        # compiled: the centre line, the patches and the boxes, the same values (kernels_speedM.flat_search_line)
+        # compiled: the centre line, the patches and the boxes, the same values (kernels_match.flat_search_line)
         nodes = g.seg_nodes[s]
-        status, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_speedM.flat_search_line(
+        status, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_match.flat_search_line(
             np.ascontiguousarray(g.seg_yx[s], np.int64), g.scale,
             np.ascontiguousarray(g.node_yx[np.maximum(nodes, 0)], float),
             (nodes >= 0) & (g.node_kind[np.maximum(nodes, 0)] == JUNCTION), rm.image, int(rm.scale),
@@ -425,13 +425,13 @@ def _piece_uvd(c: BranchCurve, ends: list, node_xy: np.ndarray, reach_px: float 
     end) the curve itself is carried on towards the end's skeleton position, at most
     ``reach_px``.
     """
-    args = kernels_speedM.curve_args(c)
-    if args is not None:                # compiled: the same sums (kernels_speedM.piece_uvd)
+    args = kernels_match.curve_args(c)
+    if args is not None:                # compiled: the same sums (kernels_match.piece_uvd)
         has_end = np.array([e is not None for e in ends])
         has_xy = np.array([xy is not None for xy in node_xy])
         e = np.array([e if e is not None else _NO_POINT3 for e in ends], float)
         xy = np.array([p if p is not None else _NO_POINT2 for p in node_xy], float)
-        return kernels_speedM.piece_uvd(*args, bool(c.by_row), e, has_end, xy, has_xy, float(reach_px), 4.0)
+        return kernels_match.piece_uvd(*args, bool(c.by_row), e, has_end, xy, has_xy, float(reach_px), 4.0)
     uvd = _oriented(c.uvd(), *ends)
     ax = 1 if c.by_row else 0           # (a point's parameter, c.t_of's, and the curve there, c.d_at's, as floats)
     ends = [e if e is not None and abs(float(e[2]) - c._at(c.d_poly, float(e[ax]), c.d_end_slopes))

@@ -972,8 +972,8 @@ def warm_up() -> None:
     kernels_front.warm_up()
     from appliance.localize import kernels_check     # (the feature check's kernel, speedG: imports this one)
     kernels_check.warm_up()
-    from appliance.localize import kernels_speedM    # (the match stage's, ninth pass: imports this one)
-    kernels_speedM.warm_up()
+    from appliance.localize import kernels_match    # (the match stage's, ninth pass: imports this one)
+    kernels_match.warm_up()
 
 
 # --- match stage (speedm)

@@ -14,7 +14,7 @@ import dataclasses
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_speedM
+from appliance.localize import kernels, kernels_match
 from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
@@ -171,8 +171,8 @@ def near_points(runs: Runs, xy_px: np.ndarray, reach_px: float, d_range_px=(0.0,
     box = np.column_stack([xy[:, 1] - reach_px, xy[:, 1] + reach_px,
                            xy[:, 0] - d[:, 1] - reach_px, xy[:, 0] - d[:, 0] + reach_px]) // cell_px
     box[:, [0, 2]] = np.maximum(box[:, [0, 2]], 0)
-    if np.isfinite(box).all():          # compiled: the same cells and look-ups (kernels_speedM.runs_near)
-        return kernels_speedM.runs_near(runs.row, runs.x0, runs.x1, box, rows, cols, int(cell_px))
+    if np.isfinite(box).all():          # compiled: the same cells and look-ups (kernels_match.runs_near)
+        return kernels_match.runs_near(runs.row, runs.x0, runs.x1, box, rows, cols, int(cell_px))
     grid = np.zeros((rows, cols), bool)
     for y0, y1, x0, x1 in box.astype(np.intp).tolist():       # a few dozen points (a box left of or
         grid[y0:y1 + 1, x0:x1 + 1] = True                      # above the image is empty)

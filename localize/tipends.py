@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from appliance.localize import kernels_speedM, kernels_tips
+from appliance.localize import kernels_match, kernels_tips
 from appliance.localize.curves import BranchCurve
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
@@ -281,10 +281,10 @@ class TipPlacing:
         end, where the piece would run on (another branch touching the tip in the right view
         only, rather than the piece itself going on behind an occluder in the left view).
         """
-        args = kernels_speedM.curve_args(c)
-        if args is not None:            # compiled: the same values (kernels_speedM.wider_on_right)
+        args = kernels_match.curve_args(c)
+        if args is not None:            # compiled: the same values (kernels_match.wider_on_right)
             keys, rows, x1 = self.runs_r._find_tables
-            return bool(kernels_speedM.wider_on_right(*args, float(t_edge), float(sign), float(r),
+            return bool(kernels_match.wider_on_right(*args, float(t_edge), float(sign), float(r),
                                                       int(self.sm.right_mask.shape[0]), keys, rows, x1,
                                                       int(self.runs_r.width), self.runs_r.span_px))
         rows = np.rint(t_edge + sign * np.arange(1.0, max(2 * r, 4.0))).astype(int)

@@ -1,4 +1,4 @@
-"""The match stage's kernels of the ninth numba pass (localize/kernels_speedM.py, speedM) against the
+"""The match stage's kernels of the ninth numba pass (localize/kernels_match.py, speedM) against the
 numpy code they replace (kept here as the reference)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import math
 from types import SimpleNamespace
 
 import numpy as np
-from appliance.localize import dense, kernels_speedM, tipends
+from appliance.localize import dense, kernels_match, tipends
 from appliance.localize.curves import BranchCurve, Poly, Spliced, linspace
 from appliance.localize.edges import find_runs
 
@@ -106,7 +106,7 @@ def test_piece_uvd_keeps_numpy_for_spliced_curves():
         lo, hi = c.t_range
         sp = Spliced(c.s_poly, lo, hi, below=Poly(np.array([0.2, 300.0]), lo, 1.0))
         c2 = BranchCurve(c.segment, c.by_row, c.t_range, sp, c.d_poly, c.radius_px, 20, c.d_end_slopes)
-        assert kernels_speedM.curve_args(c2) is None
+        assert kernels_match.curve_args(c2) is None
         xy = [c.uv_at(lo - 30.0)[0], None]
         np.testing.assert_array_equal(dense._piece_uvd(c2, [None, None], xy), _piece_uvd_numpy(c2, [None, None], xy))
 
@@ -162,7 +162,7 @@ def test_wider_on_right_is_the_numpy_test():
 
 def test_warm_up_compiles_the_signatures_the_localizer_passes():
     """After a Localizer is built (kernels.warm_up), localizing fixture 03 (both mask sources) compiles
-    none of kernels_speedM's kernels again, and they ran."""
+    none of kernels_match's kernels again, and they ran."""
     from pathlib import Path
 
     import cv2
@@ -173,8 +173,8 @@ def test_warm_up_compiles_the_signatures_the_localizer_passes():
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_speedM.piece_uvd, kernels_speedM.wider_on_right, kernels_speedM.runs_near,
-            kernels_speedM.flat_search_line]
+    mine = [kernels_match.piece_uvd, kernels_match.wider_on_right, kernels_match.runs_near,
+            kernels_match.flat_search_line]
     before = [len(f.signatures) for f in mine]
     assert all(before)
     left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
@@ -237,7 +237,7 @@ def _near_points_numpy(runs, xy_px, reach_px, d_range_px=(0.0, 0.0), cell_px=16)
 
 
 def test_near_points_is_the_numpy_grid():
-    """subpixel.near_points (kernels_speedM.runs_near) selects the former numpy code's runs on 300 random
+    """subpixel.near_points (kernels_match.runs_near) selects the former numpy code's runs on 300 random
     masks and point sets, with boxes beyond every side of the grid (numpy's slices: a last cell below -1
     counts from the grid's end) and per-point disparity ranges."""
     from appliance.localize import subpixel
@@ -309,7 +309,7 @@ def _flat_line_numpy(g, rm, runs_lt, s):
 
 
 def test_flat_search_line_is_the_numpy_steps_bit_for_bit():
-    """kernels_speedM.flat_search_line gives _flat_search's former numpy steps exactly (the centre line, the
+    """kernels_match.flat_search_line gives _flat_search's former numpy steps exactly (the centre line, the
     patches' columns by np.arange's values, their centres, the coarse patches, the boxes) on 250 random
     flat bands (slopes, bends, radii 1.5-20 px, junctions at either end, skeleton scales 1-4, short pieces
     with one patch), and the caller's None where no line is found."""
@@ -348,7 +348,7 @@ def test_flat_search_line_is_the_numpy_steps_bit_for_bit():
         dist = np.clip(r - np.abs(rows - yc[None, :]), 0, None).astype(np.float32)
         rm = RadiusMap(np.ascontiguousarray(dist[::scale, ::scale]), scale)
         want = _flat_line_numpy(g, rm, runs_lt, 0)
-        st, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_speedM.flat_search_line(
+        st, coef, t0, ts, degree, radius, lo, hi, u, uv, half_h, coarse, box = kernels_match.flat_search_line(
             seg, scale, np.ascontiguousarray(node_yx[np.maximum(nodes, 0)]),
             (nodes >= 0) & (kinds[np.maximum(nodes, 0)] == JUNCTION), rm.image, scale, runs_lt._find_tables,
             runs_lt.centre_px, runs_lt.span_px, runs_lt.width, 6.0)

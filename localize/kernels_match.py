@@ -16,7 +16,7 @@ Each gives the values of the numpy / Python-float steps it replaces, bit for bit
   ``kernels_dense.flat_line``, the patches along it by ``np.arange``'s values, the coarse patches, the
   boxes).
 
-Tests: tests/localize/test_kernels_speedM.py.
+Tests: tests/localize/test_kernels_match.py.
 """
 from __future__ import annotations
 

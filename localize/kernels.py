@@ -972,6 +972,8 @@ def warm_up() -> None:
     kernels_front.warm_up()
     from appliance.localize import kernels_check     # (the feature check's kernel, speedG: imports this one)
     kernels_check.warm_up()
+    from appliance.localize import kernels_speedR    # (rectify and graph kernels, speedR: imports this one)
+    kernels_speedR.warm_up()
 
 
 # --- match stage (speedm)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
+from appliance.localize import kernels_speedR
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import block_mean
 
@@ -66,6 +67,7 @@ class Rectifier:
         for side in (0, 1):
             rect.source_grid(side, GREY_TILE_PX)         # LazyRectified's source boxes, ready for the first frame
             rect.float_maps(side)                        # the masks' remap tables
+            rect._cell_boxes(side)                       # and their tiles' source cells
         return rect
 
     def tile_sources(self, side: int, tile_px: tuple[int, int]) -> np.ndarray:
@@ -137,18 +139,22 @@ class Rectifier:
 
     def _needed_tiles(self, image: np.ndarray, side: int) -> np.ndarray:
         """Output areas (y0, y1, x0, x1), (N, 4): runs of the tiles of one tile row whose source box
-        holds a non-zero pixel of ``image``."""
+        holds a non-zero pixel of ``image`` (tested by cells of ``BLOCK_PX`` px; compiled:
+        :func:`kernels_speedR.needed_tiles`, for images whose rows are whole 8-pixel words)."""
         b = self.BLOCK_PX
         h, w = image.shape
+        t = self.tiles[side]
+        if b == 8 and w % 8 == 0 and image.flags.c_contiguous:
+            out = np.empty((len(t), 4), np.int64)
+            n = kernels_speedR.needed_tiles(image.view(np.uint64), self._cell_boxes(side), t[:, :4], out)
+            return out[:n]
         hb, wb = -(-h // b), -(-w // b)
         any_px = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY)[1]
         if (hb * b, wb * b) != (h, w):
             any_px = cv2.copyMakeBorder(any_px, 0, hb * b - h, 0, wb * b - w, cv2.BORDER_CONSTANT, value=0)
         # the block mean (by halvings): one 255 pixel of 64 still rounds to >= 4
         cells = cv2.integral(block_mean(any_px, b))
-        t = self.tiles[side]
-        by0, bx0 = t[:, 4] // b, t[:, 6] // b
-        by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
+        by0, by1, bx0, bx1 = self._cell_boxes(side).T
         count = cells[by1, bx1] - cells[by0, bx1] - cells[by1, bx0] + cells[by0, bx0]
         need = t[count > 0, :4]
         if len(need) == 0:
@@ -157,6 +163,17 @@ class Rectifier:
         start = np.flatnonzero(np.concatenate([[True], (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])]))
         end = np.concatenate([start[1:], [len(need)]]) - 1
         return np.column_stack([need[start, :3], need[end, 3]])
+
+    def _cell_boxes(self, side: int) -> np.ndarray:
+        """Each tile's source cells of ``BLOCK_PX`` px: ``cy0, cy1, cx0, cx1`` (T, 4) int64 (end exclusive,
+        the source box rounded out to whole cells; empty for an empty box), computed once."""
+        key = ("cells", side)
+        if key not in self._sources:
+            b, t = self.BLOCK_PX, self.tiles[side]
+            by0, bx0 = t[:, 4] // b, t[:, 6] // b
+            by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
+            self._sources[key] = np.ascontiguousarray(np.column_stack([by0, by1, bx0, bx1]), np.int64)
+        return self._sources[key]
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
         """Rectified pixel positions -> pixel positions in the original (distorted) image.

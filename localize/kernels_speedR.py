@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT
+from appliance.localize.kernels import _JIT, graph_core
 
 
 @numba.njit(**_JIT)
@@ -67,7 +67,149 @@ def needed_tiles(words, cell_box, tile_box, out):
     return n
 
 
+@numba.njit(**_JIT)
+def _by_label(lab, on, n):
+    """Indices ``k`` (in order) of the ``on`` entries of ``lab`` (labels 1..n), grouped by label (a stable
+    counting sort), and where each label's start (n + 1,): label ``g + 1`` at ``order[start[g]:start[g + 1]]``."""
+    start = np.zeros(n + 1, np.int64)
+    for k in range(len(lab)):
+        if on[k]:
+            start[lab[k]] += 1                  # (the count of label L at L, then summed up)
+    for g in range(n):
+        start[g + 1] += start[g]
+    order = np.empty(start[n], np.int64)
+    fill = start[:n].copy()
+    for k in range(len(lab)):
+        if on[k]:
+            order[fill[lab[k] - 1]] = k
+            fill[lab[k] - 1] += 1
+    return order, start
+
+
+@numba.njit(**_JIT)
+def graph_arrays(image, words, w, count, scale):
+    """:func:`graph.build_graph` of a skeleton image in one call: the arrays of its
+    :class:`~appliance.localize.graph.SkeletonGraph` (the pixel work :func:`kernels.graph_core`'s).
+
+    Parameters
+    ----------
+    image : ndarray (H, W8) uint8
+        The skeleton, non-zero = set, its rows zero-padded to a multiple of 8 px.
+    words : ndarray (H, W8 / 8) uint64
+        ``image`` read as 8-pixel words (the scan skips zero words).
+    w : int
+        The skeleton's width W, px.
+    count : ndarray (256,) uint8
+        Set neighbours per neighbour code (:func:`skeleton.neighbour_tables`).
+    scale : int
+        Full-resolution px per skeleton px.
+
+    Returns
+    -------
+    node_px : ndarray (P, 2) int64
+        Node pixels (row, col): junctions by label (row-major within one), then the endpoints
+        (row-major); node ``k``'s are ``node_px[node_start[k]:node_start[k + 1]]``.
+    node_start : ndarray (K + 1,) int64
+    node_yx : ndarray (K, 2) float64
+        Node centroids (sums in row-major order, as ``np.bincount``'s, over the count).
+    n_junctions : int
+    seg_px : ndarray (Q, 2) int64
+        Segment pixels (row, col) grouped by segment (row-major within one); segment ``s``'s are
+        ``seg_px[seg_start[s]:seg_start[s + 1]]`` (the node-node segments after them have none).
+    seg_start : ndarray (S + N + 1,) int64
+    seg_nodes : ndarray (S + N, 2) int64
+        Node at each end (-1: none); the N node-node contacts last.
+    length_px : ndarray (S + N,) float64
+        Full-resolution length: E/S steps 1, diagonal steps sqrt(2), added in E, SE, S, SW order,
+        plus one step onto each end node; node-node contacts 1; times ``scale``.
+    """
+    h = image.shape[0]
+    nw = words.shape[1]
+    w2 = w + 2
+    flat = np.zeros((h + 2) * w2, np.uint8)
+    m = 0
+    for y in range(h):
+        row = image[y]
+        for c in range(nw):
+            if words[y, c] != 0:
+                for b in range(8):
+                    if row[8 * c + b] != 0:
+                        m += 1
+    idx = np.empty(m, np.int64)
+    m = 0
+    for y in range(h):
+        row = image[y]
+        for c in range(nw):
+            if words[y, c] != 0:
+                for b in range(8):
+                    if row[8 * c + b] != 0:
+                        idx[m] = (y + 1) * w2 + 8 * c + b + 1
+                        flat[idx[m]] = 1
+                        m += 1
+    n, jlab, n_j, slab, n_s, sn, nn, steps = graph_core(flat, idx, w2, w, count)
+    jorder, jstart = _by_label(jlab, n >= 3, n_j)
+    n_e = 0
+    for i in range(m):
+        n_e += n[i] == 1
+    k_nodes = n_j + n_e
+    node_px = np.empty((len(jorder) + n_e, 2), np.int64)
+    node_start = np.empty(k_nodes + 1, np.int64)
+    node_yx = np.zeros((k_nodes, 2))
+    node_start[:n_j + 1] = jstart
+    c = len(jorder)
+    for t in range(c):
+        i = jorder[t]
+        node_px[t, 0], node_px[t, 1] = idx[i] // w2 - 1, idx[i] % w2 - 1
+    e = n_j
+    for i in range(m):
+        if n[i] == 1:
+            node_px[c, 0], node_px[c, 1] = idx[i] // w2 - 1, idx[i] % w2 - 1
+            c += 1
+            e += 1
+            node_start[e] = c
+    for i in range(m):                                      # (centroid sums in row-major order)
+        if n[i] >= 3:
+            node_yx[jlab[i] - 1, 0] += np.float64(idx[i] // w2 - 1)
+            node_yx[jlab[i] - 1, 1] += np.float64(idx[i] % w2 - 1)
+    for g in range(n_j):
+        size = np.float64(jstart[g + 1] - jstart[g])
+        node_yx[g, 0] /= size
+        node_yx[g, 1] /= size
+    for g in range(n_j, k_nodes):
+        node_yx[g, 0], node_yx[g, 1] = node_px[node_start[g], 0], node_px[node_start[g], 1]
+    sorder, sstart = _by_label(slab, n == 2, n_s)
+    seg_px = np.empty((len(sorder), 2), np.int64)
+    for t in range(len(sorder)):
+        i = sorder[t]
+        seg_px[t, 0], seg_px[t, 1] = idx[i] // w2 - 1, idx[i] % w2 - 1
+    n_n = len(nn)
+    seg_start = np.empty(n_s + n_n + 1, np.int64)
+    seg_start[:n_s + 1] = sstart
+    seg_start[n_s + 1:] = sstart[n_s]
+    seg_nodes = np.full((n_s + n_n, 2), -1, np.int64)
+    filled = np.zeros(n_s, np.int64)
+    for t in range(len(sn)):                                # (sorted by segment, then node)
+        g = sn[t, 0] - 1
+        if filled[g] < 2:
+            seg_nodes[g, filled[g]] = sn[t, 1] - 1
+            filled[g] += 1
+    length = np.empty(n_s + n_n)
+    root2 = np.sqrt(2.0)
+    for g in range(n_s):
+        v = 0.0
+        v += 1.0 * steps[0, g + 1]
+        v += root2 * steps[1, g + 1]
+        v += 1.0 * steps[2, g + 1]
+        v += root2 * steps[3, g + 1]
+        length[g] = (v + filled[g]) * scale
+    for t in range(n_n):
+        seg_nodes[n_s + t, 0], seg_nodes[n_s + t, 1] = nn[t, 0] - 1, nn[t, 1] - 1
+        length[n_s + t] = 1.0 * scale
+    return node_px, node_start, node_yx, n_j, seg_px, seg_start, seg_nodes, length
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
     needed_tiles(np.zeros((8, 1), np.uint64), box, box, box.copy())
+    graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

@@ -72,3 +72,87 @@ def test_needed_tiles_kernel_joins_runs_of_one_tile_row_only():
     empty = cells.copy()
     empty[:, 1] = empty[:, 0]                               # no source cells: never needed
     assert kernels_speedR.needed_tiles(words, empty, tiles, out) == 0
+
+
+def build_graph_reference(skel):
+    """graph.build_graph before speedR: kernels.graph_core and numpy glue."""
+    from appliance.localize import kernels
+    from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph, _group
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    img = SparseImage.from_image(skel.image)
+    h, w = img.shape
+    idx = np.flatnonzero(img.flat.view(bool))
+    yx = np.empty((len(idx), 2), np.int64)
+    yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
+    yx -= 1
+    count, _, _ = neighbour_tables()
+    n, jlab, n_j, slab, n_s, sn, nn, steps = kernels.graph_core(img.flat, idx, w + 2, w, count)
+    jm, em, pm = n >= 3, n == 1, n == 2
+    jyx, eyx, pyx = yx[jm], yx[em], yx[pm]
+    jlab, slab = jlab[jm], slab[pm]
+    node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
+    n_nodes = len(node_pixels)
+    node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])
+    node_yx = np.zeros((n_nodes, 2))
+    if n_nodes:
+        nyx = np.concatenate([jyx, eyx])
+        size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
+        for c in (0, 1):
+            node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
+    node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
+    seg_yx = _group(slab, pyx, n_s)
+    length = np.zeros(n_s + 1)
+    for k in range(4):
+        length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
+    sn, nn = sn - 1, nn - 1
+    ends = np.full((n_s, 2), -1)
+    first = np.searchsorted(sn[:, 0], sn[:, 0])
+    rank = np.arange(len(sn)) - first
+    two = rank < 2
+    ends[sn[two, 0], rank[two]] = sn[two, 1]
+    filled = np.minimum(np.bincount(sn[:, 0], minlength=n_s), 2)
+    length = length[1:] + filled
+    seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
+    seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
+    length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
+    return SkeletonGraph(img.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
+                         seg_yx, length)
+
+
+def assert_same_graph(a, b):
+    assert a.shape == b.shape and a.scale == b.scale
+    for f in ("node_yx", "node_kind", "seg_nodes", "seg_length_px", "seg_recovered"):
+        x, y = getattr(a, f), getattr(b, f)
+        assert x.dtype == y.dtype and x.shape == y.shape, f
+        np.testing.assert_array_equal(x, y, err_msg=f)        # (bit for bit: centroids and lengths too)
+    for f in ("node_pixels", "seg_yx"):
+        x, y = getattr(a, f), getattr(b, f)
+        assert len(x) == len(y), f
+        for p, q in zip(x, y):
+            assert p.dtype == q.dtype and p.shape == q.shape, f
+            np.testing.assert_array_equal(p, q, err_msg=f)
+
+
+def test_build_graph_is_the_numpy_glue_graph():
+    """Random images (any width, also multiples of 8; sparse to dense; bool, 0/255 and views), their thinned
+    skeletons, constructed shapes and a fixture's pruned skeleton: every array of the graph the same."""
+    from appliance.localize.graph import build_graph
+    from appliance.localize.skeleton import Skeleton, skeletonize
+
+    rng = np.random.default_rng(17)
+    cases = [Skeleton(np.zeros((5, 9), np.uint8)), Skeleton(np.ones((1, 1), np.uint8)),
+             Skeleton(np.eye(16, dtype=np.uint8)), Skeleton(np.eye(16, dtype=np.uint8)[::-1], 4)]
+    for k in range(120):
+        h, w = int(rng.integers(1, 50)), int(rng.choice([rng.integers(1, 60), 8 * rng.integers(1, 7)]))
+        img = (rng.random((h, w)) < rng.uniform(0.02, 0.6)).astype(np.uint8)
+        cases.append(Skeleton(img * (255 if k % 3 == 0 else 1), int(rng.integers(1, 5))))
+        cases.append(skeletonize(img * 255, "thinning"))
+        if k % 4 == 0:
+            cases.append(Skeleton(img.astype(bool), 2))
+            cases.append(Skeleton(np.pad(img, ((0, 0), (3, 5)))[:, 3:-5], 1))     # a view: not contiguous
+    mask = np.zeros((240, 320), np.uint8)
+    for a, b, t in (((10, 200), (300, 20), 9), ((150, 110), (160, 235), 5), ((40, 30), (90, 120), 3)):
+        cv2.line(mask, a, b, 255, t)
+    cases.append(skeletonize(mask, "fast", 4))
+    for skel in cases:
+        assert_same_graph(build_graph(skel), build_graph_reference(skel))

@@ -208,8 +208,156 @@ def graph_arrays(image, words, w, count, scale):
     return node_px, node_start, node_yx, n_j, seg_px, seg_start, seg_nodes, length
 
 
+@numba.njit(**_JIT)
+def end_fit(seg_nodes, is_endpoint, node_yx, seg_px, seg_start, scale, reach_px):
+    """:func:`recover.end_geometry`'s fit: each skeleton end's position and the principal axis of its
+    segment's pixels within ``reach_px`` of it (numpy's sums, in the same order: bit for bit).
+
+    Parameters
+    ----------
+    seg_nodes : ndarray (S, 2) int64
+        Node at each end of each segment (-1: none).
+    is_endpoint : ndarray (K,) bool
+        Nodes that are endpoints.
+    node_yx : ndarray (K, 2) float64
+        Node positions (skeleton row, col).
+    seg_px : ndarray (P, 2) int64
+        All segments' pixels (row, col), segment after segment.
+    seg_start : ndarray (S + 1,) int64
+        Segment ``s``'s pixels are ``seg_px[seg_start[s]:seg_start[s + 1]]``.
+    scale : float
+        Full-resolution px per skeleton px.
+    reach_px : float
+        Full-resolution reach of the fit.
+
+    Returns
+    -------
+    node, segment : ndarray (E,) int64
+        The ends (segment by segment, its first end then its second).
+    xy : ndarray (E, 2) float64
+        Full-resolution positions (x, y).
+    axis : ndarray (E, 2) float64
+        Unit principal axis, pointing from the fitted pixels' centroid to the end.
+    count : ndarray (E,) int64
+        Pixels fitted (the fit counts with 2 or more).
+    """
+    n_seg = len(seg_nodes)
+    n_end = 0
+    for s in range(n_seg):
+        for k in range(2):
+            n_end += seg_nodes[s, k] >= 0 and is_endpoint[seg_nodes[s, k]]
+    node = np.empty(n_end, np.int64)
+    segment = np.empty(n_end, np.int64)
+    xy = np.empty((n_end, 2))
+    axis = np.zeros((n_end, 2))
+    count = np.zeros(n_end, np.int64)
+    e = 0
+    for s in range(n_seg):
+        for k in range(2):
+            v = seg_nodes[s, k]
+            if v < 0 or not is_endpoint[v]:
+                continue
+            node[e], segment[e] = v, s
+            px = (node_yx[v, 1] + 0.5) * scale - 0.5
+            py = (node_yx[v, 0] + 0.5) * scale - 0.5
+            xy[e, 0], xy[e, 1] = px, py
+            sx = sy = 0.0
+            c = 0
+            for i in range(seg_start[s], seg_start[s + 1]):
+                x = (seg_px[i, 1] + 0.5) * scale - 0.5
+                y = (seg_px[i, 0] + 0.5) * scale - 0.5
+                if np.hypot(x - px, y - py) <= reach_px:
+                    sx += x
+                    sy += y
+                    c += 1
+            count[e] = c
+            cx, cy = sx / max(c, 1), sy / max(c, 1)
+            sxx = sxy = syy = 0.0
+            for i in range(seg_start[s], seg_start[s + 1]):
+                x = (seg_px[i, 1] + 0.5) * scale - 0.5
+                y = (seg_px[i, 0] + 0.5) * scale - 0.5
+                if np.hypot(x - px, y - py) <= reach_px:
+                    dx, dy = x - cx, y - cy
+                    sxx += dx * dx
+                    sxy += dx * dy
+                    syy += dy * dy
+            big = (sxx + syy) / 2 + np.hypot((sxx - syy) / 2, sxy)      # the larger eigenvalue
+            if sxx >= syy:
+                ax, ay = big - syy, sxy
+            else:
+                ax, ay = sxy, big - sxx
+            norm = max(np.hypot(ax, ay), 1e-300)
+            ax, ay = ax / norm, ay / norm
+            if ax * (px - cx) + ay * (py - cy) < 0:
+                ax, ay = -ax, -ay
+            axis[e, 0], axis[e, 1] = ax, ay
+            e += 1
+    return node, segment, xy, axis, count
+
+
+@numba.njit(**_JIT)
+def line_pixels(a_xy, b_xy, scale):
+    """:func:`recover._bridge`'s skeleton pixels of straight lines: each line's ``np.linspace(0, 1, n)``
+    points (``n`` = its longer skeleton extent, rounded up, + 1), rounded to pixels, distinct and sorted
+    by (row, col), as ``np.unique(..., axis=0)`` gives them.
+
+    Parameters
+    ----------
+    a_xy, b_xy : ndarray (L, 2) float64
+        The lines' ends, full-resolution (x, y).
+    scale : float
+        Full-resolution px per skeleton px.
+
+    Returns
+    -------
+    px : ndarray (N, 2) int64
+        The pixels (row, col), line after line.
+    start : ndarray (L + 1,) int64
+        Line ``l``'s pixels are ``px[start[l]:start[l + 1]]``.
+    """
+    n_lines = len(a_xy)
+    ns = np.empty(n_lines, np.int64)
+    for i in range(n_lines):
+        ax, ay = (a_xy[i, 0] + 0.5) / scale - 0.5, (a_xy[i, 1] + 0.5) / scale - 0.5
+        bx, by = (b_xy[i, 0] + 0.5) / scale - 0.5, (b_xy[i, 1] + 0.5) / scale - 0.5
+        ns[i] = np.int64(np.ceil(max(abs(bx - ax), abs(by - ay)))) + 1
+    key = np.empty(ns.sum(), np.int64)
+    start = np.zeros(n_lines + 1, np.int64)
+    c = 0
+    for i in range(n_lines):
+        ax, ay = (a_xy[i, 0] + 0.5) / scale - 0.5, (a_xy[i, 1] + 0.5) / scale - 0.5
+        bx, by = (b_xy[i, 0] + 0.5) / scale - 0.5, (b_xy[i, 1] + 0.5) / scale - 0.5
+        n = ns[i]
+        step = 1.0 / (n - 1) if n > 1 else 0.0
+        c0 = c
+        for k in range(n):
+            t = 1.0 if k == n - 1 and n > 1 else k * step      # (np.linspace's: k * step, the last exactly 1)
+            row = np.int64(np.rint(ay + t * (by - ay)))
+            col = np.int64(np.rint(ax + t * (bx - ax)))
+            v = (row << 32) + (col + (1 << 31))                   # (row, col) order
+            j = c                                                 # (insertion sort: a few dozen points)
+            while j > c0 and key[j - 1] > v:
+                key[j] = key[j - 1]
+                j -= 1
+            if j > c0 and key[j - 1] == v:                        # (already there: undo the shift)
+                for q in range(j, c):
+                    key[q] = key[q + 1]
+                continue
+            key[j] = v
+            c += 1
+        start[i + 1] = c
+    px = np.empty((c, 2), np.int64)
+    for q in range(c):
+        px[q, 0] = key[q] >> 32
+        px[q, 1] = (key[q] & 0xFFFFFFFF) - (1 << 31)
+    return px, start
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
     needed_tiles(np.zeros((8, 1), np.uint64), box, box, box.copy())
+    i2 = np.zeros((1, 2), np.int64)
+    end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
+    line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

@@ -22,6 +22,8 @@ def spur_ids(graph: SkeletonGraph, min_length_px: float, radius_factor: float = 
     junction are the two corners of a thick branch cut by the edge, and go.
     """
     ends = graph.seg_nodes
+    if len(graph.node_kind) == 0:                   # (loops only: no spur)
+        return np.zeros(0, int)
     kind = np.where(ends >= 0, graph.node_kind[np.maximum(ends, 0)], 0)
     spur = ((kind[:, 0] == ENDPOINT) & (kind[:, 1] == JUNCTION)) | ((kind[:, 1] == ENDPOINT) & (kind[:, 0] == JUNCTION))
     if not spur.any():

@@ -18,6 +18,7 @@ from itertools import pairwise
 import cv2
 import numpy as np
 from appliance.config.schema import RecoverConfig
+from appliance.localize import kernels_speedR
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
 from appliance.localize.radius import radius_at
 
@@ -36,57 +37,41 @@ class EndGeometry:
 def end_geometry(graph: SkeletonGraph, radius_map: np.ndarray, reach_px: float = 20.0) -> EndGeometry:
     """Position, outward direction (line fit to the last ``reach_px`` of its segment) and radius of every endpoint.
 
-    Ends are listed segment by segment; all ends are fitted at once (principal axis of each
-    end's nearby segment pixels, from their 2x2 scatter matrix).
+    Ends are listed segment by segment; each end's fit is the principal axis of its nearby segment
+    pixels, from their 2x2 scatter matrix (compiled: :func:`kernels_speedR.end_fit`).
     """
-    ends = graph.seg_nodes.ravel()
-    seg = np.repeat(np.arange(len(graph.seg_nodes)), 2)
-    is_end = ends >= 0
-    is_end[is_end] = graph.node_kind[ends[is_end]] == ENDPOINT
-    ends, seg = ends[is_end], seg[is_end]
-    n_px = np.array([len(p) for p in graph.seg_yx], int)
-    if len(ends) == 0 or n_px[seg].sum() == 0:
+    n_px = np.fromiter((len(p) for p in graph.seg_yx), np.int64, len(graph.seg_yx))
+    if len(n_px) == 0 or n_px.sum() == 0:
         return EndGeometry(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
-    all_px = graph.to_full(np.concatenate([p for p in graph.seg_yx if len(p)]))
-    first = np.r_[0, np.cumsum(n_px)[:-1]]
-    # every (end, pixel of its segment) pair
-    owner = np.repeat(np.arange(len(ends)), n_px[seg])
-    at = np.arange(len(owner)) - np.repeat(np.cumsum(n_px[seg]) - n_px[seg], n_px[seg]) + first[seg][owner]
-    p = graph.to_full(graph.node_yx[ends])
-    pts = all_px[at]
-    near = np.hypot(*(pts - p[owner]).T) <= reach_px
-    owner, pts = owner[near], pts[near]
-    count = np.bincount(owner, minlength=len(ends))
-    c = np.column_stack([np.bincount(owner, pts[:, k], len(ends)) for k in (0, 1)]) / np.maximum(count, 1)[:, None]
-    d = pts - c[owner]
-    sxx, sxy, syy = (np.bincount(owner, u * v, len(ends)) for u, v in ((d[:, 0], d[:, 0]), (d[:, 0], d[:, 1]),
-                                                                        (d[:, 1], d[:, 1])))
-    big = (sxx + syy) / 2 + np.hypot((sxx - syy) / 2, sxy)        # larger eigenvalue
-    axis = np.where((sxx >= syy)[:, None], np.column_stack([big - syy, sxy]), np.column_stack([sxy, big - sxx]))
-    axis /= np.maximum(np.hypot(axis[:, 0], axis[:, 1]), 1e-300)[:, None]
-    axis *= np.where(np.einsum("ij,ij->i", axis, p - c) >= 0, 1.0, -1.0)[:, None]
+    seg_px = np.ascontiguousarray(np.concatenate(graph.seg_yx), np.int64)
+    seg_start = np.zeros(len(n_px) + 1, np.int64)
+    np.cumsum(n_px, out=seg_start[1:])
+    node, seg, xy, axis, count = kernels_speedR.end_fit(
+        np.ascontiguousarray(graph.seg_nodes, np.int64), graph.node_kind == ENDPOINT,
+        np.ascontiguousarray(graph.node_yx, np.float64), seg_px, seg_start, float(graph.scale), float(reach_px))
     ok = count >= 2
-    xy = p[ok]
-    return EndGeometry(ends[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
+    xy = xy[ok]
+    return EndGeometry(node[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
 
 
 def _line_pixels(graph: SkeletonGraph, a_xy: np.ndarray, b_xy: np.ndarray) -> np.ndarray:
-    """Skeleton pixels (row, col) of the straight line between two full-resolution points."""
-    pa, pb = ((np.asarray(p) + 0.5) / graph.scale - 0.5 for p in (a_xy, b_xy))
-    n = int(np.ceil(np.abs(pb - pa).max())) + 1
-    t = np.linspace(0, 1, n)[:, None]
-    pts = np.rint(pa + t * (pb - pa)).astype(int)[:, ::-1]
-    srt = pts[np.lexsort((pts[:, 1], pts[:, 0]))]         # np.unique(pts, axis=0), without its overhead
-    return srt[np.r_[True, (srt[1:] != srt[:-1]).any(1)]]
+    """Skeleton pixels (row, col) of the straight line between two full-resolution points, distinct and
+    sorted (:func:`kernels_speedR.line_pixels` of one line; :func:`_bridge` asks for all its lines at once)."""
+    a, b = (np.asarray(p, np.float64).reshape(1, 2) for p in (a_xy, b_xy))
+    return kernels_speedR.line_pixels(a, b, float(graph.scale))[0]
 
 
 def _bridge(graph: SkeletonGraph, ends: EndGeometry, pairs: list[tuple[int, int]]) -> SkeletonGraph:
     if not pairs:
         return graph
-    nodes = [(ends.node[i], ends.node[j]) for i, j in pairs]
-    pixels = [_line_pixels(graph, ends.xy_px[i], ends.xy_px[j]) for i, j in pairs]
-    lengths = [float(np.hypot(*(ends.xy_px[i] - ends.xy_px[j]))) for i, j in pairs]
-    return graph.with_segments(np.array(nodes), pixels, np.array(lengths), np.array(nodes).ravel())
+    i, j = np.array(pairs, np.int64).T
+    nodes = np.column_stack([ends.node[i], ends.node[j]])
+    a_xy, b_xy = ends.xy_px[i], ends.xy_px[j]
+    px, start = kernels_speedR.line_pixels(a_xy, b_xy, float(graph.scale))       # (_line_pixels' of each pair)
+    st = start.tolist()
+    pixels = [px[s:e] for s, e in zip(st[:-1], st[1:])]
+    lengths = [float(np.hypot(*(a - b))) for a, b in zip(a_xy, b_xy)]
+    return graph.with_segments(nodes, pixels, np.array(lengths), nodes.ravel())
 
 
 def _covered_many(occluded: Callable[[np.ndarray], np.ndarray] | None, segments: list) -> list[float]:

@@ -156,3 +156,104 @@ def test_build_graph_is_the_numpy_glue_graph():
     cases.append(skeletonize(mask, "fast", 4))
     for skel in cases:
         assert_same_graph(build_graph(skel), build_graph_reference(skel))
+
+
+def end_geometry_reference(graph, radius_map, reach_px=20.0):
+    """recover.end_geometry before speedR (numpy: every (end, pixel) pair, np.bincount sums)."""
+    from appliance.localize.graph import ENDPOINT
+    from appliance.localize.radius import radius_at
+    from appliance.localize.recover import EndGeometry
+    ends = graph.seg_nodes.ravel()
+    seg = np.repeat(np.arange(len(graph.seg_nodes)), 2)
+    is_end = ends >= 0
+    is_end[is_end] = graph.node_kind[ends[is_end]] == ENDPOINT
+    ends, seg = ends[is_end], seg[is_end]
+    n_px = np.array([len(p) for p in graph.seg_yx], int)
+    if len(ends) == 0 or n_px[seg].sum() == 0:
+        return EndGeometry(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
+    all_px = graph.to_full(np.concatenate([p for p in graph.seg_yx if len(p)]))
+    first = np.r_[0, np.cumsum(n_px)[:-1]]
+    owner = np.repeat(np.arange(len(ends)), n_px[seg])
+    at = np.arange(len(owner)) - np.repeat(np.cumsum(n_px[seg]) - n_px[seg], n_px[seg]) + first[seg][owner]
+    p = graph.to_full(graph.node_yx[ends])
+    pts = all_px[at]
+    near = np.hypot(*(pts - p[owner]).T) <= reach_px
+    owner, pts = owner[near], pts[near]
+    count = np.bincount(owner, minlength=len(ends))
+    c = np.column_stack([np.bincount(owner, pts[:, k], len(ends)) for k in (0, 1)]) / np.maximum(count, 1)[:, None]
+    d = pts - c[owner]
+    sxx, sxy, syy = (np.bincount(owner, u * v, len(ends)) for u, v in ((d[:, 0], d[:, 0]), (d[:, 0], d[:, 1]),
+                                                                        (d[:, 1], d[:, 1])))
+    big = (sxx + syy) / 2 + np.hypot((sxx - syy) / 2, sxy)
+    axis = np.where((sxx >= syy)[:, None], np.column_stack([big - syy, sxy]), np.column_stack([sxy, big - sxx]))
+    axis /= np.maximum(np.hypot(axis[:, 0], axis[:, 1]), 1e-300)[:, None]
+    axis *= np.where(np.einsum("ij,ij->i", axis, p - c) >= 0, 1.0, -1.0)[:, None]
+    ok = count >= 2
+    xy = p[ok]
+    return EndGeometry(ends[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
+
+
+def test_end_geometry_is_the_numpy_fit():
+    """Random branch masks at scales 1 and 4, with recovered (pixel-less) segments and loops: every end's
+    node, position, axis, radius and segment the same, bit for bit."""
+    from appliance.localize.graph import build_graph
+    from appliance.localize.radius import ridge_radius_map
+    from appliance.localize.recover import end_geometry
+    from appliance.localize.skeleton import skeletonize
+
+    rng = np.random.default_rng(23)
+    n_ends = 0
+    for k in range(40):
+        mask = np.zeros((120, 160), np.uint8)
+        for _ in range(int(rng.integers(1, 6))):
+            a, b = rng.integers(0, (160, 120)), rng.integers(0, (160, 120))
+            cv2.line(mask, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 255, int(rng.integers(2, 14)))
+        if k % 5 == 0:
+            cv2.circle(mask, (80, 60), 30, 255, 4)                      # a loop
+        skel = skeletonize(mask, "fast" if k % 2 else "thinning", 4)
+        graph = build_graph(skel)
+        if k % 4 == 0 and len(graph.node_kind) >= 2:
+            graph = graph.with_segments(np.array([[0, 1]]), [np.zeros((0, 2), np.int64)], np.array([3.0]), [])
+        rmap = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
+        for reach in (20.0, 6.0):
+            a, b = end_geometry(graph, rmap, reach), end_geometry_reference(graph, rmap, reach)
+            for f in ("node", "xy_px", "dir", "radius_px", "segment"):
+                x, y = getattr(a, f), getattr(b, f)
+                assert x.dtype == y.dtype and x.shape == y.shape, f
+                np.testing.assert_array_equal(x, y, err_msg=f)
+            n_ends += len(a.node)
+    assert n_ends > 100
+
+
+def test_line_pixels_kernel_is_np_unique_of_the_linspace_points():
+    """All lines of a bridge at once: each line's pixels are np.unique of its rounded np.linspace points
+    (lines of one point, axis-parallel, diagonal, backwards, half-pixel ends), at scales 1, 2 and 4."""
+    rng = np.random.default_rng(29)
+    for scale in (1.0, 2.0, 4.0):
+        a = rng.uniform(-3, 400, (300, 2))
+        b = a + rng.normal(0, 40, (300, 2)) * rng.choice([0.0, 0.1, 1.0], (300, 1))
+        b[::7, 0] = a[::7, 0]                                          # vertical
+        b[::11] = a[::11] + rng.integers(-9, 9, (1, 1)) * scale       # diagonal
+        a[::13] = np.round(a[::13]) + 0.5                              # rounding ties
+        px, start = kernels_speedR.line_pixels(a, b, scale)
+        assert start[0] == 0 and start[-1] == len(px) and px.dtype == np.int64
+        for i in range(len(a)):
+            pa, pb = (a[i] + 0.5) / scale - 0.5, (b[i] + 0.5) / scale - 0.5
+            n = int(np.ceil(np.abs(pb - pa).max())) + 1
+            want = np.unique(np.rint(pa + np.linspace(0, 1, n)[:, None] * (pb - pa)).astype(int)[:, ::-1], axis=0)
+            np.testing.assert_array_equal(px[start[i]:start[i + 1]], want)
+    px, start = kernels_speedR.line_pixels(np.zeros((0, 2)), np.zeros((0, 2)), 4.0)
+    assert px.shape == (0, 2) and start.tolist() == [0]
+
+
+def test_prune_of_a_ring_with_one_spur_leaves_the_ring():
+    """(Found by the end-fit test: once the spur went, the ring has no node left, and spur_ids indexed the
+    empty node table.)"""
+    from appliance.localize.prune import prune
+    from appliance.localize.skeleton import skeletonize
+
+    mask = np.zeros((120, 160), np.uint8)
+    cv2.circle(mask, (80, 60), 30, 255, 4)
+    cv2.line(mask, (110, 60), (114, 60), 255, 2)
+    skel, graph = prune(skeletonize(mask, "thinning"), 8.0)
+    assert len(graph.node_kind) == 0 and len(graph.seg_yx) == 1 and graph.seg_length_px[0] > 150

@@ -353,6 +353,40 @@ def line_pixels(a_xy, b_xy, scale):
     return px, start
 
 
+_TOP_BITS = np.uint64(0x0101010101010101)      # bit 0 of each byte (after a shift by 7: each byte's top bit)
+_LOW_HALF = np.uint64(0xFFFFFFFF)
+_SUM_4 = np.uint64(0x01010101)                  # x * this: byte 3 is the sum of x's bytes 0-3
+
+
+@numba.njit(**_JIT)
+def coarse_mask(words, out):
+    """The fast skeleton's 4x smaller mask of a coverage image: 255 where at least 5 of a 4 x 4 block's
+    pixels are >= 128, else 0 (the same as the threshold at 128, the block mean by two halvings and the
+    threshold at 77 of :func:`skeleton.skeletonize`: checked on all 2^16 blocks).
+
+    Parameters
+    ----------
+    words : ndarray (H, W / 8) uint64
+        The coverage image (uint8, H a multiple of 4, W of 8) read as 8-pixel words, little-endian (the
+        first pixel in the lowest byte).
+    out : ndarray (H / 4, W / 4) uint8
+        Receives the mask.
+    """
+    h, nw = words.shape
+    seven, half, three = np.uint64(7), np.uint64(32), np.uint64(24)
+    byte = np.uint64(0xFF)
+    for by in range(h // 4):
+        for c in range(nw):
+            s = np.uint64(0)
+            for y in range(4 * by, 4 * by + 4):
+                s += (words[y, c] >> seven) & _TOP_BITS       # (per byte: 0 or 1; summed, at most 4)
+            lo = (((s & _LOW_HALF) * _SUM_4) >> three) & byte
+            hi = (((s >> half) * _SUM_4) >> three) & byte
+            out[by, 2 * c] = 255 if lo >= 5 else 0
+            out[by, 2 * c + 1] = 255 if hi >= 5 else 0
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -360,4 +394,5 @@ def warm_up() -> None:
     i2 = np.zeros((1, 2), np.int64)
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
+    coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

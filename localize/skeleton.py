@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_speedR
 
 # neighbour k of pixel (y, x) is at (y + DY[k], x + DX[k]): N, NE, E, SE, S, SW, W, NW
 DY = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
@@ -235,24 +235,34 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     return binary(flat.reshape(h + 2, w + 2)[1:-1, 1:-1])
 
 
-def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:
+def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4, level: int = 0) -> Skeleton:
     """Skeleton of a branch mask.
 
     Parameters
     ----------
     mask : ndarray, shape (H, W)
-        Non-zero = branch.
+        Non-zero (above ``level``) = branch.
     method : {"thinning", "fast"}
         ``thinning``: Zhang-Suen at full resolution (paper). ``fast``: the same on a mask
         ``downscale`` times smaller (a low pixel keeps branch if >= 30 % of it is branch,
         so thin twigs survive).
     downscale : int
         Factor of ``fast``.
+    level : int
+        Branch where ``mask > level`` (127: a rectified coverage image, 0-255, whose branch is >= 128).
+        A uint8 coverage image at 127 with ``fast`` by 4 goes to :func:`kernels_speedR.coarse_mask` (the
+        threshold, the block mean and its threshold in one pass over the image).
     """
+    h, w = mask.shape
+    if level:
+        if (method == "fast" and downscale == 4 and level == 127 and mask.dtype == np.uint8 and _LITTLE_ENDIAN
+                and mask.flags.c_contiguous and h % 4 == 0 and w % 8 == 0):
+            m = kernels_speedR.coarse_mask(mask.view(np.uint64), np.empty((h // 4, w // 4), np.uint8))
+            return Skeleton(remove_corners(zhang_suen(m)), 4, m)
+        mask = np.asarray(mask) > level
     m = binary(mask, 255)
     scale = 1
     if method == "fast" and downscale > 1:
-        h, w = m.shape
         if downscale in (2, 4) and h % downscale == 0 and w % downscale == 0:
             # the block mean by halvings: the same pixels pass the threshold as of the one-step
             # mean (all 2^16 blocks of 4 x 4 checked in tests/localize/test_skeleton.py)

@@ -257,3 +257,33 @@ def test_prune_of_a_ring_with_one_spur_leaves_the_ring():
     cv2.line(mask, (110, 60), (114, 60), 255, 2)
     skel, graph = prune(skeletonize(mask, "thinning"), 8.0)
     assert len(graph.node_kind) == 0 and len(graph.seg_yx) == 1 and graph.seg_length_px[0] > 150
+
+
+def test_coarse_mask_is_the_threshold_block_mean_and_threshold():
+    """All 2^16 patterns of a 4 x 4 block (coverage values either side of 128 drawn at random), and
+    skeletonize(coverage, level=127) against the threshold at 127 then skeletonize, on line masks."""
+    from appliance.localize.skeleton import binary, skeletonize
+
+    k = np.arange(1 << 16)
+    bits = (k[:, None] >> np.arange(16)) & 1
+    rng = np.random.default_rng(31)
+    for _ in range(2):
+        vals = np.where(bits, rng.integers(128, 256, bits.shape), rng.integers(0, 128, bits.shape)).astype(np.uint8)
+        img = np.ascontiguousarray(np.tile(vals.reshape(-1, 4, 4).transpose(1, 0, 2).reshape(4, -1), (2, 1)))
+        want = cv2.threshold(block_mean(binary(cv2.threshold(img, 127, 255, cv2.THRESH_BINARY)[1], 255), 4), 76, 255,
+                             cv2.THRESH_BINARY)[1]
+        got = kernels_speedR.coarse_mask(img.view(np.uint64), np.empty(want.shape, np.uint8))
+        np.testing.assert_array_equal(got, want)
+        assert (got[0] == 255).sum() == (bits.sum(1) >= 5).sum()
+    for shape in ((240, 320), (96, 136), (100, 130)):          # (the last: the numpy path)
+        cov = np.zeros(shape, np.uint8)
+        for _ in range(4):
+            a, b = rng.integers(0, shape[::-1], 2), rng.integers(0, shape[::-1], 2)
+            cv2.line(cov, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), int(rng.integers(100, 256)), int(rng.integers(1, 15)))
+        cov = cv2.GaussianBlur(cov, (5, 5), 1.5)                 # soft edges: values either side of 128
+        for method in ("fast", "thinning"):
+            a = skeletonize(cov, method, 4, level=127)
+            b = skeletonize(cv2.threshold(cov, 127, 255, cv2.THRESH_BINARY)[1], method, 4)
+            assert a.scale == b.scale
+            np.testing.assert_array_equal(a.image, b.image)
+            np.testing.assert_array_equal(a.mask, b.mask)

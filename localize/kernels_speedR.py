@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, graph_core
+from appliance.localize.kernels import _JIT, _sorted, graph_core
 
 
 @numba.njit(**_JIT)
@@ -387,6 +387,34 @@ def coarse_mask(words, out):
     return out
 
 
+@numba.njit(**_JIT)
+def group_medians(values, start):
+    """``np.median`` of each group of ``values`` (the same value, bit for bit: the middle value, or the
+    mean ``(a + b) / 2`` of the two middle ones; NaN for an empty group; the values have no NaN).
+
+    Parameters
+    ----------
+    values : ndarray (N,) float64
+        The groups' values, group after group.
+    start : ndarray (G + 1,) int64
+        Group ``g`` is ``values[start[g]:start[g + 1]]``.
+
+    Returns
+    -------
+    ndarray (G,) float64
+    """
+    out = np.empty(len(start) - 1)
+    for g in range(len(out)):
+        n = start[g + 1] - start[g]
+        if n == 0:
+            out[g] = np.nan
+            continue
+        p = _sorted(values[start[g]:start[g + 1]])
+        k = n // 2
+        out[g] = p[k] if n % 2 else (p[k - 1] + p[k]) / 2
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -395,4 +423,5 @@ def warm_up() -> None:
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
+    group_medians(np.zeros(3), np.array([0, 1, 3], np.int64))
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

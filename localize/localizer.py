@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_speedR
 from appliance.localize.curves import median
 from appliance.localize.dense import match_dense
 from appliance.localize.errors import LocalizeError
@@ -274,9 +274,15 @@ class Localizer:
             # all pieces triangulated at once (row by row the same values), then split
             uvd = np.vstack([u for _, u in kept])
             xyz, ends = triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib), np.cumsum([len(u) for _, u in kept]).tolist()
-            polys = [xyz[a:b] for a, b in zip([0] + ends[:-1], ends)]      # (np.split's arrays)
-            for (p, _), poly in zip(kept, polys):
-                radius_mm = float(p.radius_px * median(poly[:, 2]) / f)
+            starts = [0] + ends[:-1]
+            polys = [xyz[a:b] for a, b in zip(starts, ends)]      # (np.split's arrays)
+            z = np.ascontiguousarray(xyz[:, 2])
+            if np.isnan(z).any():
+                z_med = [median(poly[:, 2]) for poly in polys]
+            else:                                       # (np.median of each piece's Z, all at once)
+                z_med = kernels_speedR.group_medians(z, np.array(starts + ends[-1:], np.int64)).tolist()
+            for (p, _), poly, zm in zip(kept, polys, z_med):
+                radius_mm = float(p.radius_px * zm / f)
                 ids = tuple(node_id.get(n, -1) for n in p.nodes)
                 branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
         return LocalizationResult(tuple(features), tuple(branches), int(stamp_ns))

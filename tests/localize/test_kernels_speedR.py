@@ -287,3 +287,17 @@ def test_coarse_mask_is_the_threshold_block_mean_and_threshold():
             assert a.scale == b.scale
             np.testing.assert_array_equal(a.image, b.image)
             np.testing.assert_array_equal(a.mask, b.mask)
+
+
+def test_group_medians_are_np_median_of_each_group():
+    rng = np.random.default_rng(37)
+    sizes = np.r_[0, 1, 2, 3, rng.integers(0, 300, 200)]
+    values = rng.normal(900, 200, sizes.sum())
+    values[::17] = np.round(values[::17])                      # ties
+    start = np.r_[0, np.cumsum(sizes)].astype(np.int64)
+    got = kernels_speedR.group_medians(values, start)
+    for g, (a, b) in enumerate(zip(start[:-1], start[1:])):
+        if b == a:
+            assert np.isnan(got[g])
+        else:
+            assert got[g] == np.median(values[a:b])               # bit for bit

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _sorted, graph_core
+from appliance.localize.kernels import _JIT, _sorted, graph_core, remove_corners_flat, zhang_suen_flat
 
 
 @numba.njit(**_JIT)
@@ -415,6 +415,83 @@ def group_medians(values, start):
     return out
 
 
+@numba.njit(**_JIT)
+def thin(image, words, off, tab0, tab1, corner, out):
+    """:func:`skeleton.zhang_suen` then :func:`skeleton.remove_corners` of a binary image in one call: the
+    zero-padded flat image, the pixels that may go (set, not on the image's border) and the outline to
+    start from (set pixels with a zero 8-neighbour inside the image, as ``m - cv2.erode(m, 3 x 3)``)
+    built here, then :func:`kernels.zhang_suen_flat` and :func:`kernels.remove_corners_flat` on it.
+
+    Parameters
+    ----------
+    image : ndarray (H, W8) uint8
+        The mask, non-zero = set, its rows padded with zeros to a multiple of 8 px.
+    words : ndarray (H, W8 / 8) uint64
+        ``image`` read as 8-pixel words (the scan skips zero words).
+    off : ndarray (8,) int64
+        Flat steps to the 8 neighbours (N, NE, E, SE, S, SW, W, NW) at row length W + 2.
+    tab0, tab1 : ndarray (256,) bool
+        :func:`skeleton.zhang_suen_tables`.
+    corner : ndarray (256,) bool
+        :func:`skeleton.neighbour_tables`' corner table.
+    out : ndarray (H, W) uint8
+        Receives the skeleton, 0/1.
+    """
+    h, w = out.shape
+    w2 = w + 2
+    nw = words.shape[1]
+    flat = np.zeros((h + 2) * w2, np.uint8)
+    m = 0
+    for y in range(h):
+        for c in range(nw):
+            if words[y, c] != 0:
+                m += 8
+    idx = np.empty(m, np.int64)                         # the set pixels, row-major
+    m = 0
+    for y in range(h):
+        row = image[y]
+        for c in range(nw):
+            if words[y, c] != 0:
+                for b in range(8):
+                    if row[8 * c + b] != 0:
+                        idx[m] = (y + 1) * w2 + 8 * c + b + 1
+                        flat[idx[m]] = 1
+                        m += 1
+    idx = idx[:m]
+    live = flat.copy()
+    for x in range(w):                                  # (pixels on the image's border stay)
+        live[w2 + x + 1] = 0
+        live[h * w2 + x + 1] = 0
+    for y in range(h):
+        live[(y + 1) * w2 + 1] = 0
+        live[(y + 1) * w2 + w] = 0
+    start = np.empty(m, np.int64)
+    n = 0
+    for i in range(m):
+        p = idx[i]
+        if live[p] == 0:
+            continue
+        for k in range(8):
+            if flat[p + off[k]] == 0:                   # (a zero neighbour, inside the image)
+                start[n] = p
+                n += 1
+                break
+    zhang_suen_flat(flat, live, start[:n], off, tab0, tab1)
+    n = 0
+    for i in range(m):                                  # (thinning only deletes: the rest, row-major)
+        if flat[idx[i]] != 0:
+            idx[n] = idx[i]
+            n += 1
+    idx = idx[:n]
+    remove_corners_flat(flat, idx, w2, corner)
+    out[:] = 0
+    for i in range(n):
+        p = idx[i]
+        if flat[p] != 0:
+            out[p // w2 - 1, p % w2 - 1] = 1
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -424,4 +501,7 @@ def warm_up() -> None:
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
     group_medians(np.zeros(3), np.array([0, 1, 3], np.int64))
+    tab = np.zeros(256, bool)
+    thin(np.zeros((3, 8), np.uint8), np.zeros((3, 1), np.uint64), np.array([-10, -9, 1, 11, 10, 9, -1, -11], np.int64),
+         tab, tab, tab, np.zeros((3, 8), np.uint8))
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

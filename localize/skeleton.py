@@ -258,7 +258,7 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4, 
         if (method == "fast" and downscale == 4 and level == 127 and mask.dtype == np.uint8 and _LITTLE_ENDIAN
                 and mask.flags.c_contiguous and h % 4 == 0 and w % 8 == 0):
             m = kernels_speedR.coarse_mask(mask.view(np.uint64), np.empty((h // 4, w // 4), np.uint8))
-            return Skeleton(remove_corners(zhang_suen(m)), 4, m)
+            return Skeleton(thin(m), 4, m)
         mask = np.asarray(mask) > level
     m = binary(mask, 255)
     scale = 1
@@ -271,4 +271,20 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4, 
             small = cv2.resize(m, (w // downscale, h // downscale), interpolation=cv2.INTER_AREA)
         m = cv2.threshold(small, 76, 255, cv2.THRESH_BINARY)[1]
         scale = downscale
-    return Skeleton(remove_corners(zhang_suen(m)), scale, m)
+    return Skeleton(thin(m), scale, m)
+
+
+def thin(mask: np.ndarray) -> np.ndarray:
+    """``remove_corners(zhang_suen(mask))`` (uint8 0/1, the shape of ``mask``), in one compiled call
+    (:func:`kernels_speedR.thin`) for a uint8 mask."""
+    mask = np.asarray(mask)
+    if mask.dtype != np.uint8 or mask.ndim != 2:
+        return remove_corners(zhang_suen(mask))
+    h, w = mask.shape
+    image = mask
+    if w % 8 or not mask.flags.c_contiguous:                # (rows of whole 8-pixel words)
+        image = np.zeros((h, -(-w // 8) * 8), np.uint8)
+        image[:, :w] = mask
+    _, _, corner = neighbour_tables()
+    return kernels_speedR.thin(image, image.view(np.uint64), (DY * (w + 2) + DX).astype(np.int64), *zhang_suen_tables(),
+                               corner, np.empty((h, w), np.uint8))

@@ -301,3 +301,27 @@ def test_group_medians_are_np_median_of_each_group():
             assert np.isnan(got[g])
         else:
             assert got[g] == np.median(values[a:b])               # bit for bit
+
+
+def test_thin_is_zhang_suen_then_remove_corners():
+    """Random masks (blobs, lines, noise; widths not a multiple of 8; views; bool), pixels on the image's
+    border included: the same 0/1 skeleton as the two numpy-glued passes."""
+    from appliance.localize.skeleton import remove_corners, thin, zhang_suen
+
+    rng = np.random.default_rng(41)
+    for k in range(60):
+        h, w = int(rng.integers(3, 90)), int(rng.integers(3, 130))
+        m = np.zeros((h, w), np.uint8)
+        for _ in range(int(rng.integers(1, 6))):
+            a, b = rng.integers(0, (w, h), 2), rng.integers(0, (w, h), 2)
+            cv2.line(m, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 255, int(rng.integers(1, 12)))
+        if k % 3 == 0:
+            m[rng.random((h, w)) < 0.1] = 255
+        if k % 5 == 0:
+            m[:, :3] = 255                                      # along the border
+        mask = m if k % 4 else np.pad(m, 2)[2:-2, 2:-2]         # (a view)
+        want = remove_corners(zhang_suen(m))
+        got = thin(mask)
+        assert got.dtype == np.uint8 and got.shape == m.shape
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(thin(m > 0), want)            # (bool: the numpy path)

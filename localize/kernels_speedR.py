@@ -416,6 +416,49 @@ def group_medians(values, start):
 
 
 @numba.njit(**_JIT)
+def _scan(image, words, w2, flat):
+    """The set pixels of ``image`` (H, W8) uint8 (``words``: its 8-pixel words, zero words skipped) as
+    row-major flat indices into a zero-padded image of row length ``w2``; sets them to 1 in ``flat``."""
+    h, nw = words.shape
+    m = 0
+    for y in range(h):
+        for c in range(nw):
+            if words[y, c] != 0:
+                m += 8
+    idx = np.empty(m, np.int64)
+    m = 0
+    for y in range(h):
+        row = image[y]
+        for c in range(nw):
+            if words[y, c] != 0:
+                for b in range(8):
+                    if row[8 * c + b] != 0:
+                        idx[m] = (y + 1) * w2 + 8 * c + b + 1
+                        flat[idx[m]] = 1
+                        m += 1
+    return idx[:m]
+
+
+@numba.njit(**_JIT)
+def corners(image, words, corner, out):
+    """:func:`skeleton.remove_corners` of a binary image in one call (:func:`kernels.remove_corners_flat` on
+    the zero-padded flat image built here). ``image`` (H, W8) uint8, non-zero = set, rows padded to a
+    multiple of 8 px; ``words`` its 8-pixel words; ``corner`` (256,) bool; ``out`` (H, W) uint8 receives
+    the result, 0/1."""
+    h, w = out.shape
+    w2 = w + 2
+    flat = np.zeros((h + 2) * w2, np.uint8)
+    idx = _scan(image, words, w2, flat)
+    remove_corners_flat(flat, idx, w2, corner)
+    out[:] = 0
+    for i in range(len(idx)):
+        p = idx[i]
+        if flat[p] != 0:
+            out[p // w2 - 1, p % w2 - 1] = 1
+    return out
+
+
+@numba.njit(**_JIT)
 def thin(image, words, off, tab0, tab1, corner, out):
     """:func:`skeleton.zhang_suen` then :func:`skeleton.remove_corners` of a binary image in one call: the
     zero-padded flat image, the pixels that may go (set, not on the image's border) and the outline to
@@ -439,25 +482,9 @@ def thin(image, words, off, tab0, tab1, corner, out):
     """
     h, w = out.shape
     w2 = w + 2
-    nw = words.shape[1]
     flat = np.zeros((h + 2) * w2, np.uint8)
-    m = 0
-    for y in range(h):
-        for c in range(nw):
-            if words[y, c] != 0:
-                m += 8
-    idx = np.empty(m, np.int64)                         # the set pixels, row-major
-    m = 0
-    for y in range(h):
-        row = image[y]
-        for c in range(nw):
-            if words[y, c] != 0:
-                for b in range(8):
-                    if row[8 * c + b] != 0:
-                        idx[m] = (y + 1) * w2 + 8 * c + b + 1
-                        flat[idx[m]] = 1
-                        m += 1
-    idx = idx[:m]
+    idx = _scan(image, words, w2, flat)
+    m = len(idx)
     live = flat.copy()
     for x in range(w):                                  # (pixels on the image's border stay)
         live[w2 + x + 1] = 0
@@ -492,6 +519,74 @@ def thin(image, words, off, tab0, tab1, corner, out):
     return out
 
 
+@numba.njit(**_JIT)
+def spur_mask(seg_nodes, node_kind, node_yx, seg_length_px, h, w, min_length_px, radius_factor, radius, r_scale,
+              scale, keep_border):
+    """:func:`prune.spur_ids`' test of every segment (see there), bit for bit.
+
+    Parameters
+    ----------
+    seg_nodes : ndarray (S, 2) int64
+    node_kind : ndarray (K,) int64
+        ENDPOINT 1, JUNCTION 3 (others: neither).
+    node_yx : ndarray (K, 2) float64
+    seg_length_px : ndarray (S,) float64
+    h, w : int
+        The skeleton's shape.
+    min_length_px, radius_factor : float
+    radius : ndarray (Hr, Wr) float32
+        The radius map (full-resolution px; not read when ``radius_factor`` is 0).
+    r_scale : int
+        Full-resolution px per radius map px.
+    scale : int
+        Full-resolution px per skeleton px.
+    keep_border : bool
+
+    Returns
+    -------
+    ndarray (S,) bool
+        The spurs to remove.
+    """
+    n_seg = len(seg_nodes)
+    spur = np.zeros(n_seg, np.bool_)
+    junction = np.full(n_seg, -1, np.int64)
+    end = np.full(n_seg, -1, np.int64)
+    for s in range(n_seg):
+        e0, e1 = seg_nodes[s, 0], seg_nodes[s, 1]
+        k0 = node_kind[e0] if e0 >= 0 else 0
+        k1 = node_kind[e1] if e1 >= 0 else 0
+        if k0 == 1 and k1 == 3:
+            spur[s], end[s], junction[s] = True, e0, e1
+        elif k1 == 1 and k0 == 3:
+            spur[s], end[s], junction[s] = True, e1, e0
+    if keep_border:
+        out = np.zeros(n_seg, np.bool_)
+        n_out = np.zeros(len(node_kind), np.int64)
+        for s in range(n_seg):
+            if spur[s]:
+                y, x = node_yx[end[s], 0], node_yx[end[s], 1]
+                out[s] = min(y, x) <= 1 or y >= h - 2 or x >= w - 2
+                if out[s]:
+                    n_out[junction[s]] += 1
+        for s in range(n_seg):
+            if out[s] and n_out[junction[s]] == 1:
+                spur[s] = False
+    rh, rw = radius.shape
+    for s in range(n_seg):
+        if not spur[s]:
+            continue
+        limit = np.float64(min_length_px)
+        if radius_factor > 0:
+            j = junction[s]
+            fx = (node_yx[j, 1] + 0.5) * scale - 0.5              # (graph.to_full, then radius_at)
+            fy = (node_yx[j, 0] + 0.5) * scale - 0.5
+            x = min(max(np.int64(np.rint((fx + 0.5) / r_scale - 0.5)), 0), rw - 1)
+            y = min(max(np.int64(np.rint((fy + 0.5) / r_scale - 0.5)), 0), rh - 1)
+            limit = max(limit, radius_factor * np.float64(radius[y, x]))
+        spur[s] = seg_length_px[s] < limit
+    return spur
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -501,7 +596,10 @@ def warm_up() -> None:
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
     group_medians(np.zeros(3), np.array([0, 1, 3], np.int64))
+    spur_mask(np.zeros((1, 2), np.int64), np.ones(1, np.int64), np.zeros((1, 2)), np.zeros(1), 2, 2, 5.0, 1.5,
+              np.zeros((2, 2), np.float32), 4, 4, True)
     tab = np.zeros(256, bool)
+    corners(np.zeros((3, 8), np.uint8), np.zeros((3, 1), np.uint64), tab, np.zeros((3, 8), np.uint8))
     thin(np.zeros((3, 8), np.uint8), np.zeros((3, 1), np.uint64), np.array([-10, -9, 1, 11, 10, 9, -1, -11], np.int64),
          tab, tab, tab, np.zeros((3, 8), np.uint8))
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)

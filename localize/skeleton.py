@@ -178,10 +178,27 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     as the previous pass left it (compiled: :func:`kernels.remove_corners_flat`).
     """
     _, _, corner = neighbour_tables()
-    img = SparseImage.from_image(skel01)
-    idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
-    kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
-    return img.image()
+    image = _words_image(skel01)
+    if image is None:
+        img = SparseImage.from_image(skel01)
+        idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
+        kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
+        return img.image()
+    return kernels_speedR.corners(image, image.view(np.uint64), corner, np.empty(skel01.shape, np.uint8))
+
+
+def _words_image(mask: np.ndarray) -> np.ndarray | None:
+    """A 2-D uint8 ``mask`` with rows of whole 8-pixel words (itself, or a zero-padded copy), for the
+    word scans of :mod:`kernels_speedR`; None for other masks."""
+    mask = np.asarray(mask)
+    if mask.dtype != np.uint8 or mask.ndim != 2:
+        return None
+    h, w = mask.shape
+    if w % 8 or not mask.flags.c_contiguous:
+        image = np.zeros((h, -(-w // 8) * 8), np.uint8)
+        image[:, :w] = mask
+        return image
+    return mask
 
 
 @lru_cache(maxsize=1)
@@ -277,14 +294,10 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4, 
 def thin(mask: np.ndarray) -> np.ndarray:
     """``remove_corners(zhang_suen(mask))`` (uint8 0/1, the shape of ``mask``), in one compiled call
     (:func:`kernels_speedR.thin`) for a uint8 mask."""
-    mask = np.asarray(mask)
-    if mask.dtype != np.uint8 or mask.ndim != 2:
+    image = _words_image(mask)
+    if image is None:
         return remove_corners(zhang_suen(mask))
-    h, w = mask.shape
-    image = mask
-    if w % 8 or not mask.flags.c_contiguous:                # (rows of whole 8-pixel words)
-        image = np.zeros((h, -(-w // 8) * 8), np.uint8)
-        image[:, :w] = mask
+    h, w = np.shape(mask)
     _, _, corner = neighbour_tables()
     return kernels_speedR.thin(image, image.view(np.uint64), (DY * (w + 2) + DX).astype(np.int64), *zhang_suen_tables(),
                                corner, np.empty((h, w), np.uint8))

@@ -142,7 +142,7 @@ def test_build_graph_is_the_numpy_glue_graph():
     rng = np.random.default_rng(17)
     cases = [Skeleton(np.zeros((5, 9), np.uint8)), Skeleton(np.ones((1, 1), np.uint8)),
              Skeleton(np.eye(16, dtype=np.uint8)), Skeleton(np.eye(16, dtype=np.uint8)[::-1], 4)]
-    for k in range(120):
+    for k in range(80):
         h, w = int(rng.integers(1, 50)), int(rng.choice([rng.integers(1, 60), 8 * rng.integers(1, 7)]))
         img = (rng.random((h, w)) < rng.uniform(0.02, 0.6)).astype(np.uint8)
         cases.append(Skeleton(img * (255 if k % 3 == 0 else 1), int(rng.integers(1, 5))))
@@ -325,3 +325,75 @@ def test_thin_is_zhang_suen_then_remove_corners():
         assert got.dtype == np.uint8 and got.shape == m.shape
         np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(thin(m > 0), want)            # (bool: the numpy path)
+
+
+def spur_ids_reference(graph, min_length_px, radius_factor=0.0, radius_map=None, keep_border=False):
+    """prune.spur_ids before speedR (numpy)."""
+    from appliance.localize.graph import ENDPOINT, JUNCTION
+    from appliance.localize.radius import radius_at
+    ends = graph.seg_nodes
+    kind = np.where(ends >= 0, graph.node_kind[np.maximum(ends, 0)], 0)
+    spur = ((kind[:, 0] == ENDPOINT) & (kind[:, 1] == JUNCTION)) | ((kind[:, 1] == ENDPOINT) & (kind[:, 0] == JUNCTION))
+    if not spur.any():
+        return np.zeros(0, int)
+    junction = np.where(kind[:, 0] == JUNCTION, ends[:, 0], ends[:, 1])
+    if keep_border:
+        end = np.where(kind[:, 0] == ENDPOINT, ends[:, 0], ends[:, 1])
+        y, x = graph.node_yx[np.maximum(end, 0)].T
+        h, w = graph.shape
+        out = spur & ((np.minimum(y, x) <= 1) | (y >= h - 2) | (x >= w - 2))
+        n_out = np.bincount(junction[out], minlength=len(graph.node_kind))
+        spur &= ~(out & (n_out[np.maximum(junction, 0)] == 1))
+    limit = np.full(len(ends), float(min_length_px))
+    if radius_factor > 0 and radius_map is not None:
+        r = radius_at(radius_map, graph.to_full(graph.node_yx[np.maximum(junction, 0)]))
+        limit = np.maximum(limit, radius_factor * r)
+    return np.flatnonzero(spur & (graph.seg_length_px < limit))
+
+
+def test_spur_ids_are_the_numpy_test():
+    """Random branch masks with bumps, cut by the image's edges, at scales 1 and 4; minimum lengths and
+    radius factors either side of the spurs' lengths; RadiusMap, plain and float64 radius maps."""
+    from appliance.localize.graph import build_graph
+    from appliance.localize.prune import spur_ids
+    from appliance.localize.radius import RadiusMap, ridge_radius_map
+    from appliance.localize.skeleton import skeletonize
+
+    rng = np.random.default_rng(43)
+    found = 0
+    for k in range(40):
+        mask = np.zeros((120, 160), np.uint8)
+        for _ in range(int(rng.integers(2, 7))):
+            a, b = rng.integers(-20, (180, 140)), rng.integers(0, (160, 120))
+            cv2.line(mask, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 255, int(rng.integers(2, 16)))
+        skel = skeletonize(mask, "fast" if k % 2 else "thinning", 4)
+        graph = build_graph(skel)
+        rmap = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
+        for radius_map in (rmap, rmap.image if skel.scale == 1 else rmap, RadiusMap(rmap.image.astype(np.float64), rmap.scale)):
+            for min_len, factor, border in ((5.0, 0.0, False), (12.0, 1.5, True), (8.0, 3.0, False), (30.0, 1.0, True)):
+                want = spur_ids_reference(graph, min_len, factor, radius_map, border)
+                got = spur_ids(graph, min_len, factor, radius_map, border)
+                np.testing.assert_array_equal(got, want)
+                found += len(want)
+        assert len(spur_ids(graph, 5.0, 1.5, None)) == len(spur_ids_reference(graph, 5.0, 1.5, None))
+    assert found > 100
+
+
+def test_corners_kernel_is_the_numpy_glued_corner_removal():
+    """remove_corners of uint8 images (the kernel) against the same images as bool (the numpy-glued path):
+    random thin patterns, staircases and bumps, widths not a multiple of 8, values other than 1."""
+    from appliance.localize.skeleton import remove_corners
+
+    rng = np.random.default_rng(47)
+    for k in range(60):
+        h, w = int(rng.integers(2, 60)), int(rng.integers(2, 90))
+        img = (rng.random((h, w)) < rng.uniform(0.05, 0.5)).astype(np.uint8)
+        img *= np.uint8(1 if k % 2 else 255)
+        got = remove_corners(img)
+        want = remove_corners(img > 0)
+        assert got.dtype == np.uint8 and got.shape == img.shape
+        np.testing.assert_array_equal(got, want)
+    stair = np.zeros((8, 16), np.uint8)
+    for i in range(6):
+        stair[i + 1, i + 1:i + 3] = 1                          # a 4-connected staircase: its corners go
+    assert remove_corners(stair).sum() < stair.sum()

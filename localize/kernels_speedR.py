@@ -587,6 +587,19 @@ def spur_mask(seg_nodes, node_kind, node_yx, seg_length_px, h, w, min_length_px,
     return spur
 
 
+@numba.njit(**_JIT)
+def source_box(lo, hi, i0, i1, j0, j1):
+    """The union of the source boxes of the tiles ``[i0:i1, j0:j1]`` of :meth:`Rectifier.source_grid`'s
+    grids ``lo``, ``hi`` (rows, cols, 2) int64: ``(sy0, sy1, sx0, sx1)`` (empty: nothing seen)."""
+    sy0, sx0 = lo[i0, j0, 0], lo[i0, j0, 1]
+    sy1, sx1 = hi[i0, j0, 0], hi[i0, j0, 1]
+    for i in range(i0, i1):
+        for j in range(j0, j1):
+            sy0, sx0 = min(sy0, lo[i, j, 0]), min(sx0, lo[i, j, 1])
+            sy1, sx1 = max(sy1, hi[i, j, 0]), max(sx1, hi[i, j, 1])
+    return sy0, sy1, sx0, sx1
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -594,6 +607,8 @@ def warm_up() -> None:
     i2 = np.zeros((1, 2), np.int64)
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
+    grid = np.zeros((1, 1, 2), np.int64)
+    source_box(grid, grid, 0, 1, 0, 1)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
     group_medians(np.zeros(3), np.array([0, 1, 3], np.int64))
     spur_mask(np.zeros((1, 2), np.int64), np.ones(1, np.int64), np.zeros((1, 2)), np.zeros(1), 2, 2, 5.0, 1.5,

@@ -253,10 +253,8 @@ class LazyRectified:
             return np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), self.dtype)
         src = self.image
         if src.ndim == 3:
-            lo, hi = self._boxes
-            i0, i1, j0, j1 = y0 // self.th, (y1 - 1) // self.th + 1, x0 // self.tw, (x1 - 1) // self.tw + 1
-            sy0, sx0 = lo[i0:i1, j0:j1].reshape(-1, 2).min(0).tolist()
-            sy1, sx1 = hi[i0:i1, j0:j1].reshape(-1, 2).max(0).tolist()
+            sy0, sy1, sx0, sx1 = kernels_speedR.source_box(*self._boxes, y0 // self.th, (y1 - 1) // self.th + 1,
+                                                           x0 // self.tw, (x1 - 1) // self.tw + 1)
             if sy1 <= sy0 or sx1 <= sx0:                    # the area sees nothing of the image
                 return np.zeros((y1 - y0, x1 - x0), np.uint8)
             if self._grey is None:

@@ -397,3 +397,20 @@ def test_corners_kernel_is_the_numpy_glued_corner_removal():
     for i in range(6):
         stair[i + 1, i + 1:i + 3] = 1                          # a 4-connected staircase: its corners go
     assert remove_corners(stair).sum() < stair.sum()
+
+
+def test_source_box_is_the_grids_min_and_max():
+    """LazyRectified's union of tile source boxes: the numpy min / max over the grids' tiles it replaced, on a
+    rig's grids (empty tiles: start W + H, end -1) and on random ones."""
+    rect = Rectifier.from_calibration(distorted_rig(333, 251))
+    rng = np.random.default_rng(53)
+    grids = [rect.source_grid(0, (16, 64)), rect.source_grid(1, (16, 64))]
+    grids.append((rng.integers(0, 500, (9, 7, 2)), rng.integers(-1, 500, (9, 7, 2))))
+    for lo, hi in grids:
+        rows, cols = lo.shape[:2]
+        for _ in range(200):
+            i0, j0 = int(rng.integers(0, rows)), int(rng.integers(0, cols))
+            i1, j1 = int(rng.integers(i0 + 1, rows + 1)), int(rng.integers(j0 + 1, cols + 1))
+            sy0, sx0 = lo[i0:i1, j0:j1].reshape(-1, 2).min(0).tolist()
+            sy1, sx1 = hi[i0:i1, j0:j1].reshape(-1, 2).max(0).tolist()
+            assert kernels_speedR.source_box(lo, hi, i0, i1, j0, j1) == (sy0, sy1, sx0, sx1)

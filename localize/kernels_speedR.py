@@ -600,6 +600,43 @@ def source_box(lo, hi, i0, i1, j0, j1):
     return sy0, sy1, sx0, sx1
 
 
+@numba.njit(**_JIT)
+def project_distorted(rays, K, k, out):
+    """``cv2.projectPoints(rays, 0, 0, K, D)`` (no rotation, no translation, no tilt), bit for bit: OpenCV's
+    distortion model in OpenCV's order of operations (the reciprocal of Z times X and Y, then the radial,
+    tangential and thin-prism terms).
+
+    Parameters
+    ----------
+    rays : ndarray (N, 3) float64
+        Points (X, Y, Z) in the camera's frame.
+    K : ndarray (3, 3) float64
+        Camera matrix (fx, fy, cx, cy read; no skew).
+    k : ndarray (12,) float64
+        k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 (zeros for those the calibration does not have).
+    out : ndarray (N, 2) float64
+        Receives the pixels (u, v).
+    """
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    for i in range(len(rays)):
+        X, Y, Z = rays[i, 0], rays[i, 1], rays[i, 2]
+        z = 1.0 / Z if Z != 0 else 1.0
+        x, y = X * z, Y * z
+        r2 = x * x + y * y
+        r4 = r2 * r2
+        r6 = r4 * r2
+        a1 = 2 * x * y
+        a2 = r2 + 2 * x * x
+        a3 = r2 + 2 * y * y
+        cdist = 1 + k[0] * r2 + k[1] * r4 + k[4] * r6
+        icdist2 = 1.0 / (1 + k[5] * r2 + k[6] * r4 + k[7] * r6)
+        xd = x * cdist * icdist2 + k[2] * a1 + k[3] * a2 + k[8] * r2 + k[9] * r4
+        yd = y * cdist * icdist2 + k[2] * a3 + k[3] * a1 + k[10] * r2 + k[11] * r4
+        out[i, 0] = xd * fx + cx
+        out[i, 1] = yd * fy + cy
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -607,6 +644,7 @@ def warm_up() -> None:
     i2 = np.zeros((1, 2), np.int64)
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
+    project_distorted(np.ones((1, 3)), np.eye(3), np.zeros(12), np.zeros((1, 2)))
     grid = np.zeros((1, 1, 2), np.int64)
     source_box(grid, grid, 0, 1, 0, 1)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))

@@ -194,8 +194,35 @@ class Rectifier:
         P, Rr, K, D = (c.P1, c.R1, c.K1, c.D1) if side == 0 else (c.P2, c.R2, c.K2, c.D2)
         rays = np.column_stack([(pts[:, 0] - P[0, 2]) / P[0, 0], (pts[:, 1] - P[1, 2]) / P[1, 1], np.ones(len(pts))])
         rays = rays @ Rr  # rows: R^T @ ray, back into the camera's unrectified frame
-        img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
-        return img.reshape(-1, 2)
+        k = self._distortion(side)
+        if k is None:
+            img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
+            return img.reshape(-1, 2)
+        return kernels_speedR.project_distorted(rays, self._camera(side), k, np.empty((len(rays), 2)))
+
+    def _distortion(self, side: int) -> np.ndarray | None:
+        """One camera's distortion coefficients as the 12 of :func:`kernels_speedR.project_distorted`
+        (float64; None for a model it does not cover: the tilted sensor's 14, or a camera matrix with
+        skew), computed once."""
+        key = ("k12", side)
+        if key not in self._sources:
+            c = self.calib
+            K, D = (c.K1, c.D1) if side == 0 else (c.K2, c.D2)
+            d = np.asarray(D, np.float64).ravel()
+            k = None
+            if len(d) in (4, 5, 8, 12) and np.asarray(K)[0, 1] == 0:
+                k = np.zeros(12)
+                k[:len(d)] = d
+            self._sources[key] = k
+        return self._sources[key]
+
+    def _camera(self, side: int) -> np.ndarray:
+        """One camera's matrix K (3, 3) float64, C-contiguous, computed once."""
+        key = ("K", side)
+        if key not in self._sources:
+            c = self.calib
+            self._sources[key] = np.ascontiguousarray((c.K1 if side == 0 else c.K2), np.float64)
+        return self._sources[key]
 
 
 def _tile_sources(map_x: np.ndarray, map_y: np.ndarray, tile_px: tuple[int, int]) -> np.ndarray:

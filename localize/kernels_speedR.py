@@ -637,6 +637,51 @@ def project_distorted(rays, K, k, out):
     return out
 
 
+@numba.njit(**_JIT)
+def bridge_pairs(xy, axis, radius, segment, cos_max, max_gap_px, max_ratio):
+    """:func:`recover.recover_collinear`'s candidate pairs of ends ``i < j`` (row-major, as ``np.nonzero`` of
+    the upper triangle): each end points at the other within ``cos_max``, the gap is at most
+    ``max_gap_px``, the radii (at least 0.5 px) differ by at most ``max_ratio``, other segments; the same
+    arithmetic as the former numpy matrices (bit for bit).
+
+    Parameters
+    ----------
+    xy, axis : ndarray (E, 2) float64
+        Ends' positions (full-resolution px) and outward unit directions.
+    radius : ndarray (E,) float64
+    segment : ndarray (E,) int64
+    cos_max, max_gap_px, max_ratio : float
+
+    Returns
+    -------
+    i, j : ndarray (C,) int64
+    cos_i, cos_j : ndarray (C,) float64
+        How well end i points at j, and j at i.
+    dist : ndarray (C,) float64
+        The gap, px.
+    """
+    n = len(xy)
+    cap = n * (n - 1) // 2
+    ii, jj = np.empty(cap, np.int64), np.empty(cap, np.int64)
+    ci, cj, dd = np.empty(cap), np.empty(cap), np.empty(cap)
+    c = 0
+    for i in range(n):
+        ri = max(radius[i], 0.5)
+        for j in range(i + 1, n):
+            gx, gy = xy[j, 0] - xy[i, 0], xy[j, 1] - xy[i, 1]
+            dist = np.hypot(gx, gy)
+            ux, uy = gx / max(dist, 1e-9), gy / max(dist, 1e-9)
+            cos_i = axis[i, 0] * ux + axis[i, 1] * uy
+            cos_j = -(axis[j, 0] * ux + axis[j, 1] * uy)
+            rj = max(radius[j], 0.5)
+            ratio = max(ri, rj) / min(ri, rj)
+            if (cos_i >= cos_max and cos_j >= cos_max and dist <= max_gap_px and ratio <= max_ratio
+                    and segment[i] != segment[j]):
+                ii[c], jj[c], ci[c], cj[c], dd[c] = i, j, cos_i, cos_j, dist
+                c += 1
+    return ii[:c], jj[:c], ci[:c], cj[:c], dd[:c]
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -645,6 +690,7 @@ def warm_up() -> None:
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)
     project_distorted(np.ones((1, 3)), np.eye(3), np.zeros(12), np.zeros((1, 2)))
+    bridge_pairs(np.zeros((2, 2)), np.zeros((2, 2)), np.ones(2), np.arange(2), 0.9, 60.0, 2.0)
     grid = np.zeros((1, 1, 2), np.int64)
     source_box(grid, grid, 0, 1, 0, 1)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))

@@ -101,22 +101,17 @@ def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.n
     ends = end_geometry(graph, radius_map)
     if len(ends.node) < 2:
         return graph
-    gap = ends.xy_px[None, :, :] - ends.xy_px[:, None, :]          # i -> j
-    dist = np.hypot(gap[..., 0], gap[..., 1])
-    unit = gap / np.maximum(dist, 1e-9)[..., None]
-    cos_i = np.einsum("ik,ijk->ij", ends.dir, unit)
-    cos_j = -np.einsum("jk,ijk->ij", ends.dir, unit)
-    r = np.maximum(ends.radius_px, 0.5)
-    ratio = np.maximum(r[:, None], r[None, :]) / np.minimum(r[:, None], r[None, :])
     cos_max = np.cos(np.radians(cfg.max_angle_deg))
-    ok = (cos_i >= cos_max) & (cos_j >= cos_max) & (dist <= cfg.max_gap_px) & (ratio <= cfg.max_radius_ratio)
-    ok &= ends.segment[:, None] != ends.segment[None, :]
-    ok = np.triu(ok, 1)
+    i, j, cos_i, cos_j, dist = kernels_speedR.bridge_pairs(          # (the pairs that qualify, i < j)
+        ends.xy_px, ends.dir, np.ascontiguousarray(ends.radius_px, np.float64), ends.segment, float(cos_max),
+        float(cfg.max_gap_px), float(cfg.max_radius_ratio))
     cost = (np.arccos(np.clip(cos_i, -1, 1)) + np.arccos(np.clip(cos_j, -1, 1))) + dist / max(cfg.max_gap_px, 1)
     used, pairs = set(), []
-    cand = sorted(zip(cost[ok], *np.nonzero(ok)))
+    cand = sorted(zip(cost.tolist(), i.tolist(), j.tolist()))
+    r = np.maximum(ends.radius_px, 0.5).tolist()
+    gap = dict(zip(zip(i.tolist(), j.tolist()), dist.tolist()))
     # the long gaps' occluder cover, for all candidates at once (one occluder call)
-    long_gap = [(i, j) for _, i, j in cand if dist[i, j] > 4 * (r[i] + r[j]) / 2]
+    long_gap = [(i, j) for _, i, j in cand if gap[i, j] > 4 * (r[i] + r[j]) / 2]
     cover = dict(zip(long_gap, _covered_many(occluded, [(ends.xy_px[i], ends.xy_px[j]) for i, j in long_gap])))
     for _, i, j in cand:
         if i in used or j in used:

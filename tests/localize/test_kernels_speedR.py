@@ -438,3 +438,70 @@ def test_project_distorted_is_cv2_project_points_bit_for_bit():
         want = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)[0].reshape(-1, 2)
         np.testing.assert_array_equal(rect.to_original(pts, side), want)
         assert rect.to_original(pts[:0], side).shape == (0, 2)
+
+
+def recover_collinear_reference(graph, cfg, radius_map, occluded=None):
+    """recover.recover_collinear before speedR (the candidates from numpy (E, E) matrices)."""
+    from appliance.localize.recover import _bridge, _covered_many, end_geometry
+    ends = end_geometry(graph, radius_map)
+    if len(ends.node) < 2:
+        return graph
+    gap = ends.xy_px[None, :, :] - ends.xy_px[:, None, :]
+    dist = np.hypot(gap[..., 0], gap[..., 1])
+    unit = gap / np.maximum(dist, 1e-9)[..., None]
+    cos_i = np.einsum("ik,ijk->ij", ends.dir, unit)
+    cos_j = -np.einsum("jk,ijk->ij", ends.dir, unit)
+    r = np.maximum(ends.radius_px, 0.5)
+    ratio = np.maximum(r[:, None], r[None, :]) / np.minimum(r[:, None], r[None, :])
+    cos_max = np.cos(np.radians(cfg.max_angle_deg))
+    ok = (cos_i >= cos_max) & (cos_j >= cos_max) & (dist <= cfg.max_gap_px) & (ratio <= cfg.max_radius_ratio)
+    ok &= ends.segment[:, None] != ends.segment[None, :]
+    ok = np.triu(ok, 1)
+    cost = (np.arccos(np.clip(cos_i, -1, 1)) + np.arccos(np.clip(cos_j, -1, 1))) + dist / max(cfg.max_gap_px, 1)
+    used, pairs = set(), []
+    cand = sorted(zip(cost[ok], *np.nonzero(ok)))
+    long_gap = [(i, j) for _, i, j in cand if dist[i, j] > 4 * (r[i] + r[j]) / 2]
+    cover = dict(zip(long_gap, _covered_many(occluded, [(ends.xy_px[i], ends.xy_px[j]) for i, j in long_gap])))
+    for _, i, j in cand:
+        if i in used or j in used:
+            continue
+        if cover.get((i, j), 1.0) < 0.5:
+            continue
+        used.update((i, j))
+        pairs.append((int(i), int(j)))
+    return _bridge(graph, ends, pairs)
+
+
+def test_recover_collinear_is_the_numpy_matrices_recovery():
+    """Branches cut by gaps (some under an 'occluder' half plane), at several angle, gap and ratio limits:
+    the same bridges (every array of the graph), bridges made in most cases."""
+    from dataclasses import replace
+
+    from appliance.commands.common import effective_config
+    from appliance.localize.graph import build_graph
+    from appliance.localize.radius import ridge_radius_map
+    from appliance.localize.recover import recover_collinear
+    from appliance.localize.skeleton import skeletonize
+
+    base = effective_config(None).localize.recover
+    rng = np.random.default_rng(61)
+    bridged = 0
+    for k in range(30):
+        mask = np.zeros((240, 320), np.uint8)
+        cuts = []
+        for _ in range(int(rng.integers(1, 4))):
+            a, b = rng.integers(0, (320, 240)), rng.integers(0, (320, 240))
+            cv2.line(mask, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 255, int(rng.integers(3, 14)))
+            cuts += [a + t * (b - a) for t in rng.uniform(0.2, 0.8, int(rng.integers(1, 3)))]
+        for c in cuts:                                               # gaps across the lines
+            cv2.circle(mask, (int(c[0]), int(c[1])), int(rng.integers(4, 25)), 0, -1)
+        skel = skeletonize(mask, "fast", 4)
+        graph = build_graph(skel)
+        rmap = ridge_radius_map(skel.mask, 3, skel.scale)
+        cfg = replace(base, max_angle_deg=float(rng.choice([10.0, 25.0, 45.0])),
+                      max_gap_px=float(rng.choice([30.0, 80.0, 200.0])), max_radius_ratio=float(rng.choice([1.5, 3.0])))
+        for occluded in (None, lambda xy: xy[:, 0] > 160):
+            a, b = recover_collinear(graph, cfg, rmap, occluded), recover_collinear_reference(graph, cfg, rmap, occluded)
+            assert_same_graph(a, b)
+            bridged += int(a.seg_recovered.sum())
+    assert bridged > 10

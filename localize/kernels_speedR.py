@@ -1,11 +1,23 @@
-"""Compiled kernels of the front stages, ninth pass (speedR; docs/localize-numba.md).
+"""Compiled kernels of the front and back stages, ninth pass (speedR; docs/localize-numba.md).
 
-:func:`needed_tiles` is :meth:`Rectifier.rectify`'s choice of the output tiles to remap of a mostly
-empty mask: the tiles whose source box (rounded out to 8 px cells) holds a non-zero pixel, joined into
-runs along each tile row. The same runs as the former threshold, block mean (three halvings) and
-integral image, from one scan of the mask by 8-pixel words (~0.03 against 0.11 ms per 1280x960 mask).
+Whole functions of the stages around the match stage (rectify, skeleton, prune, recover, the result's
+assembly) and the lazy grey reads, each giving the values of the numpy / OpenCV code it replaces bit for
+bit (the references are in tests/localize/test_kernels_speedR.py):
 
-Tests: tests/localize/test_kernels_speedR.py.
+- rectify: :func:`needed_tiles` (the sparse remap's tiles, one scan of the mask by 8-pixel words),
+  :func:`source_box` (a lazy read's source box), :func:`project_distorted` (``cv2.projectPoints``' model,
+  for :meth:`Rectifier.to_original`);
+- skeleton: :func:`coarse_mask` (the fast skeleton's 4x smaller mask straight from the rectified
+  coverage), :func:`thin` (Zhang-Suen and the corner removal), :func:`corners` (the corner removal alone);
+- graph and prune: :func:`graph_arrays` (:func:`graph.build_graph`'s arrays around
+  :func:`kernels.graph_core`), :func:`spur_mask` (:func:`prune.spur_ids`' test);
+- recover: :func:`end_fit` (the ends' principal axes), :func:`bridge_pairs` (the candidate pairs of
+  ends), :func:`line_pixels` (the bridges' pixels);
+- the result: :func:`group_medians` (each piece's median depth).
+
+Word scans (:func:`needed_tiles`, :func:`graph_arrays`, :func:`thin`, :func:`corners`) read a uint8 image
+by ``np.uint64`` words and skip the zero ones: callers pass the image with its rows padded to a multiple
+of 8 px and its word view.
 """
 
 from __future__ import annotations

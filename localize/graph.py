@@ -11,10 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels_graph
 from appliance.localize.skeleton import (
     Skeleton,
-    SparseImage,
+    binary,
     neighbour_tables,
 )
 
@@ -97,7 +97,8 @@ class SkeletonGraph:
 
 
 def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
-    """Pixels (N, 2) grouped by their label 1..n (row-major order kept), as a list of n arrays."""
+    """Pixels (N, 2) grouped by their label 1..n (row-major order kept), as a list of n arrays (the numpy
+    graph of tests/localize/test_kernels.py; build_graph groups them compiled)."""
     order = np.argsort(labels, kind="stable")
     counts = np.bincount(labels, minlength=n + 1)[1:]
     if not n:
@@ -107,46 +108,23 @@ def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
 
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
-    """The graph of a skeleton (see module docstring); works at the skeleton pixels only (the pixel
-    work compiled: :func:`kernels.graph_core`, the labels ``cv2.connectedComponents``' own)."""
-    img = SparseImage.from_image(skel.image)
-    h, w = img.shape
-    idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
-    yx = np.empty((len(idx), 2), np.int64)
-    yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
-    yx -= 1
+    """The graph of a skeleton (see module docstring); works at the skeleton pixels only (compiled in
+    one call: :func:`kernels_graph.graph_arrays`, around :func:`kernels.graph_core`, whose labels are
+    ``cv2.connectedComponents``' own)."""
+    image = np.asarray(skel.image)
+    if image.dtype != np.uint8:
+        image = binary(image)
+    h, w = image.shape
+    if w % 8 or not image.flags.c_contiguous:               # (rows of whole 8-pixel words)
+        padded = np.zeros((h, -(-w // 8) * 8), np.uint8)
+        padded[:, :w] = image
+        image = padded
     count, _, _ = neighbour_tables()
-    n, jlab, n_j, slab, n_s, sn, nn, steps = kernels.graph_core(img.flat, idx, w + 2, w, count)
-    jm, em, pm = n >= 3, n == 1, n == 2
-    jyx, eyx, pyx = yx[jm], yx[em], yx[pm]
-    jlab, slab = jlab[jm], slab[pm]
-
-    node_pixels = _group(jlab, jyx, n_j) + list(eyx[:, None, :])
-    n_nodes = len(node_pixels)
-    node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
-    node_yx = np.zeros((n_nodes, 2))
-    if n_nodes:
-        nyx = np.concatenate([jyx, eyx])                    # (2-D: np.vstack's)
-        size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
-        for c in (0, 1):
-            node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
-    node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
-    seg_yx = _group(slab, pyx, n_s)
-
-    # E, SE, S, SW: each step along a segment counted once; added direction by direction (the same sums)
-    length = np.zeros(n_s + 1)
-    for k in range(4):
-        length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
-    sn, nn = sn - 1, nn - 1                                     # sorted by segment, then node
-    ends = np.full((n_s, 2), -1)
-    first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
-    rank = np.arange(len(sn)) - first
-    two = rank < 2
-    ends[sn[two, 0], rank[two]] = sn[two, 1]
-    filled = np.minimum(np.bincount(sn[:, 0], minlength=n_s), 2)
-    length = length[1:] + filled                    # plus one step onto each end node
-    seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
-    seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
-    length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
-    return SkeletonGraph(img.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
-                         seg_yx, length)
+    node_px, node_start, node_yx, n_j, seg_px, seg_start, seg_nodes, length = kernels_graph.graph_arrays(
+        image, image.view(np.uint64), w, count, skel.scale)
+    ns, ss = node_start.tolist(), seg_start.tolist()
+    node_pixels = [node_px[a:b] for a, b in zip(ns[:-1], ns[1:])]
+    seg_yx = [seg_px[a:b] for a, b in zip(ss[:-1], ss[1:])]
+    node_kind = np.full(len(node_yx), ENDPOINT)
+    node_kind[:n_j] = JUNCTION
+    return SkeletonGraph((h, w), skel.scale, node_yx, node_kind, node_pixels, seg_nodes, seg_yx, length)

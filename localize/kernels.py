@@ -974,6 +974,8 @@ def warm_up() -> None:
     kernels_check.warm_up()
     from appliance.localize import kernels_match    # (the match stage's, ninth pass: imports this one)
     kernels_match.warm_up()
+    from appliance.localize import kernels_graph    # (rectify and graph kernels, speedR: imports this one)
+    kernels_graph.warm_up()
 
 
 # --- match stage (speedm)

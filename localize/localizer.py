@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
 from appliance.config.schema import LocalizeConfig
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_graph
 from appliance.localize.curves import median
 from appliance.localize.dense import match_dense
 from appliance.localize.errors import LocalizeError
@@ -167,12 +167,14 @@ class Localizer:
         ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries
         return ml, mr, occluded
 
-    def _graph(self, mask: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
-        """Skeleton, radius map, pruning and recovery of one binary mask (uint8 0/255)."""
+    def _graph(self, coverage: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
+        """Skeleton, radius map, pruning and recovery of one rectified mask (coverage, uint8 0-255:
+        branch >= 128)."""
         c = self.cfg
-        skel = skeletonize(mask, c.skeleton.method, c.skeleton.downscale)
+        skel = skeletonize(coverage, c.skeleton.method, c.skeleton.downscale, level=127)
         clock.lap("skeleton")
-        radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(mask)
+        # (skel.mask: the thinned mask, 0/255; at scale 1 the coverage thresholded)
+        radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(skel.mask)
         clock.lap("radius")
         _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius,
                          keep_border=c.prune.keep_border_spurs)
@@ -210,12 +212,11 @@ class Localizer:
         if cv2.minMaxLoc(ml)[1] <= 127 or cv2.minMaxLoc(mr)[1] <= 127:     # a view without branch pixels
             clock.lap("rectify")
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
-        bl = cv2.threshold(ml, 127, 255, cv2.THRESH_BINARY)[1]
         clock.lap("rectify")
         c = self.cfg
-        graph_l, radius_l = self._graph(bl, occluder, clock)
+        graph_l, radius_l = self._graph(ml, occluder, clock)
         if c.match.method == "features":                # (the right mask's graph: only this method's)
-            graph_r, radius_r = self._graph(cv2.threshold(mr, 127, 255, cv2.THRESH_BINARY)[1], None, clock)
+            graph_r, radius_r = self._graph(mr, None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
             gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read
@@ -279,9 +280,15 @@ class Localizer:
             # all pieces triangulated at once (row by row the same values), then split
             uvd = np.vstack([u for _, u in kept])
             xyz, ends = triangulate(uvd[:, 0], uvd[:, 1], uvd[:, 2], calib), np.cumsum([len(u) for _, u in kept]).tolist()
-            polys = [xyz[a:b] for a, b in zip([0] + ends[:-1], ends)]      # (np.split's arrays)
-            for (p, _), poly in zip(kept, polys):
-                radius_mm = float(p.radius_px * median(poly[:, 2]) / f)
+            starts = [0] + ends[:-1]
+            polys = [xyz[a:b] for a, b in zip(starts, ends)]      # (np.split's arrays)
+            z = np.ascontiguousarray(xyz[:, 2])
+            if np.isnan(z).any():
+                z_med = [median(poly[:, 2]) for poly in polys]
+            else:                                       # (np.median of each piece's Z, all at once)
+                z_med = kernels_graph.group_medians(z, np.array(starts + ends[-1:], np.int64)).tolist()
+            for (p, _), poly, zm in zip(kept, polys, z_med):
+                radius_mm = float(p.radius_px * zm / f)
                 ids = tuple(node_id.get(n, -1) for n in p.nodes)
                 branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
         if withheld:

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph, build_graph
-from appliance.localize.radius import radius_at
+from appliance.localize import kernels_graph
+from appliance.localize.graph import ENDPOINT, SkeletonGraph, build_graph
+from appliance.localize.radius import RadiusMap
 from appliance.localize.skeleton import Skeleton, remove_corners
+
+_NO_RADIUS = np.zeros((1, 1), np.float32)
 
 
 def spur_ids(graph: SkeletonGraph, min_length_px: float, radius_factor: float = 0.0,
@@ -21,24 +24,18 @@ def spur_ids(graph: SkeletonGraph, min_length_px: float, radius_factor: float = 
     a fork (its spur is short because the view cuts it), not a bump. Two such spurs at one
     junction are the two corners of a thick branch cut by the edge, and go.
     """
-    ends = graph.seg_nodes
-    kind = np.where(ends >= 0, graph.node_kind[np.maximum(ends, 0)], 0)
-    spur = ((kind[:, 0] == ENDPOINT) & (kind[:, 1] == JUNCTION)) | ((kind[:, 1] == ENDPOINT) & (kind[:, 0] == JUNCTION))
-    if not spur.any():
+    if len(graph.node_kind) == 0 or len(graph.seg_nodes) == 0:     # (loops only: no spur)
         return np.zeros(0, int)
-    junction = np.where(kind[:, 0] == JUNCTION, ends[:, 0], ends[:, 1])
-    if keep_border:
-        end = np.where(kind[:, 0] == ENDPOINT, ends[:, 0], ends[:, 1])
-        y, x = graph.node_yx[np.maximum(end, 0)].T
-        h, w = graph.shape
-        out = spur & ((np.minimum(y, x) <= 1) | (y >= h - 2) | (x >= w - 2))
-        n_out = np.bincount(junction[out], minlength=len(graph.node_kind))
-        spur &= ~(out & (n_out[np.maximum(junction, 0)] == 1))
-    limit = np.full(len(ends), float(min_length_px))
-    if radius_factor > 0 and radius_map is not None:
-        r = radius_at(radius_map, graph.to_full(graph.node_yx[np.maximum(junction, 0)]))
-        limit = np.maximum(limit, radius_factor * r)
-    return np.flatnonzero(spur & (graph.seg_length_px < limit))
+    use_radius = radius_factor > 0 and radius_map is not None
+    rmap = radius_map if isinstance(radius_map, RadiusMap) or not use_radius else RadiusMap(np.asarray(radius_map))
+    h, w = graph.shape
+    spur = kernels_graph.spur_mask(
+        np.ascontiguousarray(graph.seg_nodes, np.int64), np.ascontiguousarray(graph.node_kind, np.int64),
+        np.ascontiguousarray(graph.node_yx, np.float64), np.ascontiguousarray(graph.seg_length_px, np.float64), h, w,
+        float(min_length_px), float(radius_factor) if use_radius else 0.0,
+        np.ascontiguousarray(rmap.image) if use_radius else _NO_RADIUS, rmap.scale if use_radius else 1,
+        int(graph.scale), bool(keep_border))
+    return np.flatnonzero(spur)
 
 
 def prune(skel: Skeleton, min_length_px: float, radius_factor: float = 0.0,

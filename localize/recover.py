@@ -18,6 +18,7 @@ from itertools import pairwise
 import cv2
 import numpy as np
 from appliance.config.schema import RecoverConfig
+from appliance.localize import kernels_graph
 from appliance.localize.graph import ENDPOINT, SkeletonGraph
 from appliance.localize.radius import radius_at
 
@@ -36,57 +37,41 @@ class EndGeometry:
 def end_geometry(graph: SkeletonGraph, radius_map: np.ndarray, reach_px: float = 20.0) -> EndGeometry:
     """Position, outward direction (line fit to the last ``reach_px`` of its segment) and radius of every endpoint.
 
-    Ends are listed segment by segment; all ends are fitted at once (principal axis of each
-    end's nearby segment pixels, from their 2x2 scatter matrix).
+    Ends are listed segment by segment; each end's fit is the principal axis of its nearby segment
+    pixels, from their 2x2 scatter matrix (compiled: :func:`kernels_graph.end_fit`).
     """
-    ends = graph.seg_nodes.ravel()
-    seg = np.repeat(np.arange(len(graph.seg_nodes)), 2)
-    is_end = ends >= 0
-    is_end[is_end] = graph.node_kind[ends[is_end]] == ENDPOINT
-    ends, seg = ends[is_end], seg[is_end]
-    n_px = np.array([len(p) for p in graph.seg_yx], int)
-    if len(ends) == 0 or n_px[seg].sum() == 0:
+    n_px = np.fromiter((len(p) for p in graph.seg_yx), np.int64, len(graph.seg_yx))
+    if len(n_px) == 0 or n_px.sum() == 0:
         return EndGeometry(np.zeros(0, int), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int))
-    all_px = graph.to_full(np.concatenate([p for p in graph.seg_yx if len(p)]))
-    first = np.r_[0, np.cumsum(n_px)[:-1]]
-    # every (end, pixel of its segment) pair
-    owner = np.repeat(np.arange(len(ends)), n_px[seg])
-    at = np.arange(len(owner)) - np.repeat(np.cumsum(n_px[seg]) - n_px[seg], n_px[seg]) + first[seg][owner]
-    p = graph.to_full(graph.node_yx[ends])
-    pts = all_px[at]
-    near = np.hypot(*(pts - p[owner]).T) <= reach_px
-    owner, pts = owner[near], pts[near]
-    count = np.bincount(owner, minlength=len(ends))
-    c = np.column_stack([np.bincount(owner, pts[:, k], len(ends)) for k in (0, 1)]) / np.maximum(count, 1)[:, None]
-    d = pts - c[owner]
-    sxx, sxy, syy = (np.bincount(owner, u * v, len(ends)) for u, v in ((d[:, 0], d[:, 0]), (d[:, 0], d[:, 1]),
-                                                                        (d[:, 1], d[:, 1])))
-    big = (sxx + syy) / 2 + np.hypot((sxx - syy) / 2, sxy)        # larger eigenvalue
-    axis = np.where((sxx >= syy)[:, None], np.column_stack([big - syy, sxy]), np.column_stack([sxy, big - sxx]))
-    axis /= np.maximum(np.hypot(axis[:, 0], axis[:, 1]), 1e-300)[:, None]
-    axis *= np.where(np.einsum("ij,ij->i", axis, p - c) >= 0, 1.0, -1.0)[:, None]
+    seg_px = np.ascontiguousarray(np.concatenate(graph.seg_yx), np.int64)
+    seg_start = np.zeros(len(n_px) + 1, np.int64)
+    np.cumsum(n_px, out=seg_start[1:])
+    node, seg, xy, axis, count = kernels_graph.end_fit(
+        np.ascontiguousarray(graph.seg_nodes, np.int64), graph.node_kind == ENDPOINT,
+        np.ascontiguousarray(graph.node_yx, np.float64), seg_px, seg_start, float(graph.scale), float(reach_px))
     ok = count >= 2
-    xy = p[ok]
-    return EndGeometry(ends[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
+    xy = xy[ok]
+    return EndGeometry(node[ok], xy, axis[ok], radius_at(radius_map, xy), seg[ok])
 
 
 def _line_pixels(graph: SkeletonGraph, a_xy: np.ndarray, b_xy: np.ndarray) -> np.ndarray:
-    """Skeleton pixels (row, col) of the straight line between two full-resolution points."""
-    pa, pb = ((np.asarray(p) + 0.5) / graph.scale - 0.5 for p in (a_xy, b_xy))
-    n = int(np.ceil(np.abs(pb - pa).max())) + 1
-    t = np.linspace(0, 1, n)[:, None]
-    pts = np.rint(pa + t * (pb - pa)).astype(int)[:, ::-1]
-    srt = pts[np.lexsort((pts[:, 1], pts[:, 0]))]         # np.unique(pts, axis=0), without its overhead
-    return srt[np.r_[True, (srt[1:] != srt[:-1]).any(1)]]
+    """Skeleton pixels (row, col) of the straight line between two full-resolution points, distinct and
+    sorted (:func:`kernels_graph.line_pixels` of one line; :func:`_bridge` asks for all its lines at once)."""
+    a, b = (np.asarray(p, np.float64).reshape(1, 2) for p in (a_xy, b_xy))
+    return kernels_graph.line_pixels(a, b, float(graph.scale))[0]
 
 
 def _bridge(graph: SkeletonGraph, ends: EndGeometry, pairs: list[tuple[int, int]]) -> SkeletonGraph:
     if not pairs:
         return graph
-    nodes = [(ends.node[i], ends.node[j]) for i, j in pairs]
-    pixels = [_line_pixels(graph, ends.xy_px[i], ends.xy_px[j]) for i, j in pairs]
-    lengths = [float(np.hypot(*(ends.xy_px[i] - ends.xy_px[j]))) for i, j in pairs]
-    return graph.with_segments(np.array(nodes), pixels, np.array(lengths), np.array(nodes).ravel())
+    i, j = np.array(pairs, np.int64).T
+    nodes = np.column_stack([ends.node[i], ends.node[j]])
+    a_xy, b_xy = ends.xy_px[i], ends.xy_px[j]
+    px, start = kernels_graph.line_pixels(a_xy, b_xy, float(graph.scale))       # (_line_pixels' of each pair)
+    st = start.tolist()
+    pixels = [px[s:e] for s, e in zip(st[:-1], st[1:])]
+    lengths = [float(np.hypot(*(a - b))) for a, b in zip(a_xy, b_xy)]
+    return graph.with_segments(nodes, pixels, np.array(lengths), nodes.ravel())
 
 
 def _covered_many(occluded: Callable[[np.ndarray], np.ndarray] | None, segments: list) -> list[float]:
@@ -116,22 +101,17 @@ def recover_collinear(graph: SkeletonGraph, cfg: RecoverConfig, radius_map: np.n
     ends = end_geometry(graph, radius_map)
     if len(ends.node) < 2:
         return graph
-    gap = ends.xy_px[None, :, :] - ends.xy_px[:, None, :]          # i -> j
-    dist = np.hypot(gap[..., 0], gap[..., 1])
-    unit = gap / np.maximum(dist, 1e-9)[..., None]
-    cos_i = np.einsum("ik,ijk->ij", ends.dir, unit)
-    cos_j = -np.einsum("jk,ijk->ij", ends.dir, unit)
-    r = np.maximum(ends.radius_px, 0.5)
-    ratio = np.maximum(r[:, None], r[None, :]) / np.minimum(r[:, None], r[None, :])
     cos_max = np.cos(np.radians(cfg.max_angle_deg))
-    ok = (cos_i >= cos_max) & (cos_j >= cos_max) & (dist <= cfg.max_gap_px) & (ratio <= cfg.max_radius_ratio)
-    ok &= ends.segment[:, None] != ends.segment[None, :]
-    ok = np.triu(ok, 1)
+    i, j, cos_i, cos_j, dist = kernels_graph.bridge_pairs(          # (the pairs that qualify, i < j)
+        ends.xy_px, ends.dir, np.ascontiguousarray(ends.radius_px, np.float64), ends.segment, float(cos_max),
+        float(cfg.max_gap_px), float(cfg.max_radius_ratio))
     cost = (np.arccos(np.clip(cos_i, -1, 1)) + np.arccos(np.clip(cos_j, -1, 1))) + dist / max(cfg.max_gap_px, 1)
     used, pairs = set(), []
-    cand = sorted(zip(cost[ok], *np.nonzero(ok)))
+    cand = sorted(zip(cost.tolist(), i.tolist(), j.tolist()))
+    r = np.maximum(ends.radius_px, 0.5).tolist()
+    gap = dict(zip(zip(i.tolist(), j.tolist()), dist.tolist()))
     # the long gaps' occluder cover, for all candidates at once (one occluder call)
-    long_gap = [(i, j) for _, i, j in cand if dist[i, j] > 4 * (r[i] + r[j]) / 2]
+    long_gap = [(i, j) for _, i, j in cand if gap[i, j] > 4 * (r[i] + r[j]) / 2]
     cover = dict(zip(long_gap, _covered_many(occluded, [(ends.xy_px[i], ends.xy_px[j]) for i, j in long_gap])))
     for _, i, j in cand:
         if i in used or j in used:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 from appliance.calibrate.model import StereoCalibration
+from appliance.localize import kernels_graph
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import block_mean
 
@@ -66,6 +67,7 @@ class Rectifier:
         for side in (0, 1):
             rect.source_grid(side, GREY_TILE_PX)         # LazyRectified's source boxes, ready for the first frame
             rect.float_maps(side)                        # the masks' remap tables
+            rect._cell_boxes(side)                       # and their tiles' source cells
         return rect
 
     def tile_sources(self, side: int, tile_px: tuple[int, int]) -> np.ndarray:
@@ -137,18 +139,22 @@ class Rectifier:
 
     def _needed_tiles(self, image: np.ndarray, side: int) -> np.ndarray:
         """Output areas (y0, y1, x0, x1), (N, 4): runs of the tiles of one tile row whose source box
-        holds a non-zero pixel of ``image``."""
+        holds a non-zero pixel of ``image`` (tested by cells of ``BLOCK_PX`` px; compiled:
+        :func:`kernels_graph.needed_tiles`, for images whose rows are whole 8-pixel words)."""
         b = self.BLOCK_PX
         h, w = image.shape
+        t = self.tiles[side]
+        if b == 8 and w % 8 == 0 and image.flags.c_contiguous:
+            out = np.empty((len(t), 4), np.int64)
+            n = kernels_graph.needed_tiles(image.view(np.uint64), self._cell_boxes(side), t[:, :4], out)
+            return out[:n]
         hb, wb = -(-h // b), -(-w // b)
         any_px = cv2.threshold(image, 0, 255, cv2.THRESH_BINARY)[1]
         if (hb * b, wb * b) != (h, w):
             any_px = cv2.copyMakeBorder(any_px, 0, hb * b - h, 0, wb * b - w, cv2.BORDER_CONSTANT, value=0)
         # the block mean (by halvings): one 255 pixel of 64 still rounds to >= 4
         cells = cv2.integral(block_mean(any_px, b))
-        t = self.tiles[side]
-        by0, bx0 = t[:, 4] // b, t[:, 6] // b
-        by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
+        by0, by1, bx0, bx1 = self._cell_boxes(side).T
         count = cells[by1, bx1] - cells[by0, bx1] - cells[by1, bx0] + cells[by0, bx0]
         need = t[count > 0, :4]
         if len(need) == 0:
@@ -157,6 +163,17 @@ class Rectifier:
         start = np.flatnonzero(np.concatenate([[True], (need[1:, 0] != need[:-1, 0]) | (need[1:, 2] != need[:-1, 3])]))
         end = np.concatenate([start[1:], [len(need)]]) - 1
         return np.column_stack([need[start, :3], need[end, 3]])
+
+    def _cell_boxes(self, side: int) -> np.ndarray:
+        """Each tile's source cells of ``BLOCK_PX`` px: ``cy0, cy1, cx0, cx1`` (T, 4) int64 (end exclusive,
+        the source box rounded out to whole cells; empty for an empty box), computed once."""
+        key = ("cells", side)
+        if key not in self._sources:
+            b, t = self.BLOCK_PX, self.tiles[side]
+            by0, bx0 = t[:, 4] // b, t[:, 6] // b
+            by1, bx1 = np.maximum(-(-t[:, 5] // b), by0), np.maximum(-(-t[:, 7] // b), bx0)
+            self._sources[key] = np.ascontiguousarray(np.column_stack([by0, by1, bx0, bx1]), np.int64)
+        return self._sources[key]
 
     def to_original(self, pts_px: np.ndarray, side: int) -> np.ndarray:
         """Rectified pixel positions -> pixel positions in the original (distorted) image.
@@ -177,8 +194,35 @@ class Rectifier:
         P, Rr, K, D = (c.P1, c.R1, c.K1, c.D1) if side == 0 else (c.P2, c.R2, c.K2, c.D2)
         rays = np.column_stack([(pts[:, 0] - P[0, 2]) / P[0, 0], (pts[:, 1] - P[1, 2]) / P[1, 1], np.ones(len(pts))])
         rays = rays @ Rr  # rows: R^T @ ray, back into the camera's unrectified frame
-        img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
-        return img.reshape(-1, 2)
+        k = self._distortion(side)
+        if k is None:
+            img, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, D)
+            return img.reshape(-1, 2)
+        return kernels_graph.project_distorted(rays, self._camera(side), k, np.empty((len(rays), 2)))
+
+    def _distortion(self, side: int) -> np.ndarray | None:
+        """One camera's distortion coefficients as the 12 of :func:`kernels_graph.project_distorted`
+        (float64; None for a model it does not cover: the tilted sensor's 14, or a camera matrix with
+        skew), computed once."""
+        key = ("k12", side)
+        if key not in self._sources:
+            c = self.calib
+            K, D = (c.K1, c.D1) if side == 0 else (c.K2, c.D2)
+            d = np.asarray(D, np.float64).ravel()
+            k = None
+            if len(d) in (4, 5, 8, 12) and np.asarray(K)[0, 1] == 0:
+                k = np.zeros(12)
+                k[:len(d)] = d
+            self._sources[key] = k
+        return self._sources[key]
+
+    def _camera(self, side: int) -> np.ndarray:
+        """One camera's matrix K (3, 3) float64, C-contiguous, computed once."""
+        key = ("K", side)
+        if key not in self._sources:
+            c = self.calib
+            self._sources[key] = np.ascontiguousarray((c.K1 if side == 0 else c.K2), np.float64)
+        return self._sources[key]
 
 
 def _tile_sources(map_x: np.ndarray, map_y: np.ndarray, tile_px: tuple[int, int]) -> np.ndarray:
@@ -236,10 +280,8 @@ class LazyRectified:
             return np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), self.dtype)
         src = self.image
         if src.ndim == 3:
-            lo, hi = self._boxes
-            i0, i1, j0, j1 = y0 // self.th, (y1 - 1) // self.th + 1, x0 // self.tw, (x1 - 1) // self.tw + 1
-            sy0, sx0 = lo[i0:i1, j0:j1].reshape(-1, 2).min(0).tolist()
-            sy1, sx1 = hi[i0:i1, j0:j1].reshape(-1, 2).max(0).tolist()
+            sy0, sy1, sx0, sx1 = kernels_graph.source_box(*self._boxes, y0 // self.th, (y1 - 1) // self.th + 1,
+                                                           x0 // self.tw, (x1 - 1) // self.tw + 1)
             if sy1 <= sy0 or sx1 <= sx0:                    # the area sees nothing of the image
                 return np.zeros((y1 - y0, x1 - x0), np.uint8)
             if self._grey is None:

@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_graph
 
 # neighbour k of pixel (y, x) is at (y + DY[k], x + DX[k]): N, NE, E, SE, S, SW, W, NW
 DY = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
@@ -178,10 +178,27 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
     as the previous pass left it (compiled: :func:`kernels.remove_corners_flat`).
     """
     _, _, corner = neighbour_tables()
-    img = SparseImage.from_image(skel01)
-    idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
-    kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
-    return img.image()
+    image = _words_image(skel01)
+    if image is None:
+        img = SparseImage.from_image(skel01)
+        idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
+        kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
+        return img.image()
+    return kernels_graph.corners(image, image.view(np.uint64), corner, np.empty(skel01.shape, np.uint8))
+
+
+def _words_image(mask: np.ndarray) -> np.ndarray | None:
+    """A 2-D uint8 ``mask`` with rows of whole 8-pixel words (itself, or a zero-padded copy), for the
+    word scans of :mod:`kernels_graph`; None for other masks."""
+    mask = np.asarray(mask)
+    if mask.dtype != np.uint8 or mask.ndim != 2:
+        return None
+    h, w = mask.shape
+    if w % 8 or not mask.flags.c_contiguous:
+        image = np.zeros((h, -(-w // 8) * 8), np.uint8)
+        image[:, :w] = mask
+        return image
+    return mask
 
 
 @lru_cache(maxsize=1)
@@ -235,24 +252,34 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     return binary(flat.reshape(h + 2, w + 2)[1:-1, 1:-1])
 
 
-def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) -> Skeleton:
+def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4, level: int = 0) -> Skeleton:
     """Skeleton of a branch mask.
 
     Parameters
     ----------
     mask : ndarray, shape (H, W)
-        Non-zero = branch.
+        Non-zero (above ``level``) = branch.
     method : {"thinning", "fast"}
         ``thinning``: Zhang-Suen at full resolution (paper). ``fast``: the same on a mask
         ``downscale`` times smaller (a low pixel keeps branch if >= 30 % of it is branch,
         so thin twigs survive).
     downscale : int
         Factor of ``fast``.
+    level : int
+        Branch where ``mask > level`` (127: a rectified coverage image, 0-255, whose branch is >= 128).
+        A uint8 coverage image at 127 with ``fast`` by 4 goes to :func:`kernels_graph.coarse_mask` (the
+        threshold, the block mean and its threshold in one pass over the image).
     """
+    h, w = mask.shape
+    if level:
+        if (method == "fast" and downscale == 4 and level == 127 and mask.dtype == np.uint8 and _LITTLE_ENDIAN
+                and mask.flags.c_contiguous and h % 4 == 0 and w % 8 == 0):
+            m = kernels_graph.coarse_mask(mask.view(np.uint64), np.empty((h // 4, w // 4), np.uint8))
+            return Skeleton(thin(m), 4, m)
+        mask = np.asarray(mask) > level
     m = binary(mask, 255)
     scale = 1
     if method == "fast" and downscale > 1:
-        h, w = m.shape
         if downscale in (2, 4) and h % downscale == 0 and w % downscale == 0:
             # the block mean by halvings: the same pixels pass the threshold as of the one-step
             # mean (all 2^16 blocks of 4 x 4 checked in tests/localize/test_skeleton.py)
@@ -261,4 +288,16 @@ def skeletonize(mask: np.ndarray, method: str = "thinning", downscale: int = 4) 
             small = cv2.resize(m, (w // downscale, h // downscale), interpolation=cv2.INTER_AREA)
         m = cv2.threshold(small, 76, 255, cv2.THRESH_BINARY)[1]
         scale = downscale
-    return Skeleton(remove_corners(zhang_suen(m)), scale, m)
+    return Skeleton(thin(m), scale, m)
+
+
+def thin(mask: np.ndarray) -> np.ndarray:
+    """``remove_corners(zhang_suen(mask))`` (uint8 0/1, the shape of ``mask``), in one compiled call
+    (:func:`kernels_graph.thin`) for a uint8 mask."""
+    image = _words_image(mask)
+    if image is None:
+        return remove_corners(zhang_suen(mask))
+    h, w = np.shape(mask)
+    _, _, corner = neighbour_tables()
+    return kernels_graph.thin(image, image.view(np.uint64), (DY * (w + 2) + DX).astype(np.int64), *zhang_suen_tables(),
+                               corner, np.empty((h, w), np.uint8))

@@ -1,0 +1,34 @@
+"""The worst features of seeds 388-419 (issue 5, docs/localize-gross388.md)."""
+
+import pytest
+from appliance.config import load_config
+from appliance.localize import Localizer
+
+
+@pytest.fixture
+def scene_392(rendered_scene):
+    """Rendered scene 392 (the benchmark's seed) and the rig's calibration."""
+    return rendered_scene(392)
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("right_edge", [False, True])
+def test_a_fork_off_the_right_view_is_not_reported(scene_392, monkeypatch, masks, right_edge):
+    # seed 392's fork 9 (Z 796 mm): in the left view at column 197, in the right view at column -34.5,
+    # outside the image. Its pieces' curves (matched where they are in the right view) were carried to it:
+    # +4.1 mm (exact masks), +8.7 mm (colour masks); the feature check had no patch inside the right image
+    # (no verdict). With the right view's edge checked as the left's, it is not reported.
+    import appliance.localize.dense as dense
+    from appliance.synth.evaluate import score_result
+    monkeypatch.setattr(dense, "RIGHT_VIEW_EDGE", right_edge)
+    left, right, truth, calib = scene_392
+    kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right) if masks == "true" else {}
+    res = Localizer(calib, load_config().localize).localize(left, right, **kw)
+    row = next((r for r in score_result(res, truth).rows if r.truth_index == 9), None)
+    assert truth.features.kind[9] == "bifurcation" and truth.features.right_px[9][0] < 0
+    if right_edge:                  # (a true feature outside a view is scored only when reported)
+        assert row is None or row.result_id < 0
+        w = left.shape[1]
+        assert all(0 <= f.right_px[0] < w for f in res.features)
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 3.5

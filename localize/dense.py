@@ -62,7 +62,7 @@ from appliance.localize.texture import surface_disparity, surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
-RIGHT_VIEW_EDGE = True  # a feature whose right position (u - d) lies off the right view (or on its edge) is
+RIGHT_VIEW_EDGE = True  # a feature whose right position (u - d) lies over its radius off the right view is
                         # not reported: nothing there in the right image matched it (issue 5, seed 392 T9)
 
 
@@ -540,9 +540,10 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         # pieces leave the view there (the axes' crossing lies outside, where they meet)
         if min(u, v, w - 1 - u, h - 1 - v) < (border_px + graph.scale if kind == "endpoint" else 1.0):
             continue
-        # ... and the same of its position in the right view: a feature placed off it (its pieces'
-        # curves extrapolated beyond the right image's edge) was matched to nothing there
-        if RIGHT_VIEW_EDGE and min(u - d, w - 1 - (u - d)) < (border_px + graph.scale if kind == "endpoint" else 1.0):
+        # ... and its position in the right view over a radius past that image's edge: nothing of it is
+        # there, its pieces' curves were carried beyond the edge (seed 392 T9: 40 px, +8.7 mm; forks a
+        # few px past it are placed right)
+        if RIGHT_VIEW_EDGE and min(u - d, w - 1 - (u - d)) < -b.radius[node]:
             continue
         ft = FeatureUVD(int(node), kind, float(u), float(v), float(d), b.radius[node])
         # two graph ends placed on one tip; two junctions placing one fork (a loop of the

@@ -32,3 +32,16 @@ def test_a_fork_off_the_right_view_is_not_reported(scene_392, monkeypatch, masks
         assert all(0 <= f.right_px[0] < w for f in res.features)
     else:
         assert row.result_id >= 0 and row.dz_mm >= 3.5
+
+
+def test_a_fork_a_few_px_past_the_right_view_is_still_reported(rendered_scene):
+    # seed 148's fork 14 (Z 885 mm): true right column -2.3 px (rectified u - d -5.5 px, radius 11 px): its
+    # crotch is partly in the right view and its pieces' curves place it within 0.3 mm (exact masks). The
+    # right view's edge rule (over a radius past the edge) keeps it; at the left view's margin it was lost.
+    from appliance.synth.evaluate import score_result
+    left, right, truth, calib = rendered_scene(148)
+    res = Localizer(calib, load_config().localize).localize(left, right, mask_left=truth.mask_left,
+                                                            mask_right=truth.mask_right)
+    assert truth.features.right_px[14][0] < 0
+    row = next(r for r in score_result(res, truth).rows if r.truth_index == 14)
+    assert row.kind == "bifurcation" and row.result_id >= 0 and abs(row.dz_mm) <= 1.5

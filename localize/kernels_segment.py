@@ -131,8 +131,8 @@ def gradient_tiles(mask, tiles, tile_px, out):
             for y in range(max(y0 - 3, 0), min(y1 + 3, h)):
                 o, q = np.uint64(y * w), np.uint64((y - base) * w)
                 xa, xb = max(x0, 1), min(x1, w - 1)
-                for x_ in range(x0, x1):                    # (the image's first and last columns)
-                    if xa <= x_ < xb:
+                for x_ in (x0, x1 - 1):                      # (the image's first and last columns)
+                    if xa <= x_ < xb or x_ < x0 or x_ >= x1:
                         continue
                     x = np.uint64(x_)
                     lf, rt = np.uint64(max(x_ - 1, 0)), np.uint64(min(x_ + 1, w - 1))

@@ -8,6 +8,11 @@ fixture 00's image against the whole image for OpenCV's four passes. Erosion and
 integer minima / maxima (the image's border ignored, as OpenCV's default border value does), so the
 values are OpenCV's bit for bit.
 
+:func:`gradient_tiles` is the outline unmixing's morphological gradient (3 x 3 square, ``cv2.morphologyEx(..,
+MORPH_GRADIENT, np.ones((3, 3)))``) of the cleaned mask on the same tiles grown by 2 px, the same values.
+
+Where the whole image was tested (most tiles flagged: fixture 03's grass) the callers keep OpenCV's calls.
+
 Tests: tests/localize/test_kernels_segspeed.py.
 """
 from __future__ import annotations

@@ -233,8 +233,7 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = No
     uint8 0/255. ``tiles``: ``mask`` is zero outside these ``tile_px`` square tiles (:func:`_bark_tiles`):
     a 3 px opening and closing then run on them alone (:func:`kernels_segment.open_close_tiles`, the
     same values)."""
-    m = mask
-    if tiles is not None and cfg.open_px == 3 and cfg.close_px == 3:
+    if tiles is not None and cfg.open_px == 3 and cfg.close_px == 3 and mask.flags.c_contiguous:
         m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.zeros_like(mask))
     else:
         m = _open_close(mask, cfg)

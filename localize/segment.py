@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
-from appliance.localize import kernels, kernels_front
+from appliance.localize import kernels, kernels_front, kernels_segment
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean
 
@@ -175,11 +175,19 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
 
     ``small``: the sample, :func:`sample_nearest` (``bgr``, ``sample``), when already taken.
     """
+    return _bark_tiles(bgr, cfg, sample, tile_px, small)[0]
+
+
+def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int = 16,
+                small: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`bark_mask`'s mask, and the ``tile_px`` square tiles tested (uint8 (TH, TW), non-zero: tested,
+    the last tile row and column reaching the image's edges; the mask is zero outside them), None when
+    the whole image was tested."""
     h, w = bgr.shape[:2]
     hs, ws = h // sample, w // sample
     out = np.zeros((h, w), np.uint8)
     if hs < 1 or ws < 1 or sample <= 1:
-        return _hsv_threshold(bgr, cfg, dst=out)
+        return _hsv_threshold(bgr, cfg, dst=out), None
     if small is None:
         small = sample_nearest(bgr, sample)
     lut = bark_lut(cfg)
@@ -192,12 +200,13 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     tiles = cv2.dilate(block_mean(hit, b) if b > 1 else hit, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
     n_tiles = cv2.countNonZero(tiles)
     if n_tiles == 0:
-        return out
+        return out, tiles
     if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
-        tiles = _ONE_TILE
+        kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, lut, _ONE_TILE, tile_px, out.reshape(-1))
+        return out, None
     kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, lut, tiles, tile_px,
                               out.reshape(-1))                   # (compiled: no call per tile)
-    return out
+    return out, tiles
 
 
 def occluder_at(bgr: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
@@ -216,19 +225,31 @@ def occluder_at(bgr: np.ndarray, xy_px: np.ndarray, cfg: SegmentConfig) -> np.nd
 
 
 def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = None,
-               small: np.ndarray | None = None) -> np.ndarray:
+               small: np.ndarray | None = None, tiles: np.ndarray | None = None,
+               tile_px: int = 16) -> np.ndarray:
     """Opening, closing and removal of components smaller than ``min_area_px`` unless they hold a disc
     of radius ``keep_radius_px`` and (with the BGR image ``bgr``) have the bark's chromaticity within
     ``keep_chroma_deg`` (:func:`drop_small`; ``small``: :func:`sample_nearest` (``bgr``, 4) when taken);
-    uint8 0/255."""
+    uint8 0/255. ``tiles``: ``mask`` is zero outside these ``tile_px`` square tiles (:func:`_bark_tiles`):
+    a 3 px opening and closing then run on them alone (:func:`kernels_segment.open_close_tiles`, the
+    same values)."""
+    if tiles is not None and cfg.open_px == 3 and cfg.close_px == 3 and mask.flags.c_contiguous:
+        m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.zeros_like(mask))
+    else:
+        m = _open_close(mask, cfg)
+    if cfg.min_area_px > 0:
+        m = drop_small(m, cfg.min_area_px, keep_radius_px=cfg.keep_radius_px, bgr=bgr,
+                       keep_chroma_deg=cfg.keep_chroma_deg, small_bgr=small)
+    return m
+
+
+def _open_close(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
+    """:func:`clean_mask`'s opening (``open_px``) and closing (``close_px``) by OpenCV, uint8."""
     m = mask
     if cfg.open_px > 1:
         m = cv2.morphologyEx(m, cv2.MORPH_OPEN, _kernel(cfg.open_px))
     if cfg.close_px > 1:
         m = cv2.morphologyEx(m, cv2.MORPH_CLOSE, _kernel(cfg.close_px))
-    if cfg.min_area_px > 0:
-        m = drop_small(m, cfg.min_area_px, keep_radius_px=cfg.keep_radius_px, bgr=bgr,
-                       keep_chroma_deg=cfg.keep_chroma_deg, small_bgr=small)
     return m
 
 
@@ -345,7 +366,8 @@ def _disc_offsets(radius_px: float) -> tuple[np.ndarray, np.ndarray]:
 
 def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int = 1, factor: int = 4,
                 out: np.ndarray | None = None, scratch: np.ndarray | None = None,
-                small: np.ndarray | None = None) -> np.ndarray:
+                small: np.ndarray | None = None, tiles: np.ndarray | None = None,
+                tile_px: int = 16) -> np.ndarray:
     """Soft branch coverage at the mask's outline: each pixel of the outline (morphological
     gradient over (2 ``band_px`` + 1)^2: the pixels up to ``band_px`` inside and outside the mask's
     edge) gets the share of bark in its colour, 0-255; the rest of ``mask`` (uint8 0/255, (H, W))
@@ -369,11 +391,17 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     ``out`` (may be ``mask`` itself) receives the result, a copy of ``mask`` by default;
     ``scratch``, a uint8 (H, W) array that may be overwritten (not ``mask``), holds the outline.
     Both save allocating a full-size image. ``small``: :func:`sample_nearest` (``bgr``, ``factor``)
-    when already taken.
+    when already taken. ``tiles``: ``mask`` is zero farther than 1 px from these ``tile_px`` square
+    tiles (:func:`clean_mask` of :func:`_bark_tiles`' mask): the outline (``band_px`` 1) is then
+    found on them alone (:func:`kernels_segment.gradient_tiles`, the same values), and ``scratch``
+    must be zero off them (:func:`_bark_tiles`' mask is).
     """
     h, w = mask.shape
     hs, ws = h // factor, w // factor
-    ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
+    if tiles is not None and band_px == 1 and mask.flags.c_contiguous:
+        ring = kernels_segment.gradient_tiles(mask, tiles, tile_px, np.zeros_like(mask) if scratch is None else scratch)
+    else:
+        ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
     # the blocks holding outline pixels, row-major (y * ws + x)
     bi = np.flatnonzero(block_mean(ring[:hs * factor, :ws * factor], factor) != 0) if hs and ws else np.zeros(0, np.intp)
     if out is None:
@@ -416,11 +444,12 @@ def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     (:func:`bark_mask`): what the localizer uses (its occluder test converts the few pixels it
     asks about, :func:`occluder_at`)."""
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
-    raw = bark_mask(bgr, cfg, small=small)
-    mask = clean_mask(raw, cfg, bgr, small)
+    raw, tiles = _bark_tiles(bgr, cfg, small=small)
+    mask = clean_mask(raw, cfg, bgr, small, tiles)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
-                           scratch=None if raw is mask else raw, small=small)
+                           scratch=None if raw is mask else raw, small=small,
+                           tiles=None if raw is mask else tiles)
     return mask
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from appliance.localize import kernels_graph, kernels_matchglue
+from appliance.localize import kernels_graph
 from appliance.localize.skeleton import (
     Skeleton,
     binary,
@@ -19,8 +19,6 @@ from appliance.localize.skeleton import (
 )
 
 ENDPOINT, JOINT, JUNCTION = 1, 2, 3
-
-_I8, _F8 = np.dtype(np.int64), np.dtype(np.float64)     # (to_full's kernel types)
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,9 +72,6 @@ class SkeletonGraph:
 
     def to_full(self, yx: np.ndarray) -> np.ndarray:
         """Skeleton (row, col) -> full-resolution (x, y), shape (N, 2) float."""
-        if type(yx) is np.ndarray and (yx.dtype is _I8 or yx.dtype is _F8) and yx.ndim == 2 and yx.shape[1] == 2 \
-                and yx.flags.c_contiguous:      # (compiled: the same operations, kernels_matchglue.to_full)
-            return kernels_matchglue.to_full(yx, float(self.scale))
         yx = np.asarray(yx, np.float64).reshape(-1, 2)
         return (yx[:, ::-1] + 0.5) * self.scale - 0.5
 

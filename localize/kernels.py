@@ -976,8 +976,6 @@ def warm_up() -> None:
     kernels_match.warm_up()
     from appliance.localize import kernels_graph    # (rectify and graph kernels, speedR: imports this one)
     kernels_graph.warm_up()
-    from appliance.localize import kernels_matchglue    # (the match stage's glue, speedF: imports this one)
-    kernels_matchglue.warm_up()
 
 
 # --- match stage (speedm)

@@ -90,36 +90,3 @@ def test_curve_table_cache_follows_the_curves():
     del fp.curves[s]
     _check(fp, fp.curves)
     assert len(fp._curve_table()[1]) == len(fp.curves)
-
-
-def _to_full_numpy(yx, scale):
-    """``SkeletonGraph.to_full``'s numpy path (the code the kernel replaces)."""
-    yx = np.asarray(yx, np.float64).reshape(-1, 2)
-    return (yx[:, ::-1] + 0.5) * scale - 0.5
-
-
-def test_to_full_kernel_is_the_numpy_path():
-    """kernels_matchglue.to_full and SkeletonGraph.to_full (which calls it for C-contiguous (N, 2) int64 /
-    float64 arrays, else numpy) equal the numpy path exactly (atol 0 px): int64 pixels, float64 ones (sub-pixel,
-    negative, huge), read-only arrays, no rows; and the other inputs (1-D, int32, a transposed view, a list)."""
-    from appliance.localize import kernels_matchglue
-    from appliance.localize.graph import SkeletonGraph
-    rng = np.random.default_rng(7)
-    cases = [rng.integers(0, 2000, (n, 2)) for n in (0, 1, 2, 17, 400)]
-    cases += [rng.normal(0, 500, (n, 2)) for n in (1, 33)] + [rng.uniform(-1e9, 1e9, (50, 2))]
-    ro = rng.integers(0, 300, (20, 2))
-    ro.setflags(write=False)
-    cases.append(ro)
-    for scale in (1, 2, 4, 3):
-        g = object.__new__(SkeletonGraph)
-        object.__setattr__(g, "scale", scale)
-        for yx in cases:
-            want = _to_full_numpy(yx, scale)
-            np.testing.assert_array_equal(kernels_matchglue.to_full(yx, float(scale)), want, strict=True)
-            got = g.to_full(yx)
-            np.testing.assert_array_equal(got, want, strict=True)
-            assert got.flags.c_contiguous and got.flags.writeable
-        others = [rng.integers(0, 300, 2), rng.integers(0, 300, (5, 2)).astype(np.int32),
-                  rng.integers(0, 300, (2, 5)).T, [[3, 4], [5, 6]]]
-        for yx in others:
-            np.testing.assert_array_equal(g.to_full(yx), _to_full_numpy(yx, scale), strict=True)

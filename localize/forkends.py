@@ -552,7 +552,7 @@ class ForkPlacing:
         ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
         """
         def right_of(pt):
-            ds = [self.curves[s].d_at(_t_at(self.curves[s], pt))[0] for s in parents]
+            ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
             d = sum(ds) / len(ds)          # (np.mean's value of one or two: the same sum and division)
             return pt - np.array([d, 0.0]), d
         r1, d1 = right_of(xy)

@@ -152,6 +152,11 @@ def _intersect(c1, e1, c2, e2) -> np.ndarray | None:
     return c1 + ((e2x * by - bx * e2y) / det) * e1
 
 
+def _t_at(c: BranchCurve, xy: np.ndarray) -> float:
+    """``c.t_of(xy)[0]`` of one point ``xy`` (2,) as a Python float (the curves' one-point path)."""
+    return float(xy[1] if c.by_row else xy[0])
+
+
 def _agree(d1: float, d2: float) -> bool:
     """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
     return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
@@ -206,7 +211,7 @@ class ForkPlacing:
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range
-            tp = cc.t_of(p)[0]
+            tp = _t_at(cc, p)
             t_end = hi if abs(tp - hi) <= abs(tp - lo) else lo
             c2, e2 = _line(self._curve_uv(cc, t_end, t_end + (12.0 if t_end == lo else -12.0), 12))
         else:
@@ -244,11 +249,12 @@ class ForkPlacing:
                 shift = min(max(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale)),
                             0.5 * r_par + 2 * self.g.scale)          # (np.clip of one value, without its overhead)
                 xy = p0 + ahead * shift * e1
-        at = lambda s: self.curves[s].d_at(self.curves[s].t_of(xy))[0]
+        # (a curve's parameter at xy as a Python float: its one-point path, the values of t_of's array)
+        at = lambda s: self.curves[s].d_at(_t_at(self.curves[s], xy))[0]
 
         def passes(s):              # a curve's disparity at the fork's row/column is its own there
             c = self.curves[s]
-            return np.hypot(*(c.uv_at(c.t_of(xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
+            return np.hypot(*(c.uv_at(_t_at(c, xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
         parents = [s for s in parents if passes(s)]
         child_ok = child in self.curves and passes(child)
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
@@ -258,10 +264,10 @@ class ForkPlacing:
         for s in parents if final and outline is not None else ():
             c = self.curves[s]
             if c.by_row:
-                v = side_disparity_near(c, self.runs_l, self.runs_r, float(c.t_of(xy)[0]), f_px=self.sm.f_px,
+                v = side_disparity_near(c, self.runs_l, self.runs_r, _t_at(c, xy), f_px=self.sm.f_px,
                                         cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
-                v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, float(c.t_of(xy)[0]),
+                v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, _t_at(c, xy),
                                    self.sm.f_px, self.sm.offset_px,
                                    radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
                                                                   rad, near) if FLAT_TAPER else None)
@@ -447,7 +453,7 @@ class ForkPlacing:
         fitted span to reach ``xy`` (2,); 0 inside it."""
         c = self.curves[s]
         lo, hi = c.t_range
-        t = float(c.t_of(xy)[0])
+        t = _t_at(c, xy)
         return max(lo - t, t - hi, 0.0)
 
     def defer_forks(self, nodes) -> None:
@@ -513,7 +519,7 @@ class ForkPlacing:
         when it is known there."""
         c = self.curves[s]
         lo, hi = c.t_range
-        t = c.t_of(xy)[0]
+        t = _t_at(c, xy)
         return max(lo - t, t - hi) - max(12.0, min(0.5 * (hi - lo), vouch_max_px))
 
     def _fork_from_child_outline(self, c1, e1, c2, e2, p0, r_par: float, r_child: float,
@@ -713,8 +719,8 @@ class ForkPlacing:
         sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0]) / max(np.hypot(*e1) * np.hypot(*e2), 1e-9)
         if sin_t < np.sin(np.radians(HIDDEN_FORK_MIN_DEG)):
             return False
-        d_par = float(c2.d_at(c2.t_of(xy))[0])
-        d_child = float(c.d_at(c.t_of(xy))[0])
+        d_par = float(c2.d_at(_t_at(c2, xy))[0])
+        d_child = float(c.d_at(_t_at(c, xy))[0])
         if not _agree(d_child, d_par):
             return False
         self.uvd[node] = np.array([xy[0], xy[1], d_par])
@@ -726,11 +732,11 @@ class ForkPlacing:
         """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves
         stay): {piece: row}, the (piece, curve) of each row, and (by_row, t_lo, t_hi, radius, poly,
         coef, n_coef, dcoef, n_dcoef, t0, ts)."""
-        key = tuple(self.curves.items())
+        key = (tuple(self.curves), tuple(self.curves.values()))    # (two flat tuples: half items()' cost)
         hit = getattr(self, "_table_cache", None)       # (made on first use)
         if hit is not None and hit[0] == key:
             return hit[1]
-        cv = [c for _, c in key]
+        cv = key[1]
         n = len(cv)
         coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
         n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
@@ -746,7 +752,8 @@ class ForkPlacing:
         table = (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
                  np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
                  poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
-        out = ({s: j for j, (s, _) in enumerate(key)}, key, table)
+        pieces = tuple(zip(*key))
+        out = ({s: j for j, s in enumerate(key[0])}, pieces, table)
         self._table_cache = (key, out)
         return out
 

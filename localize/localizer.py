@@ -32,7 +32,7 @@ from appliance.localize.radius import RadiusMap, ridge_radius_map
 from appliance.localize.recover import recover
 from appliance.localize.rectify import LazyRectified, Rectifier
 from appliance.localize.result import Branch, Feature, LocalizationResult, WithheldFeature
-from appliance.localize.segment import as_mask, bark_lut, occluder_at, segment_mask
+from appliance.localize.segment import as_mask, bark_lut_rows, occluder_at, segment_mask
 from appliance.localize.skeleton import skeletonize
 from appliance.localize.triangulate import disparity_range_px, triangulate
 
@@ -142,7 +142,7 @@ class Localizer:
         self.rectifier = Rectifier.from_calibration(calib)
         self.d_range_px = disparity_range_px(calib, self.cfg.working_range_mm)
         kernels.warm_up()               # (compiled or loaded now, not on the first frame)
-        bark_lut(self.cfg.segment)      # (the colour recogniser's table, ~90 ms once per process)
+        bark_lut_rows(self.cfg.segment)  # (the colour recogniser's tables, ~0.1 s once per process)
 
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):

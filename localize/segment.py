@@ -128,6 +128,26 @@ def bark_lut(cfg: SegmentConfig) -> np.ndarray:
     return _bark_lut(*(getattr(cfg, k) for k in _LUT_KEYS))
 
 
+def bark_lut_rows(cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`bark_lut`'s table in two levels (:func:`kernels_front.bark_lookup_rows`): ``index``
+    (2^16,) uint16, per ``b << 8 | g`` its row of ``rows`` ((R * 32,) uint8, the R distinct 32-byte
+    rows of the table over ``r``: ~3000 with the default thresholds, ~0.2 MB in all against 2 MB);
+    both read-only, the same test of every colour (tested on all 2^24)."""
+    return _bark_lut_rows(*(getattr(cfg, k) for k in _LUT_KEYS))
+
+
+@lru_cache(maxsize=4)
+def _bark_lut_rows(*values: int) -> tuple[np.ndarray, np.ndarray]:
+    rows, index = np.unique(_bark_lut(*values).reshape(1 << 16, 32), axis=0, return_inverse=True)
+    if len(rows) > 1 << 16:                                      # (cannot happen: 2^16 rows at most)
+        raise AssertionError("bark table rows")
+    index = index.reshape(-1).astype(np.uint16)
+    rows = np.ascontiguousarray(rows).reshape(-1)
+    index.setflags(write=False)
+    rows.setflags(write=False)
+    return index, rows
+
+
 _LUT_KEYS = ("hue_min", "hue_max", "saturation_max", "value_min", "value_max", "olive_hue_max",
              "olive_saturation_max", "grey_chroma_max", "pale_value_max")      # (the thresholds _hsv_threshold reads)
 
@@ -166,7 +186,7 @@ def bark_mask(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: int
     bottom (right) edge below (right of) the last sampled row (column), which the clean-up keeps if
     its area reaches ``min_area_px`` (a strip 3 px wide and ~130 px long). The fixture scenes and the
     28 rendered ones give the same cleaned mask as :func:`bark_hsv` (tested). The sample and the tiles' pixels are
-    tested in one compiled pass by :func:`bark_lut`'s table (:func:`kernels_front.bark_lookup`, one
+    tested in one compiled pass by :func:`bark_lut`'s table (:func:`bark_lut_rows`, :func:`kernels_front.bark_lookup_rows`, one
     run of pixels per image row and run of tiles), so small tiles cost no calls: 16 px tiles cover
     ~21 % of fixture 00's image (32 px: 35 %), ~0.2 ms against ~1.6 ms per 1280x960 image for
     OpenCV's conversion and thresholds of the whole image. Where most tiles are flagged (a
@@ -190,9 +210,9 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
         return _hsv_threshold(bgr, cfg, dst=out), None
     if small is None:
         small = sample_nearest(bgr, sample)
-    lut = bark_lut(cfg)
+    index, rows = bark_lut_rows(cfg)                             # (bark_lut's table, ~0.2 MB)
     hit = np.zeros((hs, ws), np.uint8)                           # the sample's test, by the table too
-    kernels_front.bark_lookup(np.ascontiguousarray(small).reshape(-1), ws, lut, _ONE_TILE, max(hs, ws), hit.reshape(-1))
+    kernels_front.bark_lookup_rows(np.ascontiguousarray(small).reshape(-1), ws, index, rows, _ONE_TILE, max(hs, ws), hit.reshape(-1))
     b = max(1, tile_px // sample)                                # sampled pixels per tile side
     th, tw = -(-hs // b), -(-ws // b)
     if (th * b, tw * b) != (hs, ws):
@@ -202,9 +222,9 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
     if n_tiles == 0:
         return out, tiles
     if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
-        kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, lut, _ONE_TILE, tile_px, out.reshape(-1))
+        kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, _ONE_TILE, tile_px, out.reshape(-1))
         return out, None
-    kernels_front.bark_lookup(np.ascontiguousarray(bgr).reshape(-1), w, lut, tiles, tile_px,
+    kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, tiles, tile_px,
                               out.reshape(-1))                   # (compiled: no call per tile)
     return out, tiles
 

@@ -3,6 +3,9 @@
 :func:`bark_lookup` is the colour recogniser's bark test by :func:`segment.bark_lut`'s table, the
 values of the former ``kernels.bark_tiles`` (OpenCV's HSV thresholds) at about half its cost: the pixels of a
 run of flagged tiles are read as one flat run per image row.
+:func:`bark_lookup_rows` (eleventh pass, speedS) is the same test by a two-level table of ~0.2 MB
+instead of 2 MB, which stays in the cache between the stages; the package calls it, :func:`bark_lookup`
+remains for the tests (tests/localize/test_kernels_speedS.py: equal on all 2^24 colours).
 
 :func:`distance_near` is the radius map's Euclidean distance transform, OpenCV's precise one
 (``cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)``) at ~1/7 of its cost on branch
@@ -140,9 +143,7 @@ def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     distance_near(np.zeros((2, 2), np.uint8), np.zeros((2, 2), np.float32))
-    lut = np.zeros(8, np.uint8)
-    lut.setflags(write=False)                       # (segment.bark_lut's table is read-only)
-    bark_lookup(np.zeros(12, np.uint8), 2, lut, np.zeros((1, 1), np.uint8), 4, np.zeros(4, np.uint8))
+    # (bark_lookup: no longer called by the package, only by the tests, which compile it)
     index = np.zeros(1 << 16, np.uint16)
     rows = np.zeros(32, np.uint8)
     index.setflags(write=False)

@@ -375,7 +375,25 @@ def _flat_texture(sm: StereoMasks, v_poly: Poly, radius: float, lo: float, hi: f
 
 
 _FLAT_LIMITS = np.array([MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES, MAX_LINE_MAD_PX,
-                         FEW_PATCHES, MAX_FEW_MAD_PX], float)
+                         FEW_PATCHES, MAX_FEW_MAD_PX, 100.0], float)
+# flatends (docs/localize-flatends.md): a flat piece shorter than 100 px (a constant disparity before) gets a
+# texture line when it spans at least SHORT_LINE_MIN_PX and the line is clean: at least 5 patches, every one
+# of them matched and an inlier, spread over 60 % of its length, none of their surface disparities more than
+# SHORT_LINE_MAX_RES_PX off a straight line (a curving piece keeps its constant); otherwise the constant as
+# before. SHORT_LINE_MIN_PX = 100 (the line's length before) turns the rule off.
+SHORT_LINE_MIN_PX = 30.0
+SHORT_LINE_MAX_RES_PX = 0.3
+_SHORT_LINE_LIMITS = np.array([5, 1.0, 0.6, 1e9, 0.3, FEW_PATCHES, MAX_FEW_MAD_PX, 0.0], float)
+
+
+def _short_line_clean(d_surf: np.ndarray, score: np.ndarray, u: np.ndarray) -> bool:
+    """Whether a short flat piece's patches' surface disparities ``d_surf`` (N,) px (correlations ``score``,
+    columns ``u`` px) all matched and lie on one straight line within ``SHORT_LINE_MAX_RES_PX``."""
+    ok = np.isfinite(d_surf) & (score >= 0.6)
+    if ok.sum() < 5 or not ok.all():
+        return False
+    res = d_surf - np.polyval(np.polyfit(u, d_surf, 1), u)
+    return bool(np.abs(res).max() <= SHORT_LINE_MAX_RES_PX)
 
 
 def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
@@ -385,11 +403,20 @@ def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, h
     g, sm = b.g, b.sm
     d_surf, score = found
     # compiled: the texture patches' fit (the numpy steps of texture.py and flatfit.py, equal up to rounding)
-    status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(
-        np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
-        np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),
-        float(v_poly.ts), float(radius), _patch_half_h(radius), float(lo), float(hi), float(sm.f_px),
-        float(sm.offset_px), SLANT, _FLAT_LIMITS)
+    args = (np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
+            np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),
+            float(v_poly.ts), float(radius), _patch_half_h(radius), float(lo), float(hi), float(sm.f_px),
+            float(sm.offset_px), SLANT)
+    status = 2
+    if SHORT_LINE_MIN_PX <= hi - lo < 100 and _short_line_clean(d_surf, score, u):  # (flatends), else constant
+        lim = _SHORT_LINE_LIMITS.copy()
+        lim[7] = SHORT_LINE_MIN_PX
+        status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(*args, lim)
+        if status == 1:                 # the short line inside the piece's span, level beyond it
+            return BranchCurve(s, False, (lo, hi), v_poly, Poly(coef[3 - degree:].copy(), t0, ts), radius, n_inl,
+                               d_end_slopes=(0.0, 0.0))
+    if status == 2:
+        status, coef, t0, ts, degree, n_inl = kernels_dense.flat_finish(*args, _FLAT_LIMITS)
     if status == 1:
         return BranchCurve(s, False, (lo, hi), v_poly, Poly(coef[3 - degree:].copy(), t0, ts), radius, n_inl)
     if status == 2:

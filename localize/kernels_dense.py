@@ -423,9 +423,9 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
         The piece's column span, px.
     f_px, offset_px : float
     slant : bool
-    limits : (7,) float
+    limits : (8,) float
         ``flatfit``'s MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES,
-        MAX_LINE_MAD_PX, FEW_PATCHES, MAX_FEW_MAD_PX.
+        MAX_LINE_MAD_PX, FEW_PATCHES, MAX_FEW_MAD_PX; the shortest piece (px) given a line (100).
 
     Returns
     -------
@@ -464,7 +464,7 @@ def flat_finish(d_surf, score, u, v, right_mask, v_coef, v_t0, v_ts, radius, hal
     d_axis = np.empty(m)
     for j in range(m):
         d_axis[j] = _to_axis(ds[j], radius, f_px, offset_px, k[j])
-    degree = 0 if hi - lo < 100 else 1
+    degree = 0 if hi - lo < limits[7] else 1          # (limits[7]: 100 px, flatends' shorter lines)
     starts = np.array([0, m], np.int64)
     deg_a, rounds = np.full(1, degree, np.int64), np.full(1, 3, np.int64)
     c4, t0, ts, dg, inl = robust_fit_groups(ug, d_axis, starts, deg_a, rounds, 3.5)
@@ -1156,7 +1156,7 @@ def warm_up() -> None:
                          1.0, 2.0, taken)
     f3 = np.zeros(3)
     flat_finish(f3, f3, f3, f3, np.zeros((2, 2), np.uint8), f3, 0.0, 1.0, 2.0, 1, 0.0, 1.0, 1000.0, 0.0, True,
-                np.zeros(7))
+                np.full(8, 100.0))
     flat_line(f3, f3, np.zeros(2, np.bool_), np.zeros((2, 2)), np.zeros(2), tab, r1, r1, 4)
     coarse_agree(f3, f3, 6.0, 2.0)
     edge_consensus_piece(f, f, np.zeros((1, 2)), tab, ro, r1, ro, 4, np.zeros(1, np.bool_), f3, 1.0, 2.0,

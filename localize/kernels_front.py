@@ -1,11 +1,11 @@
 """Compiled kernels of the front stages (seventh pass, speed02; docs/localize-numba.md).
 
-:func:`bark_lookup` is the colour recogniser's bark test by :func:`segment.bark_lut`'s table, the
-values of the former ``kernels.bark_tiles`` (OpenCV's HSV thresholds) at about half its cost: the pixels of a
-run of flagged tiles are read as one flat run per image row.
-:func:`bark_lookup_rows` (eleventh pass, speedS) is the same test by a two-level table of ~0.2 MB
-instead of 2 MB, which stays in the cache between the stages; the package calls it, :func:`bark_lookup`
-remains for the tests (tests/localize/test_kernels_speedS.py: equal on all 2^24 colours).
+:func:`bark_lookup_rows` is the colour recogniser's bark test by :func:`segment.bark_lut_rows`' two-level
+table (~0.2 MB, which stays in the cache between the stages; eleventh pass, speedS): the values of the
+former ``kernels.bark_tiles`` (OpenCV's HSV thresholds, through :func:`segment.bark_lut`'s 2 MB table; the
+seventh pass's ``bark_lookup`` read that table) at a fraction of its cost; the pixels of a run of flagged
+tiles are read as one flat run per image row. Tests: tests/localize/test_kernels_bark_rows.py (equal to the
+one-level table on all 2^24 colours) and test_kernels_speed02.py (equal to ``bark_tiles``).
 
 :func:`distance_near` is the radius map's Euclidean distance transform, OpenCV's precise one
 (``cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)``) at ~1/7 of its cost on branch
@@ -66,15 +66,17 @@ def distance_near(mask, out):
 
 
 @numba.njit(**_JIT)
-def bark_lookup(px, width, lut, tiles, tile_px, out):
-    """The bark test of every pixel of the flagged tiles by a colour lookup table; the rest of ``out``
+def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
+    """The bark test of every pixel of the flagged tiles by a two-level colour table; the rest of ``out``
     untouched. Returns ``out``.
 
-    ``px`` (H * W * 3,) uint8: a C-contiguous BGR image (H, W, 3), flat, ``width`` W px; ``lut``
-    (2^21,) uint8: bit ``k & 7`` of byte ``k >> 3`` is the test of the colour ``k = b << 16 | g << 8 | r``;
-    ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square tile (the last tile row and column
-    reach the image's bottom and right edges); ``out`` (H * W,) uint8, the mask flat, gets 255 (bark)
-    or 0. Consecutive flagged tiles of a tile row are read row by row as one run of pixels.
+    ``px`` (H * W * 3,) uint8: a C-contiguous BGR image (H, W, 3), flat, ``width`` W px; ``index``
+    (2^16,) uint16: per colour's ``b << 8 | g`` the number of its row of ``rows`` ((R * 32,) uint8: R
+    distinct 256-bit rows, bit ``r & 7`` of byte ``r >> 3`` is the test of that ``(b, g, r)``;
+    :func:`segment.bark_lut_rows` builds both from :func:`segment.bark_lut`'s table, ~1/9 of its size);
+    ``tiles`` (TH, TW): non-zero = test that ``tile_px`` square tile (the last tile row and column reach
+    the image's bottom and right edges); ``out`` (H * W,) uint8, the mask flat, gets 255 (bark) or 0.
+    Consecutive flagged tiles of a tile row are read row by row as one run of pixels.
     """
     w = width
     h = out.size // w
@@ -98,42 +100,6 @@ def bark_lookup(px, width, lut, tiles, tile_px, out):
                 src = px[3 * (y * w + x0):3 * (y * w + x1)]
                 dst = out[y * w + x0:y * w + x1]
                 for i in range(len(dst)):
-                    k = (np.uint32(src[3 * i]) << 16) | (np.uint32(src[3 * i + 1]) << 8) | np.uint32(src[3 * i + 2])
-                    dst[i] = np.uint8(0) - ((lut[k >> 3] >> (k & 7)) & one)
-    return out
-
-
-@numba.njit(**_JIT)
-def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
-    """:func:`bark_lookup` by a two-level table (eleventh pass, speedS): the same values, the table
-    ~1/9 of the size (~0.2 MB: it stays in the L2 cache between the stages).
-
-    ``index`` (2^16,) uint16: per colour's ``b << 8 | g`` the number of its row of ``rows``
-    ((R * 32,) uint8: R distinct 256-bit rows, bit ``r & 7`` of byte ``r >> 3`` is the test of that
-    ``(b, g, r)``); :func:`segment.bark_lut_rows` builds both from :func:`segment.bark_lut`'s table.
-    The other arguments and the result as :func:`bark_lookup`'s.
-    """
-    w = width
-    h = out.size // w
-    th, tw = tiles.shape
-    one = np.uint8(1)
-    for ty in range(th):
-        y0 = ty * tile_px
-        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
-        tx = 0
-        while tx < tw:
-            if tiles[ty, tx] == 0:
-                tx += 1
-                continue
-            t0 = tx
-            while tx < tw and tiles[ty, tx] != 0:
-                tx += 1
-            x0 = t0 * tile_px
-            x1 = w if tx == tw else min(tx * tile_px, w)
-            for y in range(y0, y1):
-                src = px[3 * (y * w + x0):3 * (y * w + x1)]
-                dst = out[y * w + x0:y * w + x1]
-                for i in range(len(dst)):
                     row = np.uint32(index[(np.uint32(src[3 * i]) << 8) | np.uint32(src[3 * i + 1])])
                     r = np.uint32(src[3 * i + 2])
                     dst[i] = np.uint8(0) - ((rows[(row << 5) | (r >> 3)] >> (r & 7)) & one)
@@ -143,7 +109,6 @@ def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     distance_near(np.zeros((2, 2), np.uint8), np.zeros((2, 2), np.float32))
-    # (bark_lookup: no longer called by the package, only by the tests, which compile it)
     index = np.zeros(1 << 16, np.uint16)
     rows = np.zeros(32, np.uint8)
     index.setflags(write=False)

@@ -63,7 +63,7 @@ def open_close_tiles(raw, tiles, tile_px, out):
 
     ``raw`` and ``out`` C-contiguous. ``raw`` must be zero outside the tiles flagged in ``tiles``
     (TH, TW) (non-zero: flagged), each ``tile_px`` square, the last tile row and column reaching the
-    image's bottom and right edges (:func:`kernels_front.bark_lookup`'s tiles). The result is then zero
+    image's bottom and right edges (:func:`kernels_front.bark_lookup_rows`' tiles). The result is then zero
     farther than 1 px from them (the opening stays inside ``raw``, the closing grows it by at most 1 px),
     and each pixel depends on ``raw`` within 4 px. Per run of consecutive flagged tiles of a tile row
     (rectangle R): the erosion on R grown by 4 px (clipped to the image), the dilation on R + 3 px, the

@@ -19,7 +19,7 @@ from appliance.localize.skeleton import binary, block_mean
 
 Segmenter = Callable[[np.ndarray], np.ndarray]
 _K3 = np.ones((3, 3), np.uint8)
-_ONE_TILE = np.ones((1, 1), np.uint8)   # bark_lookup's tiles: the whole image
+_ONE_TILE = np.ones((1, 1), np.uint8)   # bark_lookup_rows' tiles: the whole image
 FULL_SHARE = 0.6               # bark_mask: above this share of tiles to test, the whole image (rows whole)
 _MIN_SIN2 = 0.05 ** 2          # unmix_edges: background and bark chromaticities at least ~3 deg apart
 

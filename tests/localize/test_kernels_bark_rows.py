@@ -1,4 +1,5 @@
-"""kernels_front.bark_lookup_rows (eleventh pass, speedS) against the one-level table's bark_lookup."""
+"""kernels_front.bark_lookup_rows (eleventh pass, speedS) against the one-level table (segment.bark_lut) it
+replaced, read in numpy."""
 
 import numpy as np
 
@@ -7,10 +8,24 @@ from appliance.localize import kernels_front
 from appliance.localize.segment import bark_lut, bark_lut_rows
 
 
+def _one_level(px, width, lut, tiles, tile_px, out):
+    """The test by the one-level table (bit ``k & 7`` of byte ``k >> 3``, ``k = b << 16 | g << 8 | r``) of
+    the pixels of the flagged tiles (the last tile row and column reach the image's edges), in numpy."""
+    bgr = px.reshape(-1, 3).astype(np.uint32)
+    k = bgr[:, 0] << 16 | bgr[:, 1] << 8 | bgr[:, 2]
+    test = ((lut[k >> 3] >> (k & 7)) & 1).astype(np.uint8) * 255
+    h = out.size // width
+    ty = np.minimum(np.arange(h) // tile_px, tiles.shape[0] - 1)
+    tx = np.minimum(np.arange(width) // tile_px, tiles.shape[1] - 1)
+    flagged = (tiles[ty[:, None], tx[None, :]] != 0).reshape(-1)
+    out[flagged] = test[flagged]
+    return out
+
+
 def _both(px, width, tiles, tile_px, cfg, n):
     old = np.full(n, 7, np.uint8)
     new = np.full(n, 7, np.uint8)
-    kernels_front.bark_lookup(px, width, bark_lut(cfg), tiles, tile_px, old)
+    _one_level(px, width, bark_lut(cfg), tiles, tile_px, old)
     index, rows = bark_lut_rows(cfg)
     kernels_front.bark_lookup_rows(px, width, index, rows, tiles, tile_px, new)
     return old, new

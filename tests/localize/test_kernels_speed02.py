@@ -11,7 +11,7 @@ import numpy as np
 from appliance.commands.common import effective_config
 from appliance.localize import kernels_front
 from appliance.localize.radius import NEAR_MAX_SHARE, ridge_radius_map
-from appliance.localize.segment import _hsv_threshold, bark_hsv, bark_lut, bark_mask, segment_mask
+from appliance.localize.segment import _hsv_threshold, bark_hsv, bark_lut, bark_lut_rows, bark_mask, segment_mask
 from appliance.localize.skeleton import binary, skeletonize
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
@@ -19,7 +19,7 @@ FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
 
 @numba.njit(cache=False)
 def bark_tiles(bgr, lut, tiles, tile_px, out):
-    """The reference for bark_lookup (kernels.bark_tiles until speedG, which bark_lookup replaced):
+    """The reference for bark_lookup_rows (kernels.bark_tiles until speedG, which bark_lookup replaced):
     the bark test of every pixel of the flagged tiles, by a colour lookup table, in one pass; the
     rest of ``out`` untouched.
 
@@ -163,14 +163,15 @@ def test_ridge_radius_map_branch_mask():
     assert 10.0 < got.image.max() < 16.0                    # (7 px wide: radius ~3.5 small px)
 
 
-def _lookup(img: np.ndarray, lut: np.ndarray, tiles: np.ndarray, tile_px: int, fill: int = 7) -> np.ndarray:
+def _lookup(img: np.ndarray, cfg, tiles: np.ndarray, tile_px: int, fill: int = 7) -> np.ndarray:
     out = np.full(img.shape[:2], fill, np.uint8)
-    kernels_front.bark_lookup(np.ascontiguousarray(img).reshape(-1), img.shape[1], lut, tiles, tile_px, out.reshape(-1))
+    kernels_front.bark_lookup_rows(np.ascontiguousarray(img).reshape(-1), img.shape[1], *bark_lut_rows(cfg), tiles,
+                                   tile_px, out.reshape(-1))
     return out
 
 
 def test_bark_lookup_is_bark_tiles():
-    """bark_lookup against the kernel it replaces (bark_tiles) for random tile flags (runs of
+    """bark_lookup_rows (bark_lookup until speedS) against the kernel it replaces (bark_tiles) for random tile flags (runs of
     tiles, single tiles, the last row and column reaching the image's edges), tile sizes and hue
     ranges (wrapping through red, not wrapping), on random and smooth colours: bit for bit, pixels
     outside the flagged tiles untouched."""
@@ -180,19 +181,20 @@ def test_bark_lookup_is_bark_tiles():
     img[:40] = cv2.GaussianBlur(img[:40], (0, 0), 3)
     for hues, tile_px, p in (((base.hue_min, base.hue_max), 16, 0.5), ((5, 40), 8, 0.3), ((base.hue_min, base.hue_max),
                                                                                           32, 0.9)):
-        lut = bark_lut(replace(base, hue_min=hues[0], hue_max=hues[1]))
+        cfg = replace(base, hue_min=hues[0], hue_max=hues[1])
+        lut = bark_lut(cfg)
         tiles = (rng.random((-(-75 // tile_px), -(-101 // tile_px))) < p).astype(np.uint8) * 255
         want = bark_tiles(img, lut, tiles, tile_px, np.full(img.shape[:2], 7, np.uint8))
-        got = _lookup(img, lut, tiles, tile_px)
+        got = _lookup(img, cfg, tiles, tile_px)
         np.testing.assert_array_equal(got, want)
         assert (got == 7).any() and (got == 255).any() and (got == 0).any()
     small_tiles = np.ones((2, 3), np.uint8)                     # (fewer tiles than the image: the last reach its edges)
-    np.testing.assert_array_equal(_lookup(img, lut, small_tiles, 16),
+    np.testing.assert_array_equal(_lookup(img, cfg, small_tiles, 16),
                                   bark_tiles(img, lut, small_tiles, 16, np.full(img.shape[:2], 7, np.uint8)))
 
 
 def test_bark_mask_is_opencvs_test_where_flagged():
-    """bark_mask through bark_lookup: on a fixture (tiles) and a speckled image (the whole image,
+    """bark_mask through bark_lookup_rows: on a fixture (tiles) and a speckled image (the whole image,
     FULL_SHARE), OpenCV's HSV thresholds (_hsv_threshold) wherever it tests, everywhere on the speckled one."""
     cfg = effective_config(None).localize.segment
     bgr = cv2.imread(str(FIXTURES / "left_00.png"))

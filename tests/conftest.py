@@ -13,6 +13,16 @@ def repo() -> Path:
     return REPO
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _compiled_kernels():
+    """Compile the localizer's numba kernels into their disk cache once, before the first test: the first
+    compile takes about a minute, and must not eat the deadline of a test that starts `appliance` as a
+    process (those then load the kernels from the cache in a fraction of a second)."""
+    from appliance.localize import kernels
+
+    kernels.warm_up()
+
+
 @pytest.fixture(scope="session")
 def rendered_scene():
     """A function: seed -> (left, right, truth, calibration) of the accuracy benchmark's rendered scene of that

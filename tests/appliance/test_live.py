@@ -268,7 +268,7 @@ def test_appliance_run_live_streams_results(tmp_path):
                              "--calib", str(RIG), "--no-log", "--live", "--live-port", str(port), "-q",
                              "--config", str(cfg)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 120
         while True:
             try:
                 client = Client(f"ws://127.0.0.1:{port}")

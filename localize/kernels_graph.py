@@ -136,28 +136,10 @@ def graph_arrays(image, words, w, count, scale):
         plus one step onto each end node; node-node contacts 1; times ``scale``.
     """
     h = image.shape[0]
-    nw = words.shape[1]
     w2 = w + 2
     flat = np.zeros((h + 2) * w2, np.uint8)
-    m = 0
-    for y in range(h):
-        row = image[y]
-        for c in range(nw):
-            if words[y, c] != 0:
-                for b in range(8):
-                    if row[8 * c + b] != 0:
-                        m += 1
-    idx = np.empty(m, np.int64)
-    m = 0
-    for y in range(h):
-        row = image[y]
-        for c in range(nw):
-            if words[y, c] != 0:
-                for b in range(8):
-                    if row[8 * c + b] != 0:
-                        idx[m] = (y + 1) * w2 + 8 * c + b + 1
-                        flat[idx[m]] = 1
-                        m += 1
+    idx = _scan(image, words, w2, flat)
+    m = len(idx)
     n, jlab, n_j, slab, n_s, sn, nn, steps = graph_core(flat, idx, w2, w, count)
     jorder, jstart = _by_label(jlab, n >= 3, n_j)
     n_e = 0

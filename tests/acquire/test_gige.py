@@ -69,8 +69,11 @@ def test_mono8_side_by_side_split_and_stamps(tmp_path):
     assert np.array_equal(right[:, 0, 0, 0].astype(int), (left[:, 0, 0, 0].astype(int) + W) % 255)
     steps = np.diff(left[:, 3, :, 0].astype(int), axis=1)
     assert np.all((steps == 1) | (steps == -254))
-    periods_ms = np.array(got["period_ms"][1:])  # the first may have waited in a buffer
-    assert np.all(np.abs(periods_ms - 20.0) < 10.0), periods_ms  # the fake's timer jitters on a loaded machine
+    # Stamps are the host's arrival times in ns: they increase, at 50 frames/s on average (not 25:
+    # every other frame lost; not 100). Single periods jitter by 5-10 ms on a loaded machine (the fake
+    # camera's timer thread wakes late, a frame waits in a buffer), so only the mean is bounded.
+    periods_ms = np.array(got["period_ms"])
+    assert np.all(periods_ms > 0) and abs(periods_ms.mean() - 20.0) < 6.0, periods_ms
 
 
 def test_rgb8_becomes_bgr(tmp_path):
@@ -107,9 +110,11 @@ def test_stereo_pair_of_two_cameras():
     # (counted) and that pair comes a whole frame period (40 ms) late; most images still pair.
     assert got["dropped"] < len(got["seq"]), got
     assert all(abs(s) <= 15.0 for s in got["skew_ms"]), got
+    # Each pair is a new frame (never one frame twice: > half a period apart), and pairs come on the
+    # 40 ms grid (the median off-grid time; single periods jitter by 10 ms and more under load).
     periods = np.array(got["period_ms"])
-    frames_apart = np.round(periods / 40.0)
-    assert np.all(frames_apart >= 1) and np.all(np.abs(periods - 40.0 * frames_apart) < 10.0), periods
+    frames_apart = np.maximum(np.round(periods / 40.0), 1)
+    assert np.all(periods > 20.0) and np.median(np.abs(periods - 40.0 * frames_apart)) < 5.0, periods
     assert got["shapes"] == [[48, 64, 3, 48, 64, 3]] * 16
 
 

@@ -12,7 +12,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_forks
+from appliance.localize import kernels, kernels_forkglue, kernels_forks
 from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -192,9 +192,15 @@ class ForkPlacing:
             c = self.curves.get(s)
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
-                pts = self._near_points(s, p, r)
-                v = pts.sum(0) / len(pts) - p           # (the piece's direction from the junction)
-                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), v / max(np.hypot(*v), 1e-9))
+                # (self._near_points and the piece's direction from the junction, compiled in one call:
+                # kernels_forkglue.near_piece, the same values; fewer than 3 points: the 15 nearest)
+                seg_pts = self.seg_points(s)
+                pts, dist, u = kernels_forkglue.near_piece(seg_pts, float(p[0]), float(p[1]), float(r))
+                if len(pts) < 3:
+                    pts = seg_pts[np.argsort(dist)[:15]]
+                    v = pts.sum(0) / len(pts) - p
+                    u = v / max(np.hypot(*v), 1e-9)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), u)
             near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]
@@ -207,7 +213,7 @@ class ForkPlacing:
         parents = [s for s in (pa, pb) if s in self.curves]
         if not parents and not final:
             return
-        c1, e1 = _line(np.concatenate([near[pa], near[pb]]))      # (np.vstack's, of 2-D arrays)
+        c1, e1 = kernels_forkglue.tls_line_pair(near[pa], near[pb])      # (_line of the two, concatenated)
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range

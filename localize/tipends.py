@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from appliance.localize import kernels_match, kernels_tips
-from appliance.localize.curves import BranchCurve
+from appliance.localize import kernels_forkglue, kernels_match, kernels_tips
+from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
@@ -147,10 +147,18 @@ class TipPlacing:
             return None
         c = self.curves[segs[0]]
         t_edge, sign = self._walk_out(c, node)
-        uv_edge = c.uv_at(t_edge)[0]
-        step = c.uv_at(t_edge + sign)[0] - uv_edge
-        speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
-        out = step / speed
+        sp = c.s_poly
+        if type(sp) is Poly:         # (compiled: kernels_forkglue.edge_frame, the same values as below)
+            lo, hi = c.t_range
+            uv_edge, out, speed = kernels_forkglue.edge_frame(np.ascontiguousarray(sp.coef, float),
+                                                              np.ascontiguousarray(sp._deriv.coef, float), float(sp.t0), float(sp.ts),
+                                                              float(lo), float(hi), bool(c.by_row), float(t_edge),
+                                                              float(sign))
+        else:
+            uv_edge = c.uv_at(t_edge)[0]
+            step = c.uv_at(t_edge + sign)[0] - uv_edge
+            speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
+            out = step / speed
         r = max(c.radius_px, 1.0)
         if BLOB_STUB_WITHHELD:
             other = [n for n in self.g.seg_nodes[c.segment] if n >= 0 and n != node and len(self.incident[n]) == 1]

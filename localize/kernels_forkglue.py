@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT
+from appliance.localize.kernels import _JIT, eval_clamped
 from appliance.localize.kernels_match import _at
 
 
@@ -142,6 +142,30 @@ def edge_frame(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign):
     return uv, out, speed
 
 
+@numba.njit(**_JIT)
+def walk_uv(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign, n):
+    """A hidden end's centre line carried straight on from its walk's edge (``hidden_fork``): the points
+    ``c.uv_at(t_edge + sign * np.arange(0.0, n, 1.0))`` (n >= 2) of a :class:`curves.Poly` centre line
+    (``coef``, ``dcoef``, ``t0``, ``ts``: as :func:`edge_frame`; its own slopes beyond [lo, hi]).
+
+    Returns
+    -------
+    uv : (n, 2) float64
+        (u, v) px, 1 px of ``t`` apart (:func:`kernels.eval_clamped`'s values).
+    """
+    t = np.empty(n)
+    for i in range(n):
+        t[i] = t_edge + sign * float(i)
+    s = eval_clamped(coef, dcoef, t0, ts, lo, hi, dcoef, True, t)
+    uv = np.empty((n, 2))
+    for i in range(n):
+        if by_row:
+            uv[i, 0], uv[i, 1] = s[i], t[i]
+        else:
+            uv[i, 0], uv[i, 1] = t[i], s[i]
+    return uv
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     pts = np.zeros((3, 2))
@@ -154,3 +178,4 @@ def warm_up() -> None:
     tls_line_pair(np.zeros((3, 2)), pts)
     v = np.array([1.0, 0.0])
     edge_frame(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.5, 1.0)
+    walk_uv(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.5, 1.0, 80)

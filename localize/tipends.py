@@ -122,13 +122,19 @@ class TipPlacing:
         if centre is None:
             return
         back, across, rho = centre
-        normal = np.array([-out[1], out[0]])
-        uv = uv_edge - out * (edge_bias_px + back) + normal * across
-        p = uv_edge - out * (CAP_WIDTH_BACK * r)
-        sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)   # (cut: last pixel + 0.5)
+        # (in Python floats: numpy's element-wise steps on these 2-vectors, the same values)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        nx, ny = -oy, ox                                         # the normal
+        k, across = float(edge_bias_px + back), float(across)       # (as numpy takes them into float64 arrays)
+        uv = (ex - ox * k + nx * across, ey - oy * k + ny * across)
+        kb = float(CAP_WIDTH_BACK * r)
+        px, py = ex - ox * kb, ey - oy * kb
         h, w = self.sm.left_mask.shape
-        if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
-            return
+        for a in (shape[0][0] + offset_px, offset_px - shape[0][0]):      # the two sides (cut: last pixel + 0.5)
+            a = float(a)
+            sx, sy = px + a * nx, py + a * ny
+            if not (sx >= 0 and sy >= 0 and sx <= w - 1 and sy <= h - 1):
+                return
         margin = VIEW_EDGE_PX + self.g.scale
         old = self.uvd[node]
         if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
@@ -364,11 +370,16 @@ class TipPlacing:
         """The mask runs' and the valid areas' tables the tips' kernels take (:func:`kernels_tips.runs_tables`),
         made once per placer (again if its runs are replaced)."""
         # (read through getattr: the tests' stand-in placers and masks carry only what they use)
-        key = (self.runs_l, self.runs_r, getattr(self.sm, "valid_left", None), getattr(self.sm, "valid_right", None))
         hit = self.__dict__.get("_tip_k")
-        if hit is None or any(x is not y for x, y in zip(hit[0], key)):
-            hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
-                                       kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
+        sm = self.sm
+        if hit is not None:
+            k = hit[0]
+            if k[0] is self.runs_l and k[1] is self.runs_r and k[2] is getattr(sm, "valid_left", None) \
+                    and k[3] is getattr(sm, "valid_right", None):
+                return hit[1]
+        key = (self.runs_l, self.runs_r, getattr(sm, "valid_left", None), getattr(sm, "valid_right", None))
+        hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
+                                   kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
         return hit[1]
 
     def _beyond_in_right_view(self, uv_edge: np.ndarray, out: np.ndarray, d: float) -> bool:

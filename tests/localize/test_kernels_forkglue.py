@@ -105,3 +105,131 @@ def test_warm_up_compiles_the_localizer_s_signatures():
     Localizer(cal, effective_config(None).localize, "improved").localize(left, right)
     assert [len(k.signatures) for k in ks] == before
     assert all(n >= 1 for n in before)
+
+
+def _random_poly_curve(rng, by_row):
+    lo = float(rng.uniform(0, 900))
+    hi = lo + float(rng.choice([0.0, rng.uniform(0.5, 300)]))
+    deg = int(rng.integers(0, 4))
+    p = Poly(rng.normal(0, 10, deg + 1) + np.r_[np.zeros(deg), rng.uniform(0, 900)], float(rng.uniform(0, 900)),
+             float(rng.uniform(1, 150)))
+    return BranchCurve(0, by_row, (lo, hi), p, Poly.constant(30.0), float(rng.uniform(1, 10)), 10)
+
+
+def test_walk_uv_is_uv_at_of_the_walk_bit_for_bit():
+    rng = np.random.default_rng(8)
+    for trial in range(800):
+        c = _random_poly_curve(rng, bool(trial % 2))
+        lo, hi = c.t_range
+        t_edge = float(rng.choice([lo, hi, rng.uniform(lo, hi + 1e-9), lo - rng.uniform(0, 60), hi + rng.uniform(0, 60)]))
+        sign = float(rng.choice([-1.0, 1.0]))
+        reach = float(rng.choice([80.0, rng.uniform(2, 120)]))
+        ref = c.uv_at(t_edge + sign * np.arange(0.0, reach, 1.0))
+        p = c.s_poly
+        got = kernels_forkglue.walk_uv(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, t_edge, sign,
+                                       int(np.ceil(reach)))
+        np.testing.assert_array_equal(ref, got)          # (atol 0 px)
+
+
+def _curve_table_ref(curves):
+    """ForkPlacing._curve_table's former table: zeroed arrays filled row by row."""
+    cv = tuple(curves.values())
+    n = len(cv)
+    coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
+    n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    poly = np.zeros(n, bool)
+    t0, ts = np.zeros(n), np.ones(n)
+    for j, c in enumerate(cv):
+        p = c.s_poly
+        if type(p) is Poly and len(p.coef) <= 4:
+            poly[j] = True
+            n_coef[j], n_dcoef[j] = len(p.coef), len(p._deriv.coef)
+            coef[j, :n_coef[j]], dcoef[j, :n_dcoef[j]] = p.coef, p._deriv.coef
+            t0[j], ts[j] = p.t0, p.ts
+    return (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
+            np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
+            poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
+
+
+def test_curve_table_is_the_former_table():
+    from types import SimpleNamespace
+
+    from appliance.localize.curves import Spliced
+    from appliance.localize.forkends import ForkPlacing
+    rng = np.random.default_rng(9)
+    for trial in range(60):
+        curves = {}
+        for k in range(int(rng.integers(1, 25))):
+            c = _random_poly_curve(rng, bool(rng.integers(2)))
+            kind = rng.integers(6)
+            if kind == 0:                # spliced past an occluder: not a plain Poly
+                lo, hi = c.t_range
+                c = BranchCurve(0, c.by_row, c.t_range, Spliced(c.s_poly, lo + 1, hi - 1, Poly(np.array([0.5, 90.0]))),
+                                c.d_poly, c.radius_px, 10)
+            elif kind == 1:              # degree 4: more coefficients than the table holds
+                c = BranchCurve(0, c.by_row, c.t_range, Poly(rng.normal(0, 1, 5), 10.0, 50.0), c.d_poly, c.radius_px, 10)
+            curves[int(rng.integers(0, 1000)) * 10 + k] = c
+        placer = SimpleNamespace(curves=curves)
+        row, pieces, table = ForkPlacing._curve_table(placer)
+        ref = _curve_table_ref(curves)
+        assert len(table) == len(ref)
+        for a, b in zip(table, ref):
+            assert a.dtype == b.dtype and a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+        assert row == {s: j for j, s in enumerate(curves)}
+        assert [s for s, _ in pieces] == list(curves) and all(c is curves[s] for s, c in pieces)
+
+
+def _place_on_cap_ref(self, node, uv_edge, out, r, edge_bias_px, shape, offset_px):
+    """TipPlacing._place_on_cap's former steps (numpy 2-vectors)."""
+    from appliance.localize.tips import CAP_WIDTH_BACK, VIEW_EDGE_PX, cap_centre
+    centre = None if edge_bias_px is None else cap_centre(shape, offset_px, r)
+    if centre is None:
+        return
+    back, across, rho = centre
+    normal = np.array([-out[1], out[0]])
+    uv = uv_edge - out * (edge_bias_px + back) + normal * across
+    p = uv_edge - out * (CAP_WIDTH_BACK * r)
+    sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)
+    h, w = self.sm.left_mask.shape
+    if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
+        return
+    margin = VIEW_EDGE_PX + self.g.scale
+    old = self.uvd[node]
+    if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
+        return
+    self.uvd[node][:2] = uv
+    self.radius[node] = rho
+
+
+def test_place_on_cap_is_the_former_steps_bit_for_bit():
+    from types import SimpleNamespace
+
+    from appliance.localize.tipends import TipPlacing
+    from appliance.localize.tips import CAP_RADIUS_RANGE, MAX_CAP_BACK, MIN_CAP_BACK
+    rng = np.random.default_rng(10)
+    h, w = 120, 160
+    moved = kept = 0
+    for trial in range(1500):
+        r = float(rng.uniform(1.0, 12.0))
+        rho = r * float(rng.uniform(CAP_RADIUS_RANGE[0] * 0.9, CAP_RADIUS_RANGE[1] * 1.1))
+        backs = tuple(float(v) for v in rng.uniform(MIN_CAP_BACK - 0.1, MAX_CAP_BACK + 0.1, 2))
+        shape = [(rho, *backs), None if rng.integers(4) == 0 else (r * float(rng.uniform(0.5, 1.5)), 0.5, 0.5)]
+        offset = float(rng.choice([rng.normal(0, r), np.nan])) if rng.integers(10) else np.nan
+        a = float(rng.uniform(0, 2 * np.pi))
+        out = np.array([np.cos(a), np.sin(a)])
+        uv_edge = rng.uniform(-5, [w + 5, h + 5])
+        bias = None if rng.integers(8) == 0 else float(rng.uniform(0, 1.5))
+        start = np.array([*rng.uniform(0, [w, h]), 30.0])
+        placers = []
+        for f in (_place_on_cap_ref, TipPlacing._place_on_cap):
+            st = SimpleNamespace(sm=SimpleNamespace(left_mask=np.zeros((h, w), np.uint8)), g=SimpleNamespace(scale=2),
+                                 uvd={7: start.copy()}, radius={7: r})
+            f(st, 7, uv_edge, out, r, bias, shape, offset)
+            placers.append(st)
+        a_st, b_st = placers
+        np.testing.assert_array_equal(a_st.uvd[7], b_st.uvd[7])        # (atol 0 px)
+        assert a_st.radius[7] == b_st.radius[7]
+        moved += not np.array_equal(a_st.uvd[7], start)
+        kept += np.array_equal(a_st.uvd[7], start)
+    assert moved > 100 and kept > 100                # both outcomes exercised

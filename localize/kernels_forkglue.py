@@ -169,13 +169,9 @@ def walk_uv(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign, n):
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     pts = np.zeros((3, 2))
-    near_piece(pts, 0.0, 0.0, 1.0)
-    tls_line_pair(pts, pts)
+    tls_line_pair(pts, pts)                    # (fork's near points: near_piece's or a fancy index's, writable)
     pts.setflags(write=False)                  # (EndPlacer.seg_points' read-only points)
     near_piece(pts, 0.0, 0.0, 1.0)
-    tls_line_pair(pts, pts)
-    tls_line_pair(pts, np.zeros((3, 2)))
-    tls_line_pair(np.zeros((3, 2)), pts)
     v = np.array([1.0, 0.0])
     edge_frame(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.5, 1.0)
     walk_uv(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.5, 1.0, 80)

@@ -185,8 +185,9 @@ class TipPlacing:
             edge_bias_px = WALK_EDGE_BIAS * speed
         # (placed one piece radius back for the checks below; a tip that passes them all is moved
         # onto its cap's centre in tips())
-        uv = uv_edge - out * back
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(float(uv[1] if c.by_row else uv[0]))[0]])   # (c.t_of's t)
+        b = float(back)                          # (uv_edge - out * back in Python floats: the same values)
+        u, v = ex - ox * b, ey - oy * b
+        self.uvd[node] = np.array([u, v, c.d_at(v if c.by_row else u)[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
         cap_behind = False
         if not c.by_row:
@@ -387,7 +388,11 @@ class TipPlacing:
         disparity ``d``) along its row: a cap whose end lies at or past the right view's left or right
         edge shows there only the edge, whatever rows are read. (A cap cut by the top or bottom edge
         is cut on the same rows in both views: the rows left still give its disparity.)"""
-        u, v = np.rint(uv_edge + out - np.array([d, 0.0])).astype(int)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        fu, fv = ex + ox - float(d), ey + oy - 0.0        # (uv_edge + out - [d, 0] in Python floats)
+        if not math.isfinite(fu):
+            return False                 # (np.rint(nan).astype(int) is INT_MIN: not inside [0, w) either)
+        u, v = round(fu), round(fv) if math.isfinite(fv) else 0     # (np.rint's: halves to even; INT_MIN -> row 0)
         h, w = self.sm.right_mask.shape
         if not 0 <= u < w:
             return False

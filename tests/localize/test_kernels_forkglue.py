@@ -235,3 +235,43 @@ def test_place_on_cap_is_the_former_steps_bit_for_bit():
         moved += not np.array_equal(a_st.uvd[7], start)
         kept += np.array_equal(a_st.uvd[7], start)
     assert moved > 100 and kept > 100                # both outcomes exercised
+
+
+def _beyond_ref(self, uv_edge, out, d):
+    """TipPlacing._beyond_in_right_view's former steps (numpy's rint of a 2-vector)."""
+    u, v = np.rint(uv_edge + out - np.array([d, 0.0])).astype(int)
+    h, w = self.sm.right_mask.shape
+    if not 0 <= u < w:
+        return False
+    valid = self.sm.valid_right
+    if valid is None:
+        return True
+    row = valid[min(max(v, 0), h - 1)]
+    return bool(row[u]) or not row.any()
+
+
+def test_beyond_in_right_view_is_the_former_steps():
+    from types import SimpleNamespace
+
+    from appliance.localize.tipends import TipPlacing
+    rng = np.random.default_rng(11)
+    h, w = 60, 90
+    valid = rng.random((h, w)) < 0.7
+    valid[5] = False                     # a row without any valid pixel
+    seen = set()
+    for trial in range(4000):
+        uv_edge = rng.uniform(-10, [w + 10, h + 10])
+        if trial % 4 == 0:               # halves: np.rint's and round()'s ties to even
+            uv_edge = np.floor(uv_edge) + 0.5
+        a = float(rng.uniform(0, 2 * np.pi))
+        out = np.array([np.cos(a), np.sin(a)]) if trial % 4 else np.array([0.0, 0.0])
+        d = float(rng.choice([rng.uniform(-5, 40), np.nan])) if trial % 50 else float(rng.integers(-3, 30))
+        if trial % 97 == 0:
+            uv_edge = np.array([uv_edge[0], np.nan])
+        st = SimpleNamespace(sm=SimpleNamespace(right_mask=np.zeros((h, w), np.uint8),
+                                                valid_right=None if trial % 5 == 0 else valid))
+        with np.errstate(invalid="ignore"):
+            ref = _beyond_ref(st, uv_edge, out, d)
+        assert TipPlacing._beyond_in_right_view(st, uv_edge, out, d) == ref
+        seen.add(ref)
+    assert seen == {True, False}

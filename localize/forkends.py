@@ -12,7 +12,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_forks
+from appliance.localize import kernels, kernels_forkglue, kernels_forks
 from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -192,9 +192,15 @@ class ForkPlacing:
             c = self.curves.get(s)
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
-                pts = self._near_points(s, p, r)
-                v = pts.sum(0) / len(pts) - p           # (the piece's direction from the junction)
-                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), v / max(np.hypot(*v), 1e-9))
+                # (self._near_points and the piece's direction from the junction, compiled in one call:
+                # kernels_forkglue.near_piece, the same values; fewer than 3 points: the 15 nearest)
+                seg_pts = self.seg_points(s)
+                pts, dist, u = kernels_forkglue.near_piece(seg_pts, float(p[0]), float(p[1]), float(r))
+                if len(pts) < 3:
+                    pts = seg_pts[np.argsort(dist)[:15]]
+                    v = pts.sum(0) / len(pts) - p
+                    u = v / max(np.hypot(*v), 1e-9)
+                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), u)
             near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
         thin = min(segs, key=rad.get)
         rest = [s for s in segs if s != thin]
@@ -207,7 +213,7 @@ class ForkPlacing:
         parents = [s for s in (pa, pb) if s in self.curves]
         if not parents and not final:
             return
-        c1, e1 = _line(np.concatenate([near[pa], near[pb]]))      # (np.vstack's, of 2-D arrays)
+        c1, e1 = kernels_forkglue.tls_line_pair(near[pa], near[pb])      # (_line of the two, concatenated)
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range
@@ -252,9 +258,14 @@ class ForkPlacing:
         # (a curve's parameter at xy as a Python float: its one-point path, the values of t_of's array)
         at = lambda s: self.curves[s].d_at(_t_at(self.curves[s], xy))[0]
 
+        xu, xv = xy.tolist()
+
         def passes(s):              # a curve's disparity at the fork's row/column is its own there
             c = self.curves[s]
-            return np.hypot(*(c.uv_at(_t_at(c, xy))[0] - xy)) <= max(rad[s], 3.0) + 2 * self.g.scale
+            t = _t_at(c, xy)
+            s_t = c._at(c.s_poly, t)        # (c.uv_at(t)[0] - xy in Python floats: uv_at's one-point path)
+            return np.hypot(*((s_t - xu, t - xv) if c.by_row else (t - xu, s_t - xv))) \
+                <= max(rad[s], 3.0) + 2 * self.g.scale
         parents = [s for s in parents if passes(s)]
         child_ok = child in self.curves and passes(child)
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
@@ -699,8 +710,15 @@ class ForkPlacing:
         # (from the whole-pixel walk's end: its 1 px steps and checks were set with it; the sub-pixel
         # one only moves their grid, and flips borderline crossings, docs/localize-softmask.md)
         t_edge, sign = self._walk_out(c, node, whole=True)
-        t = t_edge + sign * np.arange(0.0, reach_px, 1.0)
-        uv = c.uv_at(t)
+        n_walk = math.ceil(reach_px)                # (len(np.arange(0.0, reach_px, 1.0)))
+        sp = c.s_poly
+        if type(sp) is Poly and n_walk >= 2:       # (compiled: kernels_forkglue.walk_uv, the same points)
+            lo, hi = c.t_range
+            uv = kernels_forkglue.walk_uv(np.ascontiguousarray(sp.coef, float), np.ascontiguousarray(sp._deriv.coef, float),
+                                          float(sp.t0), float(sp.ts), float(lo), float(hi), bool(c.by_row),
+                                          float(t_edge), float(sign), n_walk)
+        else:
+            uv = c.uv_at(t_edge + sign * np.arange(0.0, reach_px, 1.0))
         # (the scan of all pieces compiled: kernels_forks.hidden_crossings, the same values)
         row, pieces, table = self._curve_table()
         cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)
@@ -737,21 +755,34 @@ class ForkPlacing:
         if hit is not None and hit[0] == key:
             return hit[1]
         cv = key[1]
-        n = len(cv)
-        coef, dcoef = np.zeros((n, 4)), np.zeros((n, 4))
-        n_coef, n_dcoef = np.zeros(n, np.int64), np.zeros(n, np.int64)
-        poly = np.zeros(n, bool)
-        t0, ts = np.zeros(n), np.ones(n)
-        for j, c in enumerate(cv):
+        # (the rows as Python lists, each array made once: the same values as filling zeroed arrays)
+        zero = [0.0, 0.0, 0.0, 0.0]
+        coef, dcoef, n_coef, n_dcoef, poly, t0, ts = [], [], [], [], [], [], []
+        for c in cv:
             p = c.s_poly
             if type(p) is Poly and len(p.coef) <= 4:
-                poly[j] = True
-                n_coef[j], n_dcoef[j] = len(p.coef), len(p._deriv.coef)
-                coef[j, :n_coef[j]], dcoef[j, :n_dcoef[j]] = p.coef, p._deriv.coef
-                t0[j], ts[j] = p.t0, p.ts
+                cl, dl = p._coef_list, p._deriv._coef_list
+                coef.append(cl + zero[len(cl):])
+                dcoef.append(dl + zero[len(dl):])
+                n_coef.append(len(cl))
+                n_dcoef.append(len(dl))
+                poly.append(True)
+                t0.append(p.t0)
+                ts.append(p.ts)
+            else:
+                coef.append(zero)
+                dcoef.append(zero)
+                n_coef.append(0)
+                n_dcoef.append(0)
+                poly.append(False)
+                t0.append(0.0)
+                ts.append(1.0)
+        n = len(cv)
         table = (np.array([c.by_row for c in cv], bool), np.array([c.t_range[0] for c in cv], float),
                  np.array([c.t_range[1] for c in cv], float), np.array([c.radius_px for c in cv], float),
-                 poly, coef, n_coef, dcoef, n_dcoef, t0, ts)
+                 np.array(poly, bool), np.array(coef, float).reshape(n, 4), np.array(n_coef, np.int64),
+                 np.array(dcoef, float).reshape(n, 4), np.array(n_dcoef, np.int64), np.array(t0, float),
+                 np.array(ts, float))
         pieces = tuple(zip(*key))
         out = ({s: j for j, s in enumerate(key[0])}, pieces, table)
         self._table_cache = (key, out)

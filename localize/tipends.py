@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from appliance.localize import kernels_match, kernels_tips
-from appliance.localize.curves import BranchCurve
+from appliance.localize import kernels_forkglue, kernels_match, kernels_tips
+from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
@@ -122,13 +122,19 @@ class TipPlacing:
         if centre is None:
             return
         back, across, rho = centre
-        normal = np.array([-out[1], out[0]])
-        uv = uv_edge - out * (edge_bias_px + back) + normal * across
-        p = uv_edge - out * (CAP_WIDTH_BACK * r)
-        sides = p + np.outer([shape[0][0] + offset_px, offset_px - shape[0][0]], normal)   # (cut: last pixel + 0.5)
+        # (in Python floats: numpy's element-wise steps on these 2-vectors, the same values)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        nx, ny = -oy, ox                                         # the normal
+        k, across = float(edge_bias_px + back), float(across)       # (as numpy takes them into float64 arrays)
+        uv = (ex - ox * k + nx * across, ey - oy * k + ny * across)
+        kb = float(CAP_WIDTH_BACK * r)
+        px, py = ex - ox * kb, ey - oy * kb
         h, w = self.sm.left_mask.shape
-        if not ((sides >= 0).all() and (sides[:, 0] <= w - 1).all() and (sides[:, 1] <= h - 1).all()):
-            return
+        for a in (shape[0][0] + offset_px, offset_px - shape[0][0]):      # the two sides (cut: last pixel + 0.5)
+            a = float(a)
+            sx, sy = px + a * nx, py + a * ny
+            if not (sx >= 0 and sy >= 0 and sx <= w - 1 and sy <= h - 1):
+                return
         margin = VIEW_EDGE_PX + self.g.scale
         old = self.uvd[node]
         if min(uv[0], uv[1], w - 1 - uv[0], h - 1 - uv[1]) < margin <= min(old[0], old[1], w - 1 - old[0], h - 1 - old[1]):
@@ -147,10 +153,18 @@ class TipPlacing:
             return None
         c = self.curves[segs[0]]
         t_edge, sign = self._walk_out(c, node)
-        uv_edge = c.uv_at(t_edge)[0]
-        step = c.uv_at(t_edge + sign)[0] - uv_edge
-        speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
-        out = step / speed
+        sp = c.s_poly
+        if type(sp) is Poly:         # (compiled: kernels_forkglue.edge_frame, the same values as below)
+            lo, hi = c.t_range
+            uv_edge, out, speed = kernels_forkglue.edge_frame(np.ascontiguousarray(sp.coef, float),
+                                                              np.ascontiguousarray(sp._deriv.coef, float), float(sp.t0), float(sp.ts),
+                                                              float(lo), float(hi), bool(c.by_row), float(t_edge),
+                                                              float(sign))
+        else:
+            uv_edge = c.uv_at(t_edge)[0]
+            step = c.uv_at(t_edge + sign)[0] - uv_edge
+            speed = max(float(np.hypot(*step)), 1e-9)       # px of the image per unit of t
+            out = step / speed
         r = max(c.radius_px, 1.0)
         if BLOB_STUB_WITHHELD:
             other = [n for n in self.g.seg_nodes[c.segment] if n >= 0 and n != node and len(self.incident[n]) == 1]
@@ -171,8 +185,9 @@ class TipPlacing:
             edge_bias_px = WALK_EDGE_BIAS * speed
         # (placed one piece radius back for the checks below; a tip that passes them all is moved
         # onto its cap's centre in tips())
-        uv = uv_edge - out * back
-        self.uvd[node] = np.array([uv[0], uv[1], c.d_at(float(uv[1] if c.by_row else uv[0]))[0]])   # (c.t_of's t)
+        b = float(back)                          # (uv_edge - out * back in Python floats: the same values)
+        u, v = ex - ox * b, ey - oy * b
+        self.uvd[node] = np.array([u, v, c.d_at(v if c.by_row else u)[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
         cap_behind = False
         if not c.by_row:
@@ -356,11 +371,16 @@ class TipPlacing:
         """The mask runs' and the valid areas' tables the tips' kernels take (:func:`kernels_tips.runs_tables`),
         made once per placer (again if its runs are replaced)."""
         # (read through getattr: the tests' stand-in placers and masks carry only what they use)
-        key = (self.runs_l, self.runs_r, getattr(self.sm, "valid_left", None), getattr(self.sm, "valid_right", None))
         hit = self.__dict__.get("_tip_k")
-        if hit is None or any(x is not y for x, y in zip(hit[0], key)):
-            hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
-                                       kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
+        sm = self.sm
+        if hit is not None:
+            k = hit[0]
+            if k[0] is self.runs_l and k[1] is self.runs_r and k[2] is getattr(sm, "valid_left", None) \
+                    and k[3] is getattr(sm, "valid_right", None):
+                return hit[1]
+        key = (self.runs_l, self.runs_r, getattr(sm, "valid_left", None), getattr(sm, "valid_right", None))
+        hit = self._tip_k = (key, (kernels_tips.runs_tables(key[0]), kernels_tips.runs_tables(key[1]),
+                                   kernels_tips.valid_table(key[2]), kernels_tips.valid_table(key[3])))
         return hit[1]
 
     def _beyond_in_right_view(self, uv_edge: np.ndarray, out: np.ndarray, d: float) -> bool:
@@ -368,7 +388,11 @@ class TipPlacing:
         disparity ``d``) along its row: a cap whose end lies at or past the right view's left or right
         edge shows there only the edge, whatever rows are read. (A cap cut by the top or bottom edge
         is cut on the same rows in both views: the rows left still give its disparity.)"""
-        u, v = np.rint(uv_edge + out - np.array([d, 0.0])).astype(int)
+        (ex, ey), (ox, oy) = uv_edge.tolist(), out.tolist()
+        fu, fv = ex + ox - float(d), ey + oy - 0.0        # (uv_edge + out - [d, 0] in Python floats)
+        if not math.isfinite(fu):
+            return False                 # (np.rint(nan).astype(int) is INT_MIN: not inside [0, w) either)
+        u, v = round(fu), round(fv) if math.isfinite(fv) else 0     # (np.rint's: halves to even; INT_MIN -> row 0)
         h, w = self.sm.right_mask.shape
         if not 0 <= u < w:
             return False

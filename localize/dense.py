@@ -392,7 +392,12 @@ def _short_line_clean(d_surf: np.ndarray, score: np.ndarray, u: np.ndarray) -> b
     ok = np.isfinite(d_surf) & (score >= 0.6)
     if ok.sum() < 5 or not ok.all():
         return False
-    res = d_surf - np.polyval(np.polyfit(u, d_surf, 1), u)
+    # the least-squares line in closed form about the mean column (np.polyfit's line up to rounding: a
+    # residual within ~1e-12 px of the limit could go the other way)
+    x = u - u.mean()
+    y = d_surf - d_surf.mean()
+    sxx = float(x @ x)
+    res = y - (float(x @ y) / sxx) * x if sxx > 0 else y
     return bool(np.abs(res).max() <= SHORT_LINE_MAX_RES_PX)
 
 

@@ -58,7 +58,7 @@ from appliance.localize.single_edge import (
     grow,
 )
 from appliance.localize.subpixel import near_points, refine_runs
-from appliance.localize.texture import surface_disparity, surface_disparity_many
+from appliance.localize.texture import surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
@@ -299,6 +299,11 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     fine texture searches run together (:func:`texture.surface_disparity_many`: each patch's
     result is its own); each piece's curve is as if found alone."""
     found = [_flat_search(b, s, runs_lt) for s in segs]
+    # the coarse searches of all pieces together (each patch's result its own: as one by one), then each
+    # piece's prior and its fine search
+    coarse = [k for k, f in enumerate(found) if f is not None and len(f) > 8]
+    for k, (d0, s0) in zip(coarse, surface_disparity_many([found[k][8] for k in coarse])):
+        found[k] = _flat_prior(found[k], d0, s0)
     fine = [f for f in found if f is not None and f[7] is not None]
     for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
         f[6] = (at_window_edge_dropped(res[0], f[7][4]), res[1])
@@ -311,10 +316,8 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
 
 
 def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
-    """:func:`_flat_curve`'s centre line and coarse texture search: None (no curve), or
-    ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine search's
-    job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
-    or None when the coarse search's stand."""
+    """:func:`_flat_curve`'s centre line and its coarse texture search's job: None (no curve), or
+    :func:`_flat_texture`'s list (the coarse search pending, for :func:`_flat_prior`)."""
     g, sm = b.g, b.sm
     rm = sm.radius_map
     if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32 and isinstance(g.scale, int):
@@ -357,21 +360,32 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
 
 
 def _flat_texture(sm: StereoMasks, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray, uv: np.ndarray,
-                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list | None:
-    """:func:`_flat_search`'s coarse texture search of the patches at ``u`` (``uv``, ``half_h``; the
-    coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and columns ``u0 .. u1``."""
+                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list:
+    """:func:`_flat_search`'s reads and coarse texture search's job for the patches at ``u`` (``uv``,
+    ``half_h``; the coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and
+    columns ``u0 .. u1``: ``[v_poly, radius, lo, hi, u, uv, None, None, job, coarse, half_h]``, ``job`` a
+    :func:`texture.surface_disparity_many` search (its result goes to :func:`_flat_prior`)."""
     hw = 12
     dmin, dmax = sm.d_range_px
     left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
-    d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
+    return [v_poly, radius, lo, hi, u, uv, None, None, (left, right, uv[coarse], half_h[coarse], sm.d_range_px, 12),
+            coarse, half_h]
+
+
+def _flat_prior(f: list, d0: np.ndarray, s0: np.ndarray) -> list | None:
+    """A piece's coarse search's result (``d0``, ``s0``) for :func:`_flat_texture`'s list ``f``: None (no
+    curve), or ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine
+    search's job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf,
+    score)``), or None when the coarse search's stand."""
+    v_poly, radius, lo, hi, u, uv, _, _, job, coarse, half_h = f
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         return [v_poly, radius, lo, hi, u[coarse], uv[coarse], (d0, s0), None]
     sure = np.isfinite(d0) & (s0 >= 0.6)
     if not _coarse_agree(u[coarse][sure], d0[sure]):
         return None                     # the bark matches at several disparities: not guessed
     prior = float(median(d0[sure]))
-    return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
+    return [v_poly, radius, lo, hi, u, uv, None, (job[0], job[1], uv, half_h, (prior - 6, prior + 6), 12)]
 
 
 _FLAT_LIMITS = np.array([MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES, MAX_LINE_MAD_PX,

@@ -198,14 +198,15 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         a, b = bc[k], bc[k + 1]
         ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
         u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
-    # every curve's radius from its samples' widths across its centre line's slope, all samples at
-    # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
-    # Poly's), then each curve's median
-    sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
-    slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
-                                                         tf[sel]) if live else np.zeros(0)
-    ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
-    starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+    # every curve's radius from its samples' widths across its centre line's slope (the derivatives'
+    # Horner sums over zero-padded coefficients: the same values as each Poly's), each curve's median
+    # (compiled: the same values, kernels_dense.steep_radii)
+    ucoef = np.zeros((len(live), 4))
+    for i, p in enumerate(u_polys):
+        ucoef[i, 4 - len(p.coef):] = p.coef
+    radii = kernels_dense.steep_radii(np.ascontiguousarray(tf, float), np.ascontiguousarray(wf, float), bc,
+                                      np.array(live, np.int64), ucoef, np.array([p.t0 for p in u_polys], float),
+                                      np.array([p.ts for p in u_polys], float)).tolist()
     curves = {}
     for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
@@ -213,7 +214,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
         s = int(segs[k])
-        radius = float(median(ratio[starts[i]:starts[i + 1]]))
+        radius = radii[i]
         curves[s] = BranchCurve(s, True, (float(t_lo[k]), float(t_hi[k])), u_polys[i], d_polys.poly(k), radius,
                                 int(n_fit[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:

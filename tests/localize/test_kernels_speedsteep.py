@@ -153,3 +153,34 @@ def test_short_line_clean_equals_polyfit():
     assert not dense._short_line_clean(40 + np.where(u > 20, 1.5, 0.0), np.ones(8), u)
     assert not dense._short_line_clean(np.r_[np.nan, 40 + 0.05 * u[1:]], np.ones(8), u)
     assert not dense._short_line_clean(40 + 0.05 * u, np.r_[0.5, np.ones(7)], u)
+
+
+def test_steep_radii_equal_the_numpy_tail_bit_for_bit():
+    """kernels_dense.steep_radii against fit_steep_many's former numpy steps (GroupPolys of the centre lines'
+    derivatives, the widths across the slope, each curve's median): random curves of degrees 0-3, dead
+    curves between live ones, even and odd sample counts; atol 0 px."""
+    from appliance.localize import kernels_dense
+    from appliance.localize.curves import GroupPolys, Poly
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        ng = int(rng.integers(1, 9))
+        counts = rng.integers(1, 40, ng)
+        bc = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        alive = rng.random(ng) < 0.75
+        tf = np.concatenate([np.sort(rng.uniform(0, 960, c)) for c in counts])
+        wf = rng.uniform(1, 60, bc[-1])
+        live = np.flatnonzero(alive).tolist()
+        u_polys = [Poly(rng.normal(0, 30, int(rng.integers(1, 5))), float(rng.uniform(0, 960)),
+                        float(rng.uniform(1, 400))) for _ in live]
+        sel = np.repeat(alive, np.diff(bc))
+        slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
+                                                             tf[sel]) if live else np.zeros(0)
+        ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
+        starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+        want = [float(median(ratio[starts[i]:starts[i + 1]])) for i in range(len(live))]
+        ucoef = np.zeros((len(live), 4))
+        for i, p in enumerate(u_polys):
+            ucoef[i, 4 - len(p.coef):] = p.coef
+        got = kernels_dense.steep_radii(tf, wf, bc, np.array(live, np.int64), ucoef,
+                                        np.array([p.t0 for p in u_polys], float), np.array([p.ts for p in u_polys], float))
+        np.testing.assert_array_equal(got, want)

@@ -6,6 +6,8 @@
 (:func:`subpixel.refine_boundaries`: OpenCV's remap of the queried pixels, then
 ``kernels.refine_steps``) stays between them:
 
+- :func:`remap_tables`: :func:`subpixel.gather`'s look-up of the queried pixels' entries in the
+  view's remap tables (the remap itself stays OpenCV's);
 - :func:`refine_todo`: which boundaries are refined (``only``; :func:`subpixel.steep_boundaries`'s test
   on the soft mask), with their rows and columns;
 - :func:`refine_stats`: the moved boundaries, the mask's bias (``np.median``'s value),
@@ -195,11 +197,53 @@ def refine_apply(row, x0, x1, left_px, right_px, width, todo, xr, sel, bias, use
     return nx0, nx1, left, right
 
 
+@numba.njit(**_JIT)
+def remap_tables(m1, m2, row, col, w, width):
+    """:func:`subpixel.gather`'s remap tables of the queried pixels of a lazily rectified view: the
+    entries of its fixed-point maps at ``(row[k], clip(col[k, j], 0, w - 1))`` in row-major order, padded
+    with entry 0 to whole rows of ``width`` (remap's output stays under 32767 rows).
+
+    Parameters
+    ----------
+    m1 : ndarray (H * W,) int32
+        The view's CV_16SC2 map, each (x, y) int16 pair read as one int32.
+    m2 : ndarray (H * W,) uint16
+        Its CV_16UC1 interpolation table.
+    row : ndarray (K,) int64
+    col : ndarray (K, n) int64
+    w : int
+        Image width, px.
+
+    Returns
+    -------
+    map1 : ndarray (rows, width) int32 (view as int16 (rows, width, 2) for cv2.remap)
+    map2 : ndarray (rows, width) uint16
+    """
+    k, m = col.shape
+    n = k * m
+    size = -(-n // width) * width
+    map1 = np.empty(size, np.int32)
+    map2 = np.empty(size, np.uint16)
+    j = 0
+    for i in range(k):
+        base = row[i] * w
+        for o in range(m):
+            at = base + min(max(col[i, o], 0), w - 1)
+            map1[j] = m1[at]
+            map2[j] = m2[at]
+            j += 1
+    for j in range(n, size):
+        map1[j] = m1[0]
+        map2[j] = m2[0]
+    return map1.reshape(size // width, width), map2.reshape(size // width, width)
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     i2, f2, b2 = np.zeros(2, np.int64), np.zeros(2), np.zeros(2, np.bool_)
     ro_f = np.zeros(2)
     ro_f.setflags(write=False)                      # (Runs' boundaries may be cached, read-only arrays)
+    remap_tables(np.zeros(4, np.int32), np.zeros(4, np.uint16), i2, np.zeros((2, 7), np.int64), 2, 1024)
     for lp in (f2, ro_f):
         todo, rows, xs = refine_todo(i2, lp, lp, b2, False, np.zeros((4, 4), np.uint8), True, 1.0)
         sel, bias, share, mad = refine_stats(i2, lp, lp, todo, xs, np.zeros((4, 4), np.float32), True, 50, 256)

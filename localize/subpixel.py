@@ -44,16 +44,17 @@ def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
     ndarray (K, n) float32
     """
     h, w = gray.shape
-    col = np.minimum(np.maximum(col, 0), w - 1)             # (np.clip's values, without its overhead)
     if isinstance(gray, np.ndarray):
+        col = np.minimum(np.maximum(col, 0), w - 1)         # (np.clip's values, without its overhead)
         return gray[row[:, None], col].astype(np.float32)
     m1, m2 = gray.rectifier.maps[gray.side]
     n = col.size
-    flat = np.zeros(-(-n // _REMAP_WIDTH) * _REMAP_WIDTH, np.int64)     # (rows, _REMAP_WIDTH): remap's
-    flat[:n] = (row[:, None] * w + col).ravel()                             # output stays < 32767 rows
-    flat = flat.reshape(-1, _REMAP_WIDTH)
-    map1 = m1.view(np.int32).reshape(-1).take(flat).view(np.int16).reshape(flat.shape + (2,))   # (x, y) pairs
-    out = cv2.remap(gray.image, map1, m2.reshape(-1).take(flat), cv2.INTER_LINEAR,
+    # the queried pixels' map entries as rows of _REMAP_WIDTH (remap's output stays < 32767 rows), padded
+    # with entry 0 (compiled: kernels_refine.remap_tables, the same entries)
+    map1, map2 = kernels_refine.remap_tables(m1.view(np.int32).reshape(-1), m2.reshape(-1),
+                                             np.ascontiguousarray(row, np.int64), np.ascontiguousarray(col, np.int64),
+                                             int(w), _REMAP_WIDTH)
+    out = cv2.remap(gray.image, map1.view(np.int16).reshape(map1.shape + (2,)), map2, cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     if out.ndim == 3:
         out = cv2.cvtColor(out, cv2.COLOR_BGR2GRAY)

@@ -184,3 +184,43 @@ def test_steep_radii_equal_the_numpy_tail_bit_for_bit():
         got = kernels_dense.steep_radii(tf, wf, bc, np.array(live, np.int64), ucoef,
                                         np.array([p.t0 for p in u_polys], float), np.array([p.ts for p in u_polys], float))
         np.testing.assert_array_equal(got, want)
+
+
+def _gather_numpy(gray, row, col):
+    """subpixel.gather of a LazyRectified before the twelfth pass (numpy's takes of the map entries)."""
+    import cv2
+    h, w = gray.shape
+    col = np.minimum(np.maximum(col, 0), w - 1)
+    m1, m2 = gray.rectifier.maps[gray.side]
+    n = col.size
+    flat = np.zeros(-(-n // 1024) * 1024, np.int64)
+    flat[:n] = (row[:, None] * w + col).ravel()
+    flat = flat.reshape(-1, 1024)
+    map1 = m1.view(np.int32).reshape(-1).take(flat).view(np.int16).reshape(flat.shape + (2,))
+    out = cv2.remap(gray.image, map1, m2.reshape(-1).take(flat), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    if out.ndim == 3:
+        out = cv2.cvtColor(out, cv2.COLOR_BGR2GRAY)
+    return out.reshape(-1)[:n].reshape(col.shape).astype(np.float32)
+
+
+def test_gather_remap_tables_equal_numpy_bit_for_bit():
+    """subpixel.gather through kernels_refine.remap_tables against numpy's takes: colour and grey sources,
+    both views, columns past both image edges, 1-3000 queries (one and several rows of 1024); atol 0."""
+    import cv2
+    from appliance.localize.rectify import LazyRectified, Rectifier
+    from tests.localize.test_rectify import distorted_rig
+    w, h = 333, 251
+    rect = Rectifier.from_calibration(distorted_rig(w, h))
+    rng = np.random.default_rng(8)
+    bgr = cv2.GaussianBlur(rng.integers(0, 256, (h, w, 3), dtype=np.uint8), (0, 0), 2)
+    for side in (0, 1):
+        for src in (bgr, cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)):
+            lazy = LazyRectified(rect, src, side)
+            for k in (1, 146, 147, 3000):
+                row = rng.integers(0, h, k)
+                col = rng.integers(-5, w + 5, k)[:, None] + np.arange(-3, 4)
+                got = subpixel.gather(lazy, row, col)
+                want = _gather_numpy(lazy, row, col)
+                assert got.dtype == want.dtype and got.shape == (k, 7)
+                np.testing.assert_array_equal(got, want)

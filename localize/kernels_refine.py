@@ -241,10 +241,7 @@ def remap_tables(m1, m2, row, col, w, width):
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     i2, f2, b2 = np.zeros(2, np.int64), np.zeros(2), np.zeros(2, np.bool_)
-    ro_f = np.zeros(2)
-    ro_f.setflags(write=False)                      # (Runs' boundaries may be cached, read-only arrays)
     remap_tables(np.zeros(4, np.int32), np.zeros(4, np.uint16), i2, np.zeros((2, 7), np.int64), 2, 1024)
-    for lp in (f2, ro_f):
-        todo, rows, xs = refine_todo(i2, lp, lp, b2, False, np.zeros((4, 4), np.uint8), True, 1.0)
-        sel, bias, share, mad = refine_stats(i2, lp, lp, todo, xs, np.zeros((4, 4), np.float32), True, 50, 256)
-        refine_apply(i2, i2, i2, lp, lp, 4, todo, xs, sel, bias, True, 1.0, 0.6)
+    todo, rows, xs = refine_todo(i2, f2, f2, b2, False, np.zeros((4, 4), np.uint8), True, 1.0)   # (find_runs'
+    sel, bias, share, mad = refine_stats(i2, f2, f2, todo, xs, np.zeros((4, 4), np.float32), True, 50, 256)  # runs:
+    refine_apply(i2, i2, i2, f2, f2, 4, todo, xs, sel, bias, True, 1.0, 0.6)                      # writable)

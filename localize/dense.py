@@ -58,7 +58,7 @@ from appliance.localize.single_edge import (
     grow,
 )
 from appliance.localize.subpixel import near_points, refine_runs
-from appliance.localize.texture import surface_disparity, surface_disparity_many
+from appliance.localize.texture import surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
@@ -198,14 +198,15 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         a, b = bc[k], bc[k + 1]
         ku = u_inl[a:b]                     # the centre line alone, bit for bit (see above)
         u_polys.append(Poly.fit(tf[a:b][ku], cf[a:b][ku], int(degree[k])))
-    # every curve's radius from its samples' widths across its centre line's slope, all samples at
-    # once (the derivatives' Horner sums over zero-padded coefficients: the same values as each
-    # Poly's), then each curve's median
-    sel = np.repeat(alive, np.diff(bc))                 # (the samples of the live curves, in order)
-    slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
-                                                         tf[sel]) if live else np.zeros(0)
-    ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
-    starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+    # every curve's radius from its samples' widths across its centre line's slope (the derivatives'
+    # Horner sums over zero-padded coefficients: the same values as each Poly's), each curve's median
+    # (compiled: the same values, kernels_dense.steep_radii)
+    ucoef = np.zeros((len(live), 4))
+    for i, p in enumerate(u_polys):
+        ucoef[i, 4 - len(p.coef):] = p.coef
+    radii = kernels_dense.steep_radii(np.ascontiguousarray(tf, float), np.ascontiguousarray(wf, float), bc,
+                                      np.array(live, np.int64), ucoef, np.array([p.t0 for p in u_polys], float),
+                                      np.array([p.ts for p in u_polys], float)).tolist()
     curves = {}
     for i, k in enumerate(live):
         a, b = bc[k], bc[k + 1]
@@ -213,7 +214,7 @@ def fit_steep_many(graph: SkeletonGraph, segs: list[int], runs_l: Runs, runs_r: 
         if has_edges[k]:
             used = np.concatenate([used, re[be[k]:be[k + 1]]])
         s = int(segs[k])
-        radius = float(median(ratio[starts[i]:starts[i + 1]]))
+        radius = radii[i]
         curves[s] = BranchCurve(s, True, (float(t_lo[k]), float(t_hi[k])), u_polys[i], d_polys.poly(k), radius,
                                 int(n_fit[k]), (float(slopes[k, 0]), float(slopes[k, 1])), used)
     if taken is None:
@@ -299,6 +300,11 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
     fine texture searches run together (:func:`texture.surface_disparity_many`: each patch's
     result is its own); each piece's curve is as if found alone."""
     found = [_flat_search(b, s, runs_lt) for s in segs]
+    # the coarse searches of all pieces together (each patch's result its own: as one by one), then each
+    # piece's prior and its fine search
+    coarse = [k for k, f in enumerate(found) if f is not None and len(f) > 8]
+    for k, (d0, s0) in zip(coarse, surface_disparity_many([found[k][8] for k in coarse])):
+        found[k] = _flat_prior(found[k], d0, s0)
     fine = [f for f in found if f is not None and f[7] is not None]
     for f, res in zip(fine, surface_disparity_many([f[7] for f in fine])):
         f[6] = (at_window_edge_dropped(res[0], f[7][4]), res[1])
@@ -311,10 +317,8 @@ def _flat_curves(b: EndPlacer, segs: list[int], runs_lt: Runs) -> dict[int, Bran
 
 
 def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
-    """:func:`_flat_curve`'s centre line and coarse texture search: None (no curve), or
-    ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine search's
-    job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf, score)``),
-    or None when the coarse search's stand."""
+    """:func:`_flat_curve`'s centre line and its coarse texture search's job: None (no curve), or
+    :func:`_flat_texture`'s list (the coarse search pending, for :func:`_flat_prior`)."""
     g, sm = b.g, b.sm
     rm = sm.radius_map
     if isinstance(rm, RadiusMap) and rm.image.dtype == np.float32 and isinstance(g.scale, int):
@@ -357,21 +361,32 @@ def _flat_search(b: EndPlacer, s: int, runs_lt: Runs) -> list | None:
 
 
 def _flat_texture(sm: StereoMasks, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray, uv: np.ndarray,
-                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list | None:
-    """:func:`_flat_search`'s coarse texture search of the patches at ``u`` (``uv``, ``half_h``; the
-    coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and columns ``u0 .. u1``."""
+                  half_h: np.ndarray, coarse: np.ndarray, y0: int, y1: int, u0: int, u1: int) -> list:
+    """:func:`_flat_search`'s reads and coarse texture search's job for the patches at ``u`` (``uv``,
+    ``half_h``; the coarse ones ``coarse``), whose centres lie in rows ``y0 + hh .. y1 - hh - 1`` and
+    columns ``u0 .. u1``: ``[v_poly, radius, lo, hi, u, uv, None, None, job, coarse, half_h]``, ``job`` a
+    :func:`texture.surface_disparity_many` search (its result goes to :func:`_flat_prior`)."""
     hw = 12
     dmin, dmax = sm.d_range_px
     left = ReadBox(sm.left_gray, y0, y1, u0 - hw, u1 + hw + 1)
     right = ReadBox(sm.right_gray, y0, y1, u0 - int(np.ceil(dmax)) - hw - 8, u1 - int(np.floor(dmin)) + hw + 9)
-    d0, s0 = surface_disparity(left, right, uv[coarse], half_h[coarse], sm.d_range_px, half_w_px=12)
+    return [v_poly, radius, lo, hi, u, uv, None, None, (left, right, uv[coarse], half_h[coarse], sm.d_range_px, 12),
+            coarse, half_h]
+
+
+def _flat_prior(f: list, d0: np.ndarray, s0: np.ndarray) -> list | None:
+    """A piece's coarse search's result (``d0``, ``s0``) for :func:`_flat_texture`'s list ``f``: None (no
+    curve), or ``[v_poly, radius, lo, hi, u, uv, (d_surf, score), fine]`` where ``fine`` is the fine
+    search's job for :func:`texture.surface_disparity_many` (its result goes in place of ``(d_surf,
+    score)``), or None when the coarse search's stand."""
+    v_poly, radius, lo, hi, u, uv, _, _, job, coarse, half_h = f
     if not (np.isfinite(d0) & (s0 >= 0.6)).any():
         return [v_poly, radius, lo, hi, u[coarse], uv[coarse], (d0, s0), None]
     sure = np.isfinite(d0) & (s0 >= 0.6)
     if not _coarse_agree(u[coarse][sure], d0[sure]):
         return None                     # the bark matches at several disparities: not guessed
     prior = float(median(d0[sure]))
-    return [v_poly, radius, lo, hi, u, uv, None, (left, right, uv, half_h, (prior - 6, prior + 6), 12)]
+    return [v_poly, radius, lo, hi, u, uv, None, (job[0], job[1], uv, half_h, (prior - 6, prior + 6), 12)]
 
 
 _FLAT_LIMITS = np.array([MIN_LINE_INLIERS, MIN_LINE_SHARE, MIN_LINE_SPREAD, FEW_LINE_PATCHES, MAX_LINE_MAD_PX,
@@ -392,7 +407,12 @@ def _short_line_clean(d_surf: np.ndarray, score: np.ndarray, u: np.ndarray) -> b
     ok = np.isfinite(d_surf) & (score >= 0.6)
     if ok.sum() < 5 or not ok.all():
         return False
-    res = d_surf - np.polyval(np.polyfit(u, d_surf, 1), u)
+    # the least-squares line in closed form about the mean column (np.polyfit's line up to rounding: a
+    # residual within ~1e-12 px of the limit could go the other way)
+    x = u - u.mean()
+    y = d_surf - d_surf.mean()
+    sxx = float(x @ x)
+    res = y - (float(x @ y) / sxx) * x if sxx > 0 else y
     return bool(np.abs(res).max() <= SHORT_LINE_MAX_RES_PX)
 
 

@@ -980,6 +980,8 @@ def warm_up() -> None:
     kernels_segment.warm_up()
     from appliance.localize import kernels_forkglue  # (the fork and tip glue's, speedfork: imports this one)
     kernels_forkglue.warm_up()
+    from appliance.localize import kernels_refine   # (refine_runs' glue, twelfth pass: imports this one)
+    kernels_refine.warm_up()
 
 
 # --- match stage (speedm)

@@ -1144,6 +1144,47 @@ def steep_fit(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, m_coef, m_t0, m_
     return True, alive, tf, df, cf, wf, gc, rc, u_inl, te, de, re, ge, degree
 
 
+@numba.njit(**_JIT)
+def steep_radii(tf, wf, bc, live, coef, t0, ts):
+    """``dense.fit_steep_many``'s radius of each live curve, with numpy's values: the median over the
+    curve's samples of half their width across its centre line, ``0.5 * w / sqrt(1 + u'(t) ** 2)``.
+
+    Parameters
+    ----------
+    tf, wf : ndarray (N,) float64
+        The picks' rows and widths, px (curve k's: ``bc[k]:bc[k + 1]``).
+    bc : ndarray (G + 1,) int64
+    live : ndarray (L,) int64
+        The live curves.
+    coef : ndarray (L, 4) float64
+        Their centre lines' ``Poly`` coefficients, highest power first, zero-padded in front; ``t0``,
+        ``ts`` (L,) their scalings. The derivative is ``Poly.deriv``'s (``c * k / ts``), evaluated by
+        ``GroupPolys``' Horner sum over the padded coefficients.
+
+    Returns
+    -------
+    ndarray (L,) float64
+        Radii, px.
+    """
+    out = np.empty(len(live))
+    for i in range(len(live)):
+        k = live[i]
+        a, b = bc[k], bc[k + 1]
+        d0 = 0.0
+        d1 = coef[i, 0] * 3.0 / ts[i]
+        d2 = coef[i, 1] * 2.0 / ts[i]
+        d3 = coef[i, 2] * 1.0 / ts[i]
+        r = np.empty(b - a)
+        for j in range(a, b):
+            x = (tf[j] - t0[i]) / ts[i]
+            y = x * d0 + d1
+            y = y * x + d2
+            s = y * x + d3
+            r[j - a] = 0.5 * wf[j] / np.sqrt(1 + s * s)
+        out[i] = _median(r)
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -1167,3 +1208,4 @@ def warm_up() -> None:
     for taken in (np.zeros(0, np.bool_), np.zeros(1, np.bool_)):
         steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken,
                   OCCL_TOL_PX, OCCL_SHARE, 1000.0, 0.0, 0.0, np.full((1, 2), np.nan))
+    steep_radii(f3, f3, b2, np.zeros(1, np.int64), f4, f, np.ones(1))      # (twelfth pass, speedsteep)

@@ -14,7 +14,7 @@ import dataclasses
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_match
+from appliance.localize import kernels, kernels_match, kernels_refine
 from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
@@ -22,6 +22,7 @@ _REMAP_WIDTH = 1024      # the queried pixels go to cv2.remap as rows of this wi
 WHOLE_PIXEL_SHARE = 0.5  # boundaries on the original's pixel boundaries: a binary mask (the grey step alone)
 STEEP_TAN = 1.0          # outlines within 45 deg of vertical are refined along the row
 GREY_SD_PX = 0.10        # the grey step's error (sd, px) against the truth's outline (steep boundaries it moves)
+_NO_ONLY, _NO_MASK, _NO_MAP = np.zeros(0, bool), np.zeros((3, 3), np.uint8), np.zeros((2, 2), np.float32)
 
 
 def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
@@ -43,16 +44,17 @@ def gather(gray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
     ndarray (K, n) float32
     """
     h, w = gray.shape
-    col = np.minimum(np.maximum(col, 0), w - 1)             # (np.clip's values, without its overhead)
     if isinstance(gray, np.ndarray):
+        col = np.minimum(np.maximum(col, 0), w - 1)         # (np.clip's values, without its overhead)
         return gray[row[:, None], col].astype(np.float32)
     m1, m2 = gray.rectifier.maps[gray.side]
     n = col.size
-    flat = np.zeros(-(-n // _REMAP_WIDTH) * _REMAP_WIDTH, np.int64)     # (rows, _REMAP_WIDTH): remap's
-    flat[:n] = (row[:, None] * w + col).ravel()                             # output stays < 32767 rows
-    flat = flat.reshape(-1, _REMAP_WIDTH)
-    map1 = m1.view(np.int32).reshape(-1).take(flat).view(np.int16).reshape(flat.shape + (2,))   # (x, y) pairs
-    out = cv2.remap(gray.image, map1, m2.reshape(-1).take(flat), cv2.INTER_LINEAR,
+    # the queried pixels' map entries as rows of _REMAP_WIDTH (remap's output stays < 32767 rows), padded
+    # with entry 0 (compiled: kernels_refine.remap_tables, the same entries)
+    map1, map2 = kernels_refine.remap_tables(m1.view(np.int32).reshape(-1), m2.reshape(-1),
+                                             np.ascontiguousarray(row, np.int64), np.ascontiguousarray(col, np.int64),
+                                             int(w), _REMAP_WIDTH)
+    out = cv2.remap(gray.image, map1.view(np.int16).reshape(map1.shape + (2,)), map2, cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     if out.ndim == 3:
         out = cv2.cvtColor(out, cv2.COLOR_BGR2GRAY)
@@ -283,33 +285,24 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     n = len(runs.row)
     if n == 0:
         return runs
-    row, x = np.concatenate([runs.row, runs.row]), np.concatenate([runs.left_px, runs.right_px])
-    todo = np.arange(2 * n) if only is None else np.flatnonzero(np.concatenate([only, only]))
-    if mask is not None:
-        todo = todo[steep_boundaries(mask, row[todo], x[todo], max_tan)]
-    xr = refine_boundaries(gray, row[todo], x[todo], **kw)
-    moved = xr != x[todo]
-    todo, xr = todo[moved], xr[moved]
+    # compiled: the numpy steps around the grey step, the same values (kernels_refine; the boundaries
+    # refined, the moved ones' bias, whole_pixel_share, grey_weight's deviation, the mix and the runs)
+    row, lp, rp = (np.ascontiguousarray(a, dt) for a, dt in ((runs.row, np.int64), (runs.left_px, float),
+                                                              (runs.right_px, float)))
+    todo, row_t, x_t = kernels_refine.refine_todo(
+        row, lp, rp, _NO_ONLY if only is None else np.ascontiguousarray(only, np.bool_), only is not None,
+        _NO_MASK if mask is None else np.ascontiguousarray(mask, np.uint8), mask is not None, float(max_tan))
+    xr = np.ascontiguousarray(refine_boundaries(gray, row_t, x_t, **kw), float)
+    has_map = not isinstance(gray, np.ndarray)
+    mx = gray.rectifier.float_maps(gray.side)[0] if has_map else _NO_MAP
+    sel, bias, share, mad = kernels_refine.refine_stats(row, lp, rp, todo, xr, mx, has_map, int(min_moved), 256)
     weight = 1.0
-    if len(todo) >= min_moved:
-        inward = np.where(todo < n, 1.0, -1.0)
-        dev = (xr - x[todo]) * inward
-        bias = float(median(dev))        # (np.median's value, bit for bit)
-        if whole_pixel_share(gray, row[todo], x[todo]) < WHOLE_PIXEL_SHARE:
-            weight = grey_weight(dev - bias, grey_sd_px)
-        x[:n] += bias
-        x[n:] -= bias
-    xt = x[todo]
-    xg = np.minimum(np.maximum(xr, xt - max_dev_px), xt + max_dev_px)     # (np.clip's values)
-    x[todo] = xg if weight == 1.0 else xt + weight * (xg - xt)
-    # never across the run's own middle (a thin run keeps a positive span)
-    centre = runs.centre_px
-    left, right = np.minimum(x[:n], centre), np.maximum(x[n:], centre)
-    x0, x1 = runs.x0, runs.x1
-    gap = np.empty(n + 1, np.int64)                  # background pixels + 1 before each run (huge at a row's start)
-    gap[[0, -1]] = 1 << 40
-    np.subtract(x0[1:], x1[:-1], out=gap[1:-1])
-    gap[1:-1][runs.row[1:] != runs.row[:-1]] = 1 << 40
-    x0 = np.where((gap[:-1] >= 3) & (x0 > 0) & (left < x0 - 0.5), x0 - 1, x0)
-    x1 = np.where((gap[1:] >= 3) & (x1 < runs.width - 1) & (right > x1 + 0.5), x1 + 1, x1)
+    moved = len(sel) >= min_moved
+    if moved and share < WHOLE_PIXEL_SHARE:         # grey_weight's last steps (CPython's ** 2: libm's pow)
+        var = (1.4826 * float(mad)) ** 2 if len(sel) else 0.0
+        weight = max(var - grey_sd_px * grey_sd_px, 0.0) / var if var > 0 else 1.0
+    x0, x1, left, right = kernels_refine.refine_apply(row, np.ascontiguousarray(runs.x0, np.int64),
+                                                      np.ascontiguousarray(runs.x1, np.int64), lp, rp,
+                                                      int(runs.width), todo, xr, sel, float(bias), moved,
+                                                      float(weight), float(max_dev_px))
     return dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)

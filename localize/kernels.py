@@ -978,6 +978,8 @@ def warm_up() -> None:
     kernels_graph.warm_up()
     from appliance.localize import kernels_segment  # (the segment stage's, tenth pass: imports this one)
     kernels_segment.warm_up()
+    from appliance.localize import kernels_segclean  # (the segment stage's clean-up, twelfth pass: imports this one)
+    kernels_segclean.warm_up()
 
 
 # --- match stage (speedm)

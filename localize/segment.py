@@ -482,14 +482,19 @@ def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.n
 def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     """:func:`segment_color`'s mask without the HSV image, the bark test run only near bark
     (:func:`bark_mask`): what the localizer uses (its occluder test converts the few pixels it
-    asks about, :func:`occluder_at`)."""
+    asks about, :func:`occluder_at`). The clean-up's morphology runs on the tested tiles
+    (:mod:`kernels_segment`); where the whole image was tested (grass) on one tile of the image's size,
+    the same values as OpenCV's whole-image calls, ~0.1 ms per image faster."""
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
     raw, tiles = _bark_tiles(bgr, cfg, small=small)
-    mask = clean_mask(raw, cfg, bgr, small, tiles)
+    tile_px = 16
+    if tiles is None:           # the whole image tested: one tile of its size (the kernels' passes over all of it,
+        tiles, tile_px = _ONE_TILE, max(bgr.shape[:2])       # ~0.1 ms per image less than OpenCV's morphology)
+    mask = clean_mask(raw, cfg, bgr, small, tiles, tile_px)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
                            scratch=None if raw is mask else raw, small=small,
-                           tiles=None if raw is mask else tiles)
+                           tiles=None if raw is mask else tiles, tile_px=tile_px)
     return mask
 
 

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 from appliance.commands.common import effective_config
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_segment
 from appliance.localize.segment import _K3, _disc_offsets, _near_chroma, drop_small, sample_nearest, segment_mask
 from appliance.localize.skeleton import block_mean
 
@@ -144,3 +144,20 @@ def test_segment_mask_fixtures_against_the_start(n):
     finally:
         seg.drop_small = real
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("h, w", [(240, 320), (101, 77), (3, 40), (37, 5)])
+def test_morphology_kernels_over_one_whole_image_tile(h, w):
+    """The whole image tested (grass): ``segment_mask`` runs the tiles' kernels over one tile of the image's
+    size; a raw mask anywhere (specks, holes, the image's edges) gives OpenCV's opening + closing and
+    gradient, atol 0."""
+    rng = np.random.default_rng(h + 7 * w)
+    one = np.ones((1, 1), np.uint8)
+    cross = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
+    for dense in (0.1, 0.5, 0.9):
+        raw = np.where(rng.random((h, w)) < dense, 255, 0).astype(np.uint8)
+        want = cv2.morphologyEx(cv2.morphologyEx(raw, cv2.MORPH_OPEN, cross), cv2.MORPH_CLOSE, cross)
+        got = kernels_segment.open_close_tiles(raw, one, max(h, w), np.zeros_like(raw))
+        np.testing.assert_array_equal(got, want)
+        grad = cv2.morphologyEx(want, cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8))
+        np.testing.assert_array_equal(kernels_segment.gradient_tiles(want, one, max(h, w), raw.copy()), grad)

@@ -488,8 +488,9 @@ def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
     raw, tiles = _bark_tiles(bgr, cfg, small=small)
     tile_px = 16
-    if tiles is None:           # the whole image tested: one tile of its size (the kernels' passes over all of it,
-        tiles, tile_px = _ONE_TILE, max(bgr.shape[:2])       # ~0.1 ms per image less than OpenCV's morphology)
+    if tiles is None:           # the whole image tested: one tile (the kernels' passes over all of it, ~0.1 ms per
+        tiles, tile_px = _ONE_TILE, bgr.shape[0]     # image less than OpenCV's morphology; a single tile reaches the
+                                                     # right and bottom edges: its size sets only the buffers' rows)
     mask = clean_mask(raw, cfg, bgr, small, tiles, tile_px)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,

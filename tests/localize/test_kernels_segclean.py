@@ -157,7 +157,8 @@ def test_morphology_kernels_over_one_whole_image_tile(h, w):
     for dense in (0.1, 0.5, 0.9):
         raw = np.where(rng.random((h, w)) < dense, 255, 0).astype(np.uint8)
         want = cv2.morphologyEx(cv2.morphologyEx(raw, cv2.MORPH_OPEN, cross), cv2.MORPH_CLOSE, cross)
-        got = kernels_segment.open_close_tiles(raw, one, max(h, w), np.zeros_like(raw))
-        np.testing.assert_array_equal(got, want)
         grad = cv2.morphologyEx(want, cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8))
-        np.testing.assert_array_equal(kernels_segment.gradient_tiles(want, one, max(h, w), raw.copy()), grad)
+        for tile_px in (h, max(h, w)):             # (segment_mask passes the height)
+            got = kernels_segment.open_close_tiles(raw, one, tile_px, np.zeros_like(raw))
+            np.testing.assert_array_equal(got, want)
+            np.testing.assert_array_equal(kernels_segment.gradient_tiles(want, one, tile_px, raw.copy()), grad)

@@ -205,9 +205,8 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
     the whole image was tested."""
     h, w = bgr.shape[:2]
     hs, ws = h // sample, w // sample
-    out = np.zeros((h, w), np.uint8)
     if hs < 1 or ws < 1 or sample <= 1:
-        return _hsv_threshold(bgr, cfg, dst=out), None
+        return _hsv_threshold(bgr, cfg, dst=np.zeros((h, w), np.uint8)), None
     if small is None:
         small = sample_nearest(bgr, sample)
     index, rows = bark_lut_rows(cfg)                             # (bark_lut's table, ~0.2 MB)
@@ -219,11 +218,13 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
         hit = cv2.copyMakeBorder(hit, 0, th * b - hs, 0, tw * b - ws, cv2.BORDER_CONSTANT, value=0)
     tiles = cv2.dilate(block_mean(hit, b) if b > 1 else hit, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
     n_tiles = cv2.countNonZero(tiles)
-    if n_tiles == 0:
-        return out, tiles
     if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
+        out = np.empty((h, w), np.uint8)                         # (every pixel written)
         kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, _ONE_TILE, tile_px, out.reshape(-1))
         return out, None
+    out = np.zeros((h, w), np.uint8)
+    if n_tiles == 0:
+        return out, tiles
     kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, tiles, tile_px,
                               out.reshape(-1))                   # (compiled: no call per tile)
     return out, tiles
@@ -254,7 +255,8 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = No
     a 3 px opening and closing then run on them alone (:func:`kernels_segment.open_close_tiles`, the
     same values)."""
     if tiles is not None and cfg.open_px == 3 and cfg.close_px == 3 and mask.flags.c_contiguous:
-        m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.zeros_like(mask))
+        whole = tiles.size == 1 and tiles.reshape(-1)[0] != 0        # (one tile: every pixel written)
+        m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.empty_like(mask) if whole else np.zeros_like(mask))
     else:
         m = _open_close(mask, cfg)
     if cfg.min_area_px > 0:

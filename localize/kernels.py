@@ -982,6 +982,8 @@ def warm_up() -> None:
     kernels_forkglue.warm_up()
     from appliance.localize import kernels_refine   # (refine_runs' glue, twelfth pass: imports this one)
     kernels_refine.warm_up()
+    from appliance.localize import kernels_segclean  # (the segment stage's clean-up, twelfth pass: imports this one)
+    kernels_segclean.warm_up()
 
 
 # --- match stage (speedm)

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
-from appliance.localize import kernels, kernels_front, kernels_segment
+from appliance.localize import kernels, kernels_front, kernels_segclean, kernels_segment
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean
 
@@ -205,9 +205,8 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
     the whole image was tested."""
     h, w = bgr.shape[:2]
     hs, ws = h // sample, w // sample
-    out = np.zeros((h, w), np.uint8)
     if hs < 1 or ws < 1 or sample <= 1:
-        return _hsv_threshold(bgr, cfg, dst=out), None
+        return _hsv_threshold(bgr, cfg, dst=np.zeros((h, w), np.uint8)), None
     if small is None:
         small = sample_nearest(bgr, sample)
     index, rows = bark_lut_rows(cfg)                             # (bark_lut's table, ~0.2 MB)
@@ -219,11 +218,13 @@ def _bark_tiles(bgr: np.ndarray, cfg: SegmentConfig, sample: int = 4, tile_px: i
         hit = cv2.copyMakeBorder(hit, 0, th * b - hs, 0, tw * b - ws, cv2.BORDER_CONSTANT, value=0)
     tiles = cv2.dilate(block_mean(hit, b) if b > 1 else hit, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
     n_tiles = cv2.countNonZero(tiles)
-    if n_tiles == 0:
-        return out, tiles
     if n_tiles > FULL_SHARE * tiles.size:                       # bark-coloured nearly everywhere: all of it
+        out = np.empty((h, w), np.uint8)                         # (every pixel written)
         kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, _ONE_TILE, tile_px, out.reshape(-1))
         return out, None
+    out = np.zeros((h, w), np.uint8)
+    if n_tiles == 0:
+        return out, tiles
     kernels_front.bark_lookup_rows(np.ascontiguousarray(bgr).reshape(-1), w, index, rows, tiles, tile_px,
                               out.reshape(-1))                   # (compiled: no call per tile)
     return out, tiles
@@ -254,12 +255,14 @@ def clean_mask(mask: np.ndarray, cfg: SegmentConfig, bgr: np.ndarray | None = No
     a 3 px opening and closing then run on them alone (:func:`kernels_segment.open_close_tiles`, the
     same values)."""
     if tiles is not None and cfg.open_px == 3 and cfg.close_px == 3 and mask.flags.c_contiguous:
-        m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.zeros_like(mask))
+        whole = tiles.size == 1 and tiles.reshape(-1)[0] != 0        # (one tile: every pixel written)
+        m = kernels_segment.open_close_tiles(mask, tiles, tile_px, np.empty_like(mask) if whole else np.zeros_like(mask))
     else:
         m = _open_close(mask, cfg)
     if cfg.min_area_px > 0:
         m = drop_small(m, cfg.min_area_px, keep_radius_px=cfg.keep_radius_px, bgr=bgr,
-                       keep_chroma_deg=cfg.keep_chroma_deg, small_bgr=small)
+                       keep_chroma_deg=cfg.keep_chroma_deg, small_bgr=small,
+                       out=None if m is mask else m)              # (m: this function's own image)
     return m
 
 
@@ -275,7 +278,7 @@ def _open_close(mask: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
 
 def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radius_px: float = 0.0,
                bgr: np.ndarray | None = None, keep_chroma_deg: float = 0.0,
-               small_bgr: np.ndarray | None = None) -> np.ndarray:
+               small_bgr: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Remove connected components smaller than ``min_area_px`` (uint8 0/255), except those holding
     a disc of radius ``keep_radius_px`` (0: none kept) whose inside (the pixels at the discs' centres)
     has, in the BGR image ``bgr`` (H, W, 3), the chromaticity of the large components' bark within
@@ -294,7 +297,10 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     pass the colour thresholds (real images: bokeh of brown foliage); the rendered scenes' twig
     pieces lie within 1.5 deg of it. ``small_bgr``: :func:`sample_nearest` (``bgr``, ``factor``) when
     already taken.
-    Only the small components are cleared (``mask`` itself is returned when none is).
+    Only the small components are cleared (``mask`` itself is returned when none is), in ``out``
+    (may be ``mask`` itself; a copy of ``mask`` by default). The steps over the blocks are compiled
+    (:mod:`kernels_segclean`: the components' areas, the chosen ones' blocks, the whole blocks' colour
+    sums, the clearing).
     """
     h, w = mask.shape
     hs, ws = -(-h // factor), -(-w // factor)
@@ -302,62 +308,78 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
         pad = cv2.copyMakeBorder(mask, 0, hs * factor - h, 0, ws * factor - w, cv2.BORDER_CONSTANT, value=0)
         bpad = None if bgr is None else cv2.copyMakeBorder(bgr, 0, hs * factor - h, 0, ws * factor - w,
                                                            cv2.BORDER_CONSTANT, value=0)
-        out = drop_small(pad, min_area_px, factor, keep_radius_px, bpad, keep_chroma_deg)   # (small_bgr: ragged)
-        return mask if out is pad else out[:h, :w]
+        res = drop_small(pad, min_area_px, factor, keep_radius_px, bpad, keep_chroma_deg)   # (small_bgr: ragged)
+        if res is pad:
+            return mask
+        if out is None:
+            return res[:h, :w]
+        out[...] = res[:h, :w]
+        return out
     cover = block_mean(mask, factor)
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
     idx = np.flatnonzero(cover != 0)                          # the few covered small pixels, row-major
-    lab = labels.reshape(-1).take(idx)
-    area = np.bincount(lab, weights=np.rint(cover.reshape(-1).take(idx) * (factor * factor / 255.0)), minlength=n)
+    cover, labels = cover.reshape(-1), labels.reshape(-1)
+    area = kernels_segclean.component_areas(idx, labels, cover, _counts_of(factor), n)
     small = area < min_area_px
     small[0] = False
     if not small.any():
         return mask
     if keep_radius_px > 0:                                    # wide pieces (twigs) stay
-        sel = small[lab] & (area[lab] >= np.pi * keep_radius_px ** 2)
+        sel = small & (area >= np.pi * keep_radius_px ** 2)
         if sel.any():
-            ids, comp = np.unique(lab[sel], return_inverse=True)
-            gy, gx = np.divmod(idx[sel], ws)
+            ids = np.flatnonzero(sel)                         # (np.unique's numbering of their blocks)
+            comp_of = np.full(n, -1, np.int64)
+            comp_of[ids] = np.arange(len(ids))
+            gy, gx, comp = kernels_segclean.component_blocks(idx, labels, comp_of, ws)
             dy, dx = _disc_offsets(float(keep_radius_px))
-            comp = comp.astype(np.int64)
             if bgr is None or keep_chroma_deg <= 0:
                 keep = kernels.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
             else:
                 count, sums = kernels.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
                 keep = count > 0
                 if keep.any():
-                    chi = _bark_chroma(bgr if small_bgr is None else small_bgr, cover, idx[small[lab]], factor,
-                                       sampled=small_bgr is not None)
+                    chi = _bark_chroma(bgr if small_bgr is None else small_bgr, cover, idx, labels, small, hs, ws,
+                                       factor, sampled=small_bgr is not None)
                     keep &= _near_chroma(sums, chi, keep_chroma_deg)
             small[ids[keep]] = False
             if not small.any():
                 return mask
-    out = mask.copy()
-    gy, gx = np.divmod(idx[small[lab]], ws)
-    out.reshape(hs, factor, ws, factor)[gy, :, gx, :] = 0
+    if out is None:
+        out = mask.copy()
+    elif out is not mask:
+        out[...] = mask
+    return kernels_segclean.clear_blocks(out, idx, labels, small, ws, factor)
+
+
+@lru_cache(maxsize=4)
+def _counts_of(factor: int) -> np.ndarray:
+    """Per value of :func:`block_mean` (256,) float64 the pixel count it stands for,
+    ``rint(value * factor^2 / 255)`` (read-only)."""
+    out = np.rint(np.arange(256) * (factor * factor / 255.0))
+    out.setflags(write=False)
     return out
 
 
-def _bark_chroma(bgr: np.ndarray, cover: np.ndarray, small_blocks: np.ndarray, factor: int,
-                 sampled: bool = False) -> np.ndarray | None:
+def _bark_chroma(bgr: np.ndarray, cover: np.ndarray, idx: np.ndarray, labels: np.ndarray, small: np.ndarray,
+                 hs: int, ws: int, factor: int, sampled: bool = False) -> np.ndarray | None:
     """Unit BGR vector (3,) of the large components' bark: the mean of the first pixels of their whole
-    ``factor`` x ``factor`` blocks (``cover`` 255; ``small_blocks``, flat indices of the small components'
-    blocks, left out) whose 8 neighbour blocks are whole too (the outline's
-    mixed pixels left out; all whole blocks where none is); None without any. ``sampled``: ``bgr`` is
-    already :func:`sample_nearest` (image, ``factor``)."""
-    full = cv2.compare(cover, 255, cv2.CMP_EQ)
-    full.reshape(-1)[small_blocks] = 0
-    inner = cv2.erode(full, _K3, borderType=cv2.BORDER_CONSTANT, borderValue=0)
-    use = inner if cv2.countNonZero(inner) else full
-    if not cv2.countNonZero(use):
+    ``factor`` x ``factor`` blocks (``cover`` 255; the blocks of the components flagged in ``small`` left
+    out) whose 8 neighbour blocks are whole too (the outline's mixed pixels left out; all whole blocks
+    where none is); None without any. ``cover``, ``labels``: the (hs, ws) block image and its labels,
+    flat; ``idx``: its non-zero blocks, row-major. ``sampled``: ``bgr`` is already :func:`sample_nearest`
+    (image, ``factor``). (cv2.mean's value: the sums times 1 / n.)"""
+    first = bgr if sampled else sample_nearest(bgr, factor)          # (read where inside both grids)
+    n_in, s_in, n_all, s_all = kernels_segclean.whole_block_sums(idx, labels, cover, small, first, hs, ws)
+    if not (n_in[0] or n_all[0]):
         return None
-    first = bgr if sampled else sample_nearest(bgr, factor)
-    hs, ws = min(first.shape[0], use.shape[0]), min(first.shape[1], use.shape[1])
-    c = np.array(cv2.mean(first[:hs, :ws], mask=np.ascontiguousarray(use[:hs, :ws]))[:3])
-    n = float(np.linalg.norm(c))
-    return c / n if n > 0 else None
+    n, s = (n_in[1], s_in) if n_in[0] else (n_all[1], s_all)
+    if not n:
+        return None
+    c = s * (1.0 / n)
+    norm = float(np.linalg.norm(c))
+    return c / norm if norm > 0 else None
 
 
 def _near_chroma(sums: np.ndarray, chi: np.ndarray | None, max_deg: float) -> np.ndarray:
@@ -462,14 +484,20 @@ def segment_color(bgr: np.ndarray, cfg: SegmentConfig) -> tuple[np.ndarray, np.n
 def segment_mask(bgr: np.ndarray, cfg: SegmentConfig) -> np.ndarray:
     """:func:`segment_color`'s mask without the HSV image, the bark test run only near bark
     (:func:`bark_mask`): what the localizer uses (its occluder test converts the few pixels it
-    asks about, :func:`occluder_at`)."""
+    asks about, :func:`occluder_at`). The clean-up's morphology runs on the tested tiles
+    (:mod:`kernels_segment`); where the whole image was tested (grass) on one tile of the image's size,
+    the same values as OpenCV's whole-image calls, ~0.1 ms per image faster."""
     small = sample_nearest(bgr, 4) if min(bgr.shape[:2]) >= 4 else None    # (shared by both)
     raw, tiles = _bark_tiles(bgr, cfg, small=small)
-    mask = clean_mask(raw, cfg, bgr, small, tiles)
+    tile_px = 16
+    if tiles is None:           # the whole image tested: one tile (the kernels' passes over all of it, ~0.1 ms per
+        tiles, tile_px = _ONE_TILE, bgr.shape[0]     # image less than OpenCV's morphology; a single tile reaches the
+                                                     # right and bottom edges: its size sets only the buffers' rows)
+    mask = clean_mask(raw, cfg, bgr, small, tiles, tile_px)
     if cfg.edge_window_px > 0:
         mask = unmix_edges(bgr, mask, cfg.edge_window_px, cfg.edge_band_px, out=mask,
                            scratch=None if raw is mask else raw, small=small,
-                           tiles=None if raw is mask else tiles)
+                           tiles=None if raw is mask else tiles, tile_px=tile_px)
     return mask
 
 

@@ -74,7 +74,7 @@ def test_kernels_constructed():
 @pytest.mark.parametrize("name", ["00", "03"])
 def test_segment_mask_unchanged(name):
     """segment_mask (the kernels on the tested tiles) equals the OpenCV path bit for bit on the fixtures
-    (fixture 03: most tiles flagged, the whole image tested: the OpenCV path itself)."""
+    (fixture 03: most tiles flagged, the whole image tested: the kernels over one tile of the image's size)."""
     cfg = effective_config(None).localize.segment
     for side in ("left", "right"):
         bgr = cv2.imread(str(FIXTURES / f"{side}_{name}.png"))

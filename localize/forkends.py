@@ -277,7 +277,7 @@ class ForkPlacing:
                                    self.sm.f_px, self.sm.offset_px,
                                    radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
                                                                   rad, near) if FLAT_TAPER else None,
-                                   left_mask=self.sm.left_mask)
+                                   left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
                 if v is not None:
                     flat_read.add(s)

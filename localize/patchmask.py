@@ -1,8 +1,12 @@
-"""How much of each texture patch lies on the branch in the left view (issue 5, seed 454 T11).
+"""Whether a texture patch holds the same share of branch in both views (issue 5, seed 454 T11).
 
-A patch matched along the rows reads the disparity of whatever it holds: where a leaf covers part of it
-in the left view, the leaf (at its own depth, shifted differently in the right view) pulls the reading.
-The callers keep a patch only where nearly all of it lies inside the left branch mask.
+A patch matched along the rows reads the disparity of whatever it holds: where a leaf in front of the
+branch covers part of it in the left view, the leaf (at its own depth, shifted by its own disparity in
+the right view) pulls the reading (454 T11: a flat fork side read 2.1 px low, +10.6 mm). The branch's own
+outline in a patch (a side's centre line carried off the branch next to a fork) is at the branch's depth:
+the same share of the patch lies on the branch in the right view at the branch's disparity, and the
+reading holds (seed 273 T14). So a patch counts only where the two shares agree
+(:func:`share_difference`).
 """
 
 from __future__ import annotations
@@ -49,3 +53,15 @@ def inside_fraction(mask: np.ndarray, uv: np.ndarray, hh: int, hw: int) -> np.nd
     n = sat[by, bx] - sat[ty, bx] - sat[by, tx] + sat[ty, tx]
     out[ok] = n / float((2 * hh + 1) * (2 * hw + 1))
     return out
+
+
+def share_difference(left_mask: np.ndarray, right_mask: np.ndarray, uv: np.ndarray, d_px: np.ndarray, hh: int,
+                     hw: int) -> np.ndarray:
+    """``|left share - right share|`` (N,) of each patch: :func:`inside_fraction` of the left mask at
+    ``uv`` (N, 2) and of the right mask at ``uv`` moved left by ``d_px`` (N,) (the branch's disparity
+    there); 1 for a non-finite disparity."""
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    d = np.asarray(d_px, float).reshape(-1)
+    fl = inside_fraction(left_mask, uv, hh, hw)
+    fr = inside_fraction(right_mask, uv - np.column_stack([d, np.zeros_like(d)]), hh, hw)
+    return np.where(np.isfinite(d), np.abs(fl - fr), 1.0)

@@ -83,7 +83,7 @@ LONE_FAR_PX = 40.0
 # disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
 # lines disagree and neither is known at the fork (seed 450 T1, exact masks: the side read 44 rows off at
 # 175.41 px, the child carried 39 rows at 173.97, truth 175.07: +6.3 mm)
-LONE_READ_WITHHELD = False
+LONE_READ_WITHHELD = True
 LONE_READ_PX = 1.0
 # ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
 # px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error

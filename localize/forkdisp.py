@@ -19,6 +19,7 @@ import numpy as np
 from appliance.localize import kernels, kernels_forks
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
+from appliance.localize.patchmask import share_difference
 from appliance.localize.texture import patch_depth_fraction, surface_to_axis
 
 
@@ -134,12 +135,17 @@ FLAT_STEP_PX = 6.0
 # each patch's value is carried to the fork along the curve's own slope (a branch turning in depth
 # along it: the patches' median lies ~12 px in)
 FLAT_ALONG = True
+# a patch counts only where the share of it on the branch in the left view and in the right (at the
+# curve's disparity) differ by at most this (a leaf in front of the side next to the fork, at its own
+# depth, read instead: seed 454 T11, -2.1 px; localize/patchmask.py); None: all count
+FLAT_NEAR_MAX_SHARE_DIFF = 0.15
 
 
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
                    offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
                    min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3,
-                   radius_px: float | None = None) -> SideNear | None:
+                   radius_px: float | None = None, left_mask: np.ndarray | None = None,
+                   right_mask: np.ndarray | None = None) -> SideNear | None:
     """A flat parent side's disparity at a fork from its bark texture next to the fork.
 
     A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
@@ -167,6 +173,11 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
         keep the side's height, as the flat fit's); by default
         the side's own (its span's, which for a tapering branch is the radius tens of px away: the
         distal side thinner than at the fork, its texture's axis read too near, the proximal one too far).
+    left_mask, right_mask : ndarray (H, W) uint8, optional
+        Branch coverage 0-255 of the two views: a patch counts only where its share on the branch in the
+        left view and in the right at the curve's disparity differ by at most ``FLAT_NEAR_MAX_SHARE_DIFF``
+        (not a leaf in front of the side in one view: :func:`patchmask.share_difference`); None: every
+        patch counts.
 
     Returns
     -------
@@ -188,6 +199,8 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     d_surf, score = _patch_disparity(left_gray, right_gray, uv, hh, 12,
                                      int(math.floor(d_s - 3.0)), int(math.ceil(d_s + 3.0)))
     ok = np.isfinite(d_surf) & (score >= min_score)
+    if left_mask is not None and right_mask is not None and FLAT_NEAR_MAX_SHARE_DIFF is not None:
+        ok &= share_difference(left_mask, right_mask, uv, c.d_at(t), hh, 12) <= FLAT_NEAR_MAX_SHARE_DIFF
     if np.count_nonzero(ok) < min_patches:
         return None
     d_ax = surface_to_axis(d_surf[ok], r, f_px, offset_px, patch_depth_fraction(r, hh))

@@ -79,6 +79,12 @@ LONE_SIDE_WITHHELD = True
 # 82 rows off, 141.03 px, the child carried 86 rows, 140.74, agreeing; truth 142.09, +9.2 mm)
 LONE_FAR_WITHHELD = True
 LONE_FAR_PX = 40.0
+# ... and so is a fork whose lone steep parent side, read from its own crossings, differs from the fork's
+# disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
+# lines disagree and neither is known at the fork (seed 450 T1, exact masks: the side read 44 rows off at
+# 175.41 px, the child carried 39 rows at 173.97, truth 175.07: +6.3 mm)
+LONE_READ_WITHHELD = True
+LONE_READ_PX = 1.0
 # ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
 # px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error
 # explains such a gap, one side is another branch at another depth) unless the child's curve confirms the
@@ -281,7 +287,8 @@ class ForkPlacing:
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, _t_at(c, xy),
                                    self.sm.f_px, self.sm.offset_px,
                                    radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
-                                                                  rad, near) if FLAT_TAPER else None)
+                                                                  rad, near) if FLAT_TAPER else None,
+                                   left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
                 if v is not None:
                     flat_read.add(s)
@@ -398,6 +405,9 @@ class ForkPlacing:
         if agree and LONE_FAR_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and side_near[parents[0]].nearest_px > LONE_FAR_PX \
                 and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
+            agree = False
+        if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
+                and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
             agree = False
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the

@@ -66,6 +66,8 @@ def test_a_childs_curve_carried_far_does_not_replace_the_parents_own_rows(render
     # seed 362's fork 1 (exact masks): the parent side read from its own crossings (-0.0 px); the child's flat
     # curve, fitted on 225 columns, carried 68 to the fork, "known" by half its span: +1.06 px (4.5 mm)
     monkeypatch.setattr(forkends, "KNOWN_VOUCH_CAPPED", capped)
+    # (uncapped, LONE_READ_WITHHELD withholds it: the side's read and the fork 1.06 px apart; off here, the cap alone)
+    monkeypatch.setattr(forkends, "LONE_READ_WITHHELD", False)
     row = fork_row(rendered_scene(362), 1, exact=True)
     assert row.result_id >= 0
     if capped:

@@ -17,6 +17,7 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
+from appliance.localize.forkoutline import shallow_outline_agrees
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -24,6 +25,10 @@ HIDDEN_FORK_MIN_DEG = 20.0
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# ... and where the child leaves the parent at a shallow angle (its place along the parent in each view
+# then off by 1 / sin of its line's error), the two views' places are compared in disparity, not in px
+# of place (forkoutline.shallow_outline_agrees)
+OUTLINE_SHALLOW = True
 
 # a child without a curve within this of the rows (sine; the matcher's 20 deg of flat pieces) shows
 # its depth by its bark texture only: checked there (forkchild.child_texture_agrees)
@@ -565,7 +570,11 @@ class ForkPlacing:
             return False
         xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
-        return xy_r is not None and np.hypot(*(xy_r - r1)) <= tol
+        if xy_r is None:
+            return False
+        if np.hypot(*(xy_r - r1)) <= tol:
+            return True
+        return OUTLINE_SHALLOW and shallow_outline_agrees(xy_r - r1, er, e2, tol)
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

@@ -574,7 +574,7 @@ class ForkPlacing:
             return False
         if np.hypot(*(xy_r - r1)) <= tol:
             return True
-        return OUTLINE_SHALLOW and shallow_outline_agrees(xy_r - r1, er, e2, tol)
+        return OUTLINE_SHALLOW and shallow_outline_agrees(xy_r - r1, er, e1, e2, tol)
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

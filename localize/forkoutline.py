@@ -24,7 +24,7 @@ SHALLOW_D_PX = 1.4          # the depth difference (px of disparity) the two pla
 SHALLOW_MIN_GAIN = 1.0      # ... where a px of depth difference moves the right view's place by more than this
 
 
-def shallow_outline_agrees(off_px: np.ndarray, er: np.ndarray, e2: np.ndarray, tol_px: float) -> bool:
+def shallow_outline_agrees(off_px: np.ndarray, er: np.ndarray, e1: np.ndarray, e2: np.ndarray, tol_px: float) -> bool:
     """Whether a right-view fork place ``off_px`` (2,) px from where the left fork lies (moved by the
     parent's disparity) tells the child at the parent's depth, judged in disparity.
 
@@ -34,6 +34,11 @@ def shallow_outline_agrees(off_px: np.ndarray, er: np.ndarray, e2: np.ndarray, t
         The right view's fork place minus the left fork moved by the parent's disparity (px).
     er : ndarray (2,)
         The parent's unit axis direction in the right view.
+    e1 : ndarray (2,)
+        The parent's unit axis direction in the left view. The gain is the smaller of the two
+        directions' (a parent whose disparity changes fast along it turns in the right view: there the
+        right view's direction alone can make a child at right angles look shallow; seed 304's false
+        fork, a flat parent at 82 deg to the child in the left view, 14 deg in the right one).
     e2 : ndarray (2,)
         The child's unit direction (either sense).
     tol_px : float
@@ -42,13 +47,14 @@ def shallow_outline_agrees(off_px: np.ndarray, er: np.ndarray, e2: np.ndarray, t
     Returns
     -------
     bool
-        True if ``|e2_y| / sin(a)`` exceeds ``SHALLOW_MIN_GAIN`` and the offset along the parent is at most
+        True if ``|e2_y| / sin(a)`` (``sin(a)``: the larger of the child's with ``er`` and ``e1``) exceeds ``SHALLOW_MIN_GAIN`` and the offset along the parent is at most
         ``SHALLOW_D_PX`` times it; False otherwise.
     """
     er = np.asarray(er, float)
+    e1 = np.asarray(e1, float)
     e2 = np.asarray(e2, float)
     off = np.asarray(off_px, float)
-    sin_a = abs(float(er[0] * e2[1] - er[1] * e2[0]))
+    sin_a = max(abs(float(er[0] * e2[1] - er[1] * e2[0])), abs(float(e1[0] * e2[1] - e1[1] * e2[0])))
     gain = abs(float(e2[1])) / max(sin_a, 1e-6)          # px of place along the parent per px of depth difference
     if gain <= SHALLOW_MIN_GAIN:
         return False

@@ -359,7 +359,7 @@ class ForkPlacing:
             if parents and not from_outline else None
         out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
-            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
+            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)
         if parents and not agree and outline is not None and child not in self.curves \
                 and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
             agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,
@@ -547,14 +547,16 @@ class ForkPlacing:
             c1, e1, c2, e2, p0)), float(r_par), float(r_child))
         return xy if found else None
 
-    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
+    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float, e_sides=None) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.
 
         The parent's axis in the right view is the left one moved by its disparity; the fork
         found there from the child's right outline must be the left fork moved by the parent's
         disparity (within 1.6 px or 0.9 %: each view's place is ~1 px off): a child at another
         depth crosses the parent elsewhere. A child so near the rows that a depth difference of
-        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
+        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False. A shallow
+        child's places are compared in disparity too (``OUTLINE_SHALLOW``: forkoutline.py; ``e_sides``: the
+        direction of the line through both parent sides, which the parent's line ``e1`` must follow there).
         """
         def right_of(pt):
             ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
@@ -574,7 +576,7 @@ class ForkPlacing:
             return False
         if np.hypot(*(xy_r - r1)) <= tol:
             return True
-        return OUTLINE_SHALLOW and shallow_outline_agrees(xy_r - r1, er, e1, e2, tol)
+        return OUTLINE_SHALLOW and e_sides is not None and shallow_outline_agrees(xy_r - r1, er, e1, e_sides, e2, tol)
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

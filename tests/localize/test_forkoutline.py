@@ -30,40 +30,40 @@ def test_a_shallow_child_at_the_parents_depth_agrees_though_its_places_lie_px_ap
     # apart along the parent (the ordinary 1.6 px check refuses), no depth difference
     off = 2.3 * er
     assert np.hypot(*off) > 1.6
-    assert shallow_outline_agrees(off, er, er, e2, 1.6)
+    assert shallow_outline_agrees(off, er, er, er, e2, 1.6)
 
 
 def test_a_shallow_child_at_another_depth_is_refused():
     er, e2 = _dirs(95.0, 121.0)
     # a branch 1 px of disparity off the parent's depth passes; 2 px and more do not (both senses)
-    assert shallow_outline_agrees(_moved_by_depth(er, e2, 1.0), er, er, e2, 1.6)
+    assert shallow_outline_agrees(_moved_by_depth(er, e2, 1.0), er, er, er, e2, 1.6)
     for d in (2.0, -2.0, 5.0, -12.0):
-        assert not shallow_outline_agrees(_moved_by_depth(er, e2, d), er, er, e2, 1.6)
+        assert not shallow_outline_agrees(_moved_by_depth(er, e2, d), er, er, er, e2, 1.6)
     assert SHALLOW_D_PX < 2.0
 
 
 def test_the_offset_across_the_parent_keeps_the_ordinary_tolerance():
     er, e2 = _dirs(95.0, 121.0)
     across = np.array([er[1], -er[0]])
-    assert shallow_outline_agrees(1.0 * er + 1.2 * across, er, er, e2, 1.6)
-    assert not shallow_outline_agrees(1.0 * er + 2.0 * across, er, er, e2, 1.6)
+    assert shallow_outline_agrees(1.0 * er + 1.2 * across, er, er, er, e2, 1.6)
+    assert not shallow_outline_agrees(1.0 * er + 2.0 * across, er, er, er, e2, 1.6)
 
 
 def test_a_steep_angle_or_a_child_near_the_rows_keeps_the_ordinary_check():
     # a child leaving at 80 deg: a px of depth moves the place by about |e2_y| px, no more: no second check
     er, e2 = _dirs(90.0, 10.0)
     assert abs(e2[1]) / abs(er[0] * e2[1] - er[1] * e2[0]) <= 1.0
-    assert not shallow_outline_agrees(0.5 * er, er, er, e2, 1.6)
+    assert not shallow_outline_agrees(0.5 * er, er, er, er, e2, 1.6)
     # a child along the rows on a steep parent: its depth barely moves its place (refused before this)
     er, e2 = _dirs(80.0, 5.0)
-    assert not shallow_outline_agrees(0.3 * er, er, er, e2, 1.6)
+    assert not shallow_outline_agrees(0.3 * er, er, er, er, e2, 1.6)
 
 
-def test_a_parent_turned_in_the_right_view_by_its_disparity_does_not_make_a_child_shallow():
-    # the left view: a flat parent, the child at right angles (no gain); the right view's parent direction,
-    # turned by a disparity changing fast along it, nearly along the child: the left one stands
-    e1, e2 = _dirs(8.0, 90.0)
-    er, _ = _dirs(104.0, 0.0)
-    off = 2.6 * er
-    assert not shallow_outline_agrees(off, er, e1, e2, 1.8)
-    assert shallow_outline_agrees(off, er, er, e2, 1.8)        # (with the right view's direction alone it would pass)
+def test_a_parent_line_off_the_line_through_both_sides_keeps_the_ordinary_check():
+    # the outline's parent line is one bent side (or the wrong pair of pieces): 12 deg off the line
+    # through both sides, the gain is not the fork's
+    er, e2 = _dirs(95.0, 121.0)
+    off = 2.3 * er
+    assert shallow_outline_agrees(off, er, er, _dirs(101.0, 0.0)[0], e2, 1.6)       # 6 deg: stands
+    assert not shallow_outline_agrees(off, er, er, _dirs(107.0, 0.0)[0], e2, 1.6)   # 12 deg
+    assert not shallow_outline_agrees(off, er, er, _dirs(28.0, 0.0)[0], e2, 1.6)    # 67 deg

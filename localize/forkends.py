@@ -17,6 +17,7 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
+from appliance.localize.forkoutline import shallow_outline_agrees
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -24,6 +25,10 @@ HIDDEN_FORK_MIN_DEG = 20.0
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
+# ... and where the child leaves the parent at a shallow angle (its place along the parent in each view
+# then off by 1 / sin of its line's error), the two views' places are compared in disparity, not in px
+# of place (forkoutline.shallow_outline_agrees)
+OUTLINE_SHALLOW = True
 
 # a child without a curve within this of the rows (sine; the matcher's 20 deg of flat pieces) shows
 # its depth by its bark texture only: checked there (forkchild.child_texture_agrees)
@@ -372,7 +377,7 @@ class ForkPlacing:
             if parents and not from_outline else None
         out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
-            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child])
+            agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)
         if parents and not agree and outline is not None and child not in self.curves \
                 and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
             agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,
@@ -563,14 +568,16 @@ class ForkPlacing:
             c1, e1, c2, e2, p0)), float(r_par), float(r_child))
         return xy if found else None
 
-    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float) -> bool:
+    def _outline_agrees(self, xy, e1, c2, e2, parents: list, r_par: float, r_child: float, e_sides=None) -> bool:
         """Whether the child's outline in the right view leaves the parent at the fork too.
 
         The parent's axis in the right view is the left one moved by its disparity; the fork
         found there from the child's right outline must be the left fork moved by the parent's
         disparity (within 1.6 px or 0.9 %: each view's place is ~1 px off): a child at another
         depth crosses the parent elsewhere. A child so near the rows that a depth difference of
-        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False.
+        ``OUTLINE_MAX_D_PX`` would move its crossing less than that cannot tell: False. A shallow
+        child's places are compared in disparity too (``OUTLINE_SHALLOW``: forkoutline.py; ``e_sides``: the
+        direction of the line through both parent sides, which the parent's line ``e1`` must follow there).
         """
         def right_of(pt):
             ds = [self.curves[s].d_at(self.curves[s].t_of(pt))[0] for s in parents]
@@ -586,7 +593,11 @@ class ForkPlacing:
             return False
         xy_r = self._fork_from_child_outline(r1, er, c2 - np.array([d1, 0.0]), e2, r1, r_par, r_child,
                                              self.sm.right_mask)
-        return xy_r is not None and np.hypot(*(xy_r - r1)) <= tol
+        if xy_r is None:
+            return False
+        if np.hypot(*(xy_r - r1)) <= tol:
+            return True
+        return OUTLINE_SHALLOW and e_sides is not None and shallow_outline_agrees(xy_r - r1, er, e1, e_sides, e2, tol)
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

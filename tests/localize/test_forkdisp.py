@@ -1,9 +1,14 @@
 """A parent side's disparity at a fork from its own crossings nearest it (appliance.localize.forkdisp)."""
 
+import math
+
 import numpy as np
+import pytest
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
-from appliance.localize.forkdisp import flat_side_near, line_carry_var, side_disparity_near, taper_radius, weigh_sides
+from appliance.localize.forkdisp import (
+    flat_side_near, line_carry_var, perspective_width_ratio, side_disparity_near, taper_radius, weigh_sides,
+)
 from appliance.localize.texture import patch_depth_fraction
 
 H, W = 400, 320
@@ -227,3 +232,21 @@ def test_two_disagreeing_sides_count_by_how_well_each_is_known():
     d = weigh_sides([101.9, 99.65], [(5.0, 4.0), (45.0, 13.0)])
     assert abs(d - 99.65) <= 0.25
     assert abs(weigh_sides([100.3, 99.7], [(40.0, 10.0), (40.0, 10.0)]) - 100.0) <= 1e-9
+
+
+@pytest.mark.parametrize("z_mm, x_mm", [(600.0, 0.0), (900.0, 250.0), (1200.0, -300.0), (1400.0, 500.0)])
+def test_the_width_ratio_is_a_cylinders_silhouette_seen_from_both_cameras(z_mm, x_mm):
+    # a vertical cylinder (radius 20 mm) at (x, z): each camera's silhouette spans the two tangents from its
+    # centre; the right camera is 120 mm to the right (rectified, principal points 15 px apart)
+    f, cx, b, r, offset = 1450.0, 640.0, 120.0, 20.0, 15.0
+
+    def width(xc):
+        rho, th = math.hypot(xc, z_mm), math.atan2(xc, z_mm)
+        a = math.asin(r / rho)
+        return f * (math.tan(th + a) - math.tan(th - a)), f * xc / z_mm
+
+    w_l, u_l = width(x_mm)
+    w_r, _ = width(x_mm - b)
+    u = u_l + cx
+    d = f * b / z_mm + offset
+    assert perspective_width_ratio(u, d, f, cx, offset) == pytest.approx(w_r / w_l, rel=2e-3)

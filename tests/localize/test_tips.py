@@ -4,9 +4,11 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
+import pytest
 from appliance.localize.edges import find_runs
 from appliance.localize.tips import (
-    cap_shape, cap_shapes, flat_cap_curves, front_disparity, occluder_confirmed, round_cap, round_end, silhouette_offset_px,
+    cap_shape, cap_shapes, flat_cap_curves, front_disparity, occluder_confirmed, right_flanks_filled, round_cap, round_end,
+    silhouette_offset_px,
 )
 
 from .shapes import end_placer
@@ -198,3 +200,30 @@ def test_a_cap_past_the_right_views_side_edge_has_no_end_seen_there():
     assert not b._beyond_in_right_view(edge, out, CAP[0] - R - 1 - 15)       # inside it, not in the valid area
     up = np.array([0.0, -1.0])
     assert b._beyond_in_right_view(np.array([CAP[0], 1.0]), up, 150.0)        # the top strip: rows cut alike
+
+
+def _capped_branch(shape, y, x_end, r):
+    """A horizontal branch (radius ``r`` px) along row ``y`` from column 0 to a round cap ending at ``x_end``."""
+    m = np.zeros(shape, np.uint8)
+    cv2.rectangle(m, (0, y - r), (x_end - r, y + r), 255, -1)
+    cv2.circle(m, (x_end - r, y), r, 255, -1)
+    return m
+
+
+@pytest.mark.parametrize("touching", [False, True])
+def test_a_branch_beside_the_cap_in_the_right_view_only_fills_its_flanks(touching):
+    # seed 340's tip 13 (drawn): a flat branch's cap, 9 px radius, ending at column 300 (left) and 250 (right,
+    # disparity 50); in the right view a nearer upright branch (12 px wide) covers the cap's end: the
+    # right row runs end at its far edge, a straight outline 10 px further (the end read 10 px off)
+    r, y = 9, 100
+    left = _capped_branch((200, 400), y, 300, r)
+    right = _capped_branch((200, 400), y, 250, r)
+    if touching:
+        cv2.rectangle(right, (248, 40), (259, 160), 255, -1)
+    d_end = 300.0 - 260.0 if touching else 50.0          # the right run's end: the upright's far edge
+    out = np.array([1.0, 0.0])
+    assert right_flanks_filled(left, right, np.array([300.0, float(y)]), out, d_end, r) is touching
+    # the left view's own flanks filled alike (a branch beside the cap in both views): not the right's alone
+    if touching:
+        cv2.rectangle(left, (288, 40), (299, 160), 255, -1)
+        assert not right_flanks_filled(left, right, np.array([300.0, float(y)]), out, d_end, r)

@@ -1,4 +1,5 @@
-"""Forks grossly off in depth on fresh scenes (issue 5, docs/localize-forkgross.md): constructed pairs."""
+"""A fork whose parent's two sides disagree at it, an occluder cutting one side in one view (forkends'
+SIDES_CONFLICT_WITHHELD and the steep pieces' width rule; issue 5, docs/localize-forkgross.md): constructed pairs."""
 
 import cv2
 import numpy as np
@@ -70,31 +71,3 @@ def test_a_fork_whose_sides_agree_within_a_pixel_stands():
     calib, left, right, ml, mr, d = occluded_y(315.5)
     found = forks(calib, left, right, ml, mr)
     assert len(found) == 1 and abs((found[0].left_px[0] - found[0].right_px[0]) - d) <= 0.4
-
-
-@pytest.fixture
-def scene_264(rendered_scene):
-    """Rendered scene 264 (the benchmark's seed) and the rig's calibration."""
-    return rendered_scene(264)
-
-
-@pytest.mark.parametrize("withheld", [False, True])
-def test_a_fork_on_one_side_carried_past_its_span_unread_and_unconfirmed_is_withheld(scene_264, monkeypatch,
-                                                                                      withheld):
-    # seed 264's fork 5 with the colour recogniser's masks: one parent side (its other side and the
-    # child without a fitted curve), its fit carried 53 rows past a 97-row span, its own rows next
-    # to the fork not read; 0.6 px (2.9 mm) off on main. Withheld. (Its rows are read since the right
-    # crossings' widths allow for perspective, forkdisp.SIDE_WIDTH_PERSPECTIVE: off here; test_fork356.)
-    import appliance.localize.forkdisp as forkdisp
-    import appliance.localize.forkends as forkends
-    from appliance.synth.evaluate import score_result
-    monkeypatch.setattr(forkends, "LONE_SIDE_WITHHELD", withheld)
-    monkeypatch.setattr(forkdisp, "SIDE_WIDTH_PERSPECTIVE", False)
-    left, right, truth, calib = scene_264
-    res = Localizer(calib, load_config().localize).localize(left, right)
-    row = next(r for r in score_result(res, truth).rows if r.truth_index == 5)
-    assert row.kind == "bifurcation"
-    if withheld:
-        assert row.result_id < 0
-    else:
-        assert row.result_id >= 0 and abs(row.dz_mm) >= 2.0

@@ -1,0 +1,278 @@
+"""The fork rules of forkends.py / forkdisp.py / dense.py, each off and on, on the accuracy benchmark's rendered
+scene where a gross error showed the need for it (issue 5; each test names its seed, fork and the error it made).
+The docs that measured them: docs/localize-gross308.md, -gross340.md, -fork356.md, -gross388.md, -gross19.md,
+-forkgross.md."""
+
+import math
+from dataclasses import replace
+
+import pytest
+from appliance.config import load_config
+from appliance.localize import Localizer, dense, featurecheck, forkdisp, forkends
+from appliance.synth.evaluate import score_result
+
+
+def localized(scene, exact: bool, cfg=None):
+    """The localizer's result on a rendered scene with its exact masks or the colour recogniser's."""
+    left, right, truth, calib = scene
+    kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right) if exact else {}
+    return Localizer(calib, cfg or load_config().localize).localize(left, right, **kw)
+
+
+def score_row(scene, truth_index: int, exact: bool, cfg=None, res=None):
+    """The benchmark's score row of true fork ``truth_index`` (None: outside a view and not reported)."""
+    res = res if res is not None else localized(scene, exact, cfg)
+    row = next((r for r in score_result(res, scene[2]).rows if r.truth_index == truth_index), None)
+    assert row is None or row.kind == "bifurcation"
+    return row
+
+
+@pytest.fixture
+def no_agreement_net(monkeypatch):
+    """The feature check's pieces' agreement off: it withholds several of these forks when their rule is off,
+    and the rule is tested on its own."""
+    monkeypatch.setattr(featurecheck, "AGREE_PX", math.inf)
+
+
+# --- a parent side read at the fork, or carried to it
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("lone_taper", [False, True])
+def test_a_fork_on_a_lone_flat_side_reads_its_texture_with_the_radius_at_the_fork(rendered_scene, monkeypatch, masks,
+                                                                                  lone_taper):
+    # seed 308's fork 12: a flat parent tapering 14.7 -> 4.5 mm, fitted on one side of the fork only (the
+    # other, thicker side without a curve); its bark texture next to the fork was moved back to the axis
+    # with the fitted side's mean radius (15.9 px) where the parent is 22 px thick: +1.0 px (-4.4 mm), and
+    # with the colour masks the child's right outline then took the fork to +2.2 px (-9.2 mm). With the
+    # radius tapered towards the other side's (measured next to the fork) the texture reads +0.15 px.
+    monkeypatch.setattr(forkends, "LONE_TAPER", lone_taper)
+    row = score_row(rendered_scene(308), 12, exact=masks == "true")
+    assert row.result_id >= 0
+    if lone_taper:
+        assert abs(row.dz_mm) <= 1.5
+    else:
+        assert row.dz_mm <= -3.5
+
+
+@pytest.mark.parametrize("withheld", [False, True])
+def test_a_fork_on_one_side_carried_past_its_span_unread_and_unconfirmed_is_withheld(rendered_scene, monkeypatch,
+                                                                                      withheld):
+    # seed 264's fork 5 with the colour recogniser's masks: one parent side (its other side and the
+    # child without a fitted curve), its fit carried 53 rows past a 97-row span, its own rows next
+    # to the fork not read; 0.6 px (2.9 mm) off. Withheld. (Its rows are read since the right
+    # crossings' widths allow for perspective, forkdisp.SIDE_WIDTH_PERSPECTIVE: off here; the next test.)
+    monkeypatch.setattr(forkends, "LONE_SIDE_WITHHELD", withheld)
+    monkeypatch.setattr(forkdisp, "SIDE_WIDTH_PERSPECTIVE", False)
+    row = score_row(rendered_scene(264), 5, exact=False)
+    if withheld:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and abs(row.dz_mm) >= 2.0
+
+
+@pytest.mark.usefixtures("no_agreement_net")
+@pytest.mark.parametrize("perspective", [False, True])
+def test_a_thick_sides_rows_are_read_where_the_views_cross_it_at_different_widths(rendered_scene, monkeypatch,
+                                                                                   perspective):
+    # seed 264's fork 5 (colour masks): a lone parent side of radius 25 px, 60 px right of the middle, crossed
+    # ~2 % narrower in the right view; without the perspective ratio its rows next to the fork fail the
+    # width check (1.2 px), the side is unread and the fork withheld (LONE_SIDE_WITHHELD); with it the rows
+    # are read: +0.17 px
+    monkeypatch.setattr(forkdisp, "SIDE_WIDTH_PERSPECTIVE", perspective)
+    row = score_row(rendered_scene(264), 5, exact=False)
+    if perspective:
+        assert row.result_id >= 0 and abs(row.disparity_err_px) <= 0.4
+    else:
+        assert row.result_id < 0
+
+
+@pytest.mark.parametrize("far_check", [False, True])
+def test_a_lone_side_read_far_off_is_not_confirmed_by_a_child_carried_as_far(rendered_scene, monkeypatch, far_check):
+    # seed 333's fork 1 (Z 1232 mm, exact masks): the fork's one steep parent side is read from its own
+    # crossings 82 rows from the fork (141.03 px), the child's curve carried 86 rows to it (140.74): the two
+    # agree where both were read, not at the fork (truth 142.09 px), +9.2 mm. With the check the fork is
+    # withheld.
+    monkeypatch.setattr(forkends, "LONE_FAR_WITHHELD", far_check)
+    if not far_check:            # (the feature check's pieces' agreement withholds it as well)
+        monkeypatch.setattr(featurecheck, "AGREE_PX", math.inf)
+    row = score_row(rendered_scene(333), 1, exact=True)
+    if far_check:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 8.0
+
+
+@pytest.mark.parametrize("withheld", [False, True])
+def test_a_fork_whose_lone_read_side_disagrees_with_the_carried_child_is_withheld(rendered_scene, monkeypatch,
+                                                                                  withheld):
+    # seed 450's fork 1, exact masks: its lone steep parent side read from its own rows 44 px off (175.41 px),
+    # the child's curve carried 39 rows to it (173.97 px) taken: +6.3 mm. Withheld.
+    monkeypatch.setattr(forkends, "LONE_READ_WITHHELD", withheld)
+    row = score_row(rendered_scene(450), 1, exact=True)
+    if withheld:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 5.0
+
+
+@pytest.mark.usefixtures("no_agreement_net")
+@pytest.mark.parametrize("capped", [False, True])
+def test_a_childs_curve_carried_far_does_not_replace_the_parents_own_rows(rendered_scene, monkeypatch, capped):
+    # seed 362's fork 1 (exact masks): the parent side read from its own crossings (-0.0 px); the child's flat
+    # curve, fitted on 225 columns, carried 68 to the fork, "known" by half its span: +1.06 px (4.5 mm)
+    monkeypatch.setattr(forkends, "KNOWN_VOUCH_CAPPED", capped)
+    # (uncapped, LONE_READ_WITHHELD withholds it: the side's read and the fork 1.06 px apart; off here, the cap alone)
+    monkeypatch.setattr(forkends, "LONE_READ_WITHHELD", False)
+    row = score_row(rendered_scene(362), 1, exact=True)
+    assert row.result_id >= 0
+    if capped:
+        assert abs(row.disparity_err_px) <= 0.3
+    else:
+        assert abs(row.disparity_err_px) >= 0.9
+
+
+@pytest.mark.parametrize("apart_check", [False, True])
+def test_a_fork_whose_parent_sides_are_far_apart_in_depth_is_withheld(rendered_scene, monkeypatch, apart_check):
+    # seed 355's fork 7 (Z 763 mm, colour masks): the parent runs in front of a thicker branch whose
+    # silhouette holds it; one side is that thicker branch's piece (210 px at the fork), the other a side
+    # fitted on 11 rows carried 79 rows (248 px), the child carried 77 px (238): truth 230.5. The median
+    # (238) then the one side reaching the fork (210) were taken: +74 mm. Sides 38 px apart, where carrying
+    # explains 4 + 0.1 * 79 px: withheld.
+    monkeypatch.setattr(forkends, "SIDES_APART_WITHHELD", apart_check)
+    row = score_row(rendered_scene(355), 7, exact=False)
+    if apart_check:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 60.0
+
+
+# --- flat sides: their texture next to the fork
+
+
+@pytest.mark.usefixtures("no_agreement_net")
+@pytest.mark.parametrize("rule", [False, True])
+def test_two_flat_sides_far_apart_take_the_one_the_outline_and_the_child_confirm(rendered_scene, monkeypatch, rule):
+    # seed 359's fork 11 (colour masks): one flat side +3.0 px (its curve's slope carried past a 66 px span),
+    # the other +0.7, the right outline -0.05, the child +0.1; the mean of three was +1.2 px (5.7 mm)
+    monkeypatch.setattr(forkends, "FLAT_PICK_ONE", rule)
+    row = score_row(rendered_scene(359), 11, exact=False)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.disparity_err_px) <= 0.5
+    else:
+        assert abs(row.disparity_err_px) >= 1.0
+
+
+@pytest.mark.usefixtures("no_agreement_net")
+@pytest.mark.parametrize("vouches", [True, False])
+def test_a_scattered_flat_texture_read_does_not_make_its_side_known(rendered_scene, monkeypatch, vouches):
+    # seed 364's fork 7 (colour masks): a flat side carried 32 px past a 26 px span, -2.7 px, its 3 patches
+    # scattered (MAD 0.5) about the same; the steep side 2 rows past its span +0.4 px; with the read
+    # vouching for the flat side the median of three took the child carried 34 rows: -0.9 px (4 mm)
+    monkeypatch.setattr(forkends, "FLAT_READ_VOUCHES", vouches)
+    row = score_row(rendered_scene(364), 7, exact=False)
+    assert row.result_id >= 0
+    if vouches:
+        assert abs(row.disparity_err_px) >= 0.8
+    else:       # (-1.7 mm, ~0.38 px, on the brown-only recogniser's mask; +0.50 px on the olive/grey one's)
+        assert abs(row.disparity_err_px) <= 0.6
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_leaf_in_front_of_a_flat_fork_side_in_one_view_is_not_read(rendered_scene, monkeypatch, rule):
+    # seed 454's fork 11, colour masks: a leaf covers the flat parent's top next to the fork in the left
+    # view (elsewhere in the right); its texture patches there read the leaf, 2.1 px low: +10.6 mm.
+    # Patches whose share on the branch differs between the views are dropped: the curve stands (+0.3 mm)
+    monkeypatch.setattr(forkdisp, "FLAT_NEAR_MAX_SHARE_DIFF", 0.15 if rule else None)
+    row = score_row(rendered_scene(454), 11, exact=False)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) <= 1.0
+    else:
+        assert row.dz_mm >= 8.0
+
+
+# --- the child's outline in the right view
+
+
+@pytest.mark.parametrize("towards_child", [False, True])
+def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_childs_curve(rendered_scene,
+                                                                                          monkeypatch, towards_child):
+    # seed 308's fork 12 with the lone side's taper off (its texture +1.0 px): with the colour masks the child's
+    # right outline (+2.2 px) was taken over it, though further than the parent's reading from the child's
+    # own curve (-0.7 px); with the outline rule bound towards the child it stays at the texture's +1.0 px
+    monkeypatch.setattr(forkends, "LONE_TAPER", False)
+    monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
+    # (the texture read next to the fork now keeps the outline off whatever the child: the next test)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", False)
+    row = score_row(rendered_scene(308), 12, exact=False)
+    if towards_child:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 5.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm <= -8.0
+
+
+@pytest.mark.usefixtures("no_agreement_net")
+@pytest.mark.parametrize("rule", [False, True])
+def test_the_childs_right_outline_does_not_move_a_flat_forks_texture_read(rendered_scene, monkeypatch, rule):
+    # seed 365's fork 12 (exact masks): a lone flat side whose texture next to the fork reads -0.15 px; the
+    # child's right outline, 1.2 px away, took it to +1.0 px (8 mm)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", rule)
+    row = score_row(rendered_scene(365), 12, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.disparity_err_px) <= 0.3
+    else:
+        assert abs(row.disparity_err_px) >= 0.9
+
+
+@pytest.mark.parametrize("max_shift_px", [3.0, 2.0])
+def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(rendered_scene, monkeypatch,
+                                                                              max_shift_px):
+    # seed 328's fork 14 (Z 1269 mm, colour masks): the flat parent's texture reads 137.35 px (truth 137.88),
+    # the child (no curve of its own) leaves it in the right view's outline at 135.05: 2.3 px off the texture,
+    # within the old 3 px bound, taken: +27 mm. Bound at 2 px the texture stands (-0.5 px). (With the brown-only
+    # colour recogniser the case was found: the olive and grey bark tests move this mask and the fork to
+    # +4.9 mm under either bound.)
+    monkeypatch.setattr(forkends, "OUTLINE_MAX_SHIFT_PX", max_shift_px)
+    cfg = load_config().localize
+    cfg = replace(cfg, segment=replace(cfg.segment, olive_saturation_max=0, grey_chroma_max=0))
+    row = score_row(rendered_scene(328), 14, exact=False, cfg=cfg)
+    if max_shift_px == 2.0:
+        assert row.result_id < 0 or abs(row.dz_mm) <= 6.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 20.0
+
+
+# --- the right view's edge
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("right_edge", [False, True])
+def test_a_fork_off_the_right_view_is_not_reported(rendered_scene, monkeypatch, masks, right_edge):
+    # seed 392's fork 9 (Z 796 mm): in the left view at column 197, in the right view at column -34.5,
+    # outside the image. Its pieces' curves (matched where they are in the right view) were carried to it:
+    # +4.1 mm (exact masks), +8.7 mm (colour masks); the feature check had no patch inside the right image
+    # (no verdict). With the right view's edge checked as the left's, it is not reported.
+    monkeypatch.setattr(dense, "RIGHT_VIEW_EDGE", right_edge)
+    scene = rendered_scene(392)
+    res = localized(scene, exact=masks == "true")
+    row = score_row(scene, 9, exact=masks == "true", res=res)
+    assert scene[2].features.kind[9] == "bifurcation" and scene[2].features.right_px[9][0] < 0
+    if right_edge:                  # (a true feature outside a view is scored only when reported)
+        assert row is None or row.result_id < 0
+        w = scene[0].shape[1]
+        assert all(0 <= f.right_px[0] < w for f in res.features)
+    else:
+        assert row.result_id >= 0 and row.dz_mm >= 3.5
+
+
+def test_a_fork_a_few_px_past_the_right_view_is_still_reported(rendered_scene):
+    # seed 148's fork 14 (Z 885 mm): true right column -2.3 px (rectified u - d -5.5 px, radius 11 px): its
+    # crotch is partly in the right view and its pieces' curves place it within 0.3 mm (exact masks). The
+    # right view's edge rule (over a radius past the edge) keeps it; at the left view's margin it was lost.
+    scene = rendered_scene(148)
+    assert scene[2].features.right_px[14][0] < 0
+    row = score_row(scene, 14, exact=True)
+    assert row.result_id >= 0 and abs(row.dz_mm) <= 1.5

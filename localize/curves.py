@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.linalg import _umath_linalg
 
-from appliance.localize import kernels
+from appliance.localize import kernels_fit
 
 
 class cached:
@@ -250,7 +250,7 @@ def robust_fit(t: np.ndarray, y: np.ndarray, degree: int, rounds: int = 3, k_mad
     (Poly, inliers bool (N,))
     """
     t = np.ascontiguousarray(t, float)
-    coef, t0, ts, deg, keep = kernels.robust_fit_groups(
+    coef, t0, ts, deg, keep = kernels_fit.robust_fit_groups(
         t, np.ascontiguousarray(y, float), np.array([0, len(t)]), np.array([degree], np.int64),
         np.array([rounds], np.int64), float(k_mad))
     return Poly(coef[0, 3 - int(deg[0]):], float(t0[0]), float(ts[0])), keep
@@ -315,7 +315,7 @@ class BranchCurve:
         if not t.size:
             return poly(t)
         if type(poly) is Poly:              # compiled: the same sums as below
-            return kernels.eval_clamped(poly.coef, poly._deriv.coef, float(poly.t0), float(poly.ts),
+            return kernels_fit.eval_clamped(poly.coef, poly._deriv.coef, float(poly.t0), float(poly.ts),
                                         float(lo), float(hi), _NO_SLOPES if slopes is None else np.asarray(slopes, float),
                                         slopes is None, np.ascontiguousarray(t))
         mn, mx = t.min(), t.max()
@@ -396,13 +396,13 @@ def end_slopes_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
     t, y = np.asarray(t, float), np.asarray(y, float)
     g = np.asarray(g, np.intp)
     if len(t) and t.ndim == 1:          # compiled: the same steps, bit for bit
-        return kernels.end_slopes_groups(np.ascontiguousarray(t), np.ascontiguousarray(y), np.ascontiguousarray(g),
+        return kernels_fit.end_slopes_groups(np.ascontiguousarray(t), np.ascontiguousarray(y), np.ascontiguousarray(g),
                                          int(n_groups), float(reach))
     return _end_slopes_groups_np(t, y, g, n_groups, reach)
 
 
 def _end_slopes_groups_np(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, reach: float) -> np.ndarray:
-    """:func:`end_slopes_groups` in numpy (the reference of :func:`kernels.end_slopes_groups`)."""
+    """:func:`end_slopes_groups` in numpy (the reference of :func:`kernels_fit.end_slopes_groups`)."""
     out = np.zeros((n_groups, 2))
     if not len(t):
         return out
@@ -473,12 +473,12 @@ def fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int, degre
                increasing: bool | None = None) -> GroupPolys:
     """:meth:`Poly.fit` of every group at once (``g`` (N,) non-decreasing group ids; ``degree`` (G,)).
 
-    Compiled (:func:`kernels.fit_groups`): per group the normal equations from its power sums
+    Compiled (:func:`kernels_fit.fit_groups`): per group the normal equations from its power sums
     (those of ``np.add.reduceat``, bit for bit), solved by elimination: the same least squares as
     :meth:`Poly.fit` up to rounding (~1e-16). Groups without samples get a constant 0.
     ``increasing`` is accepted for the callers' sake (each group is tested as it is fitted).
     """
-    coef, t0, ts, deg = kernels.fit_groups(np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
+    coef, t0, ts, deg = kernels_fit.fit_groups(np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
                                            np.ascontiguousarray(degree, np.int64))
     return GroupPolys(coef, t0, ts, deg)
 
@@ -492,13 +492,13 @@ def robust_fit_groups(t: np.ndarray, y: np.ndarray, g: np.ndarray, n_groups: int
                       rounds: int | np.ndarray = 3, k_mad: float = 3.5) -> tuple[GroupPolys, np.ndarray]:
     """:func:`robust_fit` of every group at once (``g`` (N,) non-decreasing; ``degree`` (G,) int;
     ``rounds`` one for all or (G,) per group: each group's values are those of fitting it alone).
-    Compiled (:func:`kernels.robust_fit_groups`).
+    Compiled (:func:`kernels_fit.robust_fit_groups`).
 
     Returns
     -------
     (GroupPolys, inliers bool (N,))
     """
-    coef, t0, ts, deg, keep = kernels.robust_fit_groups(
+    coef, t0, ts, deg, keep = kernels_fit.robust_fit_groups(
         np.ascontiguousarray(t, float), np.ascontiguousarray(y, float), _bounds(g, n_groups),
         np.ascontiguousarray(degree, np.int64), np.array(np.broadcast_to(np.asarray(rounds, np.int64), (n_groups,))),
         float(k_mad))

@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels, kernels_dense, kernels_match
+from appliance.localize import kernels_dense, kernels_match
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -120,7 +120,7 @@ def _row_centres(graph: SkeletonGraph, segs: list[int], radius_map) -> tuple[np.
     junction = (nodes >= 0) & (graph.node_kind[np.maximum(nodes, 0)] == JUNCTION)
     nxy = graph.to_full(graph.node_yx[np.maximum(nodes, 0).reshape(-1)])   # (2G, 2)
     thr = (1.6 * radius_at(radius_map, nxy) + graph.scale + 1).reshape(-1, 2)
-    keep = ~kernels.near_junctions(xc, rows, g.astype(np.int64), np.ascontiguousarray(junction),   # (compiled:
+    keep = ~kernels_dense.near_junctions(xc, rows, g.astype(np.int64), np.ascontiguousarray(junction),   # (compiled:
                                    np.ascontiguousarray(nxy.reshape(-1, 2, 2), float), thr)       # the same tests)
     return rows[keep], xc[keep], g[keep]
 
@@ -270,7 +270,7 @@ def _consensus_lines(t: np.ndarray, d: np.ndarray, bounds: np.ndarray, alive: np
     live = np.flatnonzero(alive)
     ij = np.zeros((2, 0, n_hyp), np.int64) if len(live) == 0 else \
         np.stack([_pairs(int(bounds[k + 1] - bounds[k]), n_hyp) + bounds[k] for k in live], axis=1)   # (2, G, H)
-    coef, t0, ts, deg = kernels.consensus_lines(np.ascontiguousarray(t, float), np.ascontiguousarray(d, float),
+    coef, t0, ts, deg = kernels_dense.consensus_lines(np.ascontiguousarray(t, float), np.ascontiguousarray(d, float),
                                                 np.ascontiguousarray(bounds, np.int64), live,
                                                 np.ascontiguousarray(ij, np.int64), float(tol_px))
     return GroupPolys(coef, t0, ts, deg)

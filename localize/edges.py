@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels_runs
 from appliance.localize.curves import cached
 
 
@@ -75,10 +75,10 @@ class Runs:
 
     def find(self, row: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Index of the run containing pixel (row, round(x)) for each query, -1 if none
-        (compiled: :func:`kernels.runs_find`)."""
+        (compiled: :func:`kernels_runs.runs_find`)."""
         keys, rows, x1 = self._find_tables          # (a sentinel first: the same runs, two steps less)
         row, x = _queries(row, x)
-        return kernels.runs_find(keys, rows, x1, self.width, row, x[0])
+        return kernels_runs.runs_find(keys, rows, x1, self.width, row, x[0])
 
     def between(self, row: np.ndarray, lo_px: np.ndarray, hi_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Runs of ``row`` whose centre lies in [lo_px, hi_px], for each query.
@@ -89,7 +89,7 @@ class Runs:
             Pairs (query index, run index), all candidates of all queries.
         """
         row, (lo, hi) = _queries(row, lo_px, hi_px)
-        return kernels.runs_between(self._centre_keys, row, self.width, lo, hi)
+        return kernels_runs.runs_between(self._centre_keys, row, self.width, lo, hi)
 
 
 def _queries(row, *cols) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -152,7 +152,7 @@ def find_runs(mask: np.ndarray, soft: bool = False) -> Runs:
         mask = cv2.transpose(mask.T) if mask.T.flags.c_contiguous else np.ascontiguousarray(mask)
     if mask.dtype == np.uint8 and mask.size and mask.size % 8 == 0 and mask.ctypes.data % 8 == 0:
         flat = mask.reshape(-1)         # compiled: the same runs and boundaries, bit for bit
-        return Runs(w, *kernels.mask_runs(flat, flat.view(np.uint64), w, 127 if soft else 0, bool(soft)))
+        return Runs(w, *kernels_runs.mask_runs(flat, flat.view(np.uint64), w, 127 if soft else 0, bool(soft)))
     if mask.dtype == np.uint8:
         sr, x0, x1 = _run_bounds(mask, 127 if soft else 0)
     else:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from appliance.config.schema import MatchConfig
-from appliance.localize import kernels, kernels_forks
+from appliance.localize import kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly, linspace, median
 from appliance.localize.edges import Runs, find_runs
 from appliance.localize.forkends import ForkPlacing
@@ -97,7 +97,7 @@ class EndPlacer(ForkPlacing, TipPlacing, Walks):
         """A piece's centre-line points near the junction at ``p`` but outside its blob (1.6 r)."""
         pts = self.seg_points(s)
         # (compiled: the same distances and points as np.hypot and the boolean selection)
-        sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
+        sel, dist = kernels_walks.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
         return sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
 
     def _seg_radius(self, s: int, pts: np.ndarray) -> float:

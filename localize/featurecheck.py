@@ -6,7 +6,7 @@ several mechanisms; each has its own ways to fail, and a feature grossly off in 
 of those mechanisms. Near each feature it takes small patches of the left grey image inside the
 feature's branch(es) (a tip: along its branch from ``TIP_BACK`` radius back; a fork: along each of its
 pieces, clear of the other pieces' silhouettes), finds each patch's disparity in the right image along
-the same rectified row by normalised cross-correlation (:func:`kernels.ncc_peaks`: exact integer sums,
+the same rectified row by normalised cross-correlation (:func:`kernels_ncc.ncc_peaks`: exact integer sums,
 sub-pixel parabola; a patch without a confident peak near the feature's disparity searched again over the
 whole working range, its peak counting only when unique: :func:`patch_disparities`), moves it from the bark surface back onto the axis (:func:`texture.surface_to_axis`)
 and carries it to the feature along the branch (:func:`estimate`: the least alarming of the texture's
@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from appliance.localize import kernels, kernels_check
+from appliance.localize import kernels_check, kernels_ncc
 from appliance.localize.texture import surface_to_axis
 
 TIP_BACK = 1.0               # a tip's patches start this many radii back along its branch
@@ -232,7 +232,7 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
     lo = np.maximum(np.floor(t["d_ref"] - half), math.floor(d_range_px[0])).astype(np.int64)
     hi = np.minimum(np.ceil(t["d_ref"] + half), math.ceil(d_range_px[1])).astype(np.int64)
     sx0, sx1 = np.maximum(u - hi - hw, 0), np.minimum(u - lo + hw + 1, w)
-    ok, ks, offs, sc = _search(left, right, t, np.arange(n), sx0, sx1, kernels.ncc_peaks, (), (MIN_STD,))
+    ok, ks, offs, sc = _search(left, right, t, np.arange(n), sx0, sx1, kernels_ncc.ncc_peaks, (), (MIN_STD,))
     found = ok & (ks > 0) & (ks < sx1 - sx0 - 2 * hw - 1)           # (a peak at the window's end: not found)
     d_out[found] = (u - (sx0 + ks + offs + hw))[found]
     score[found] = sc[found]
@@ -256,7 +256,7 @@ def patch_disparities(left, right, t: dict, d_range_px: tuple[float, float], w: 
 
 def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.ndarray, kernel, per: tuple,
             tail: tuple) -> tuple:
-    """``kernel(lbox, rbox, ty, tx, hh, hw, sx0, sx1, *per, *tail)`` (:func:`kernels.ncc_peaks` or
+    """``kernel(lbox, rbox, ty, tx, hh, hw, sx0, sx1, *per, *tail)`` (:func:`kernels_ncc.ncc_peaks` or
     :func:`kernels_check.wide_peaks`) of the patches ``rows`` (K,) of the table ``t`` (grouped by feature)
     along the right-image columns ``sx0[k]:sx1[k]`` of each, one call per feature and patch width, each
     feature's patches read in one box of each image. ``per``: arrays (K,) passed per patch; ``tail``:

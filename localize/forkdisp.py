@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from appliance.localize import kernels, kernels_forks
+from appliance.localize import kernels_forks, kernels_ncc
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.patchmask import share_difference
@@ -245,7 +245,7 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
             continue
         strip = rbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0 + hi - lo]
         if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (OpenCV's float32: up to ~5e-4)
-            cc = kernels.ncc_scores(np.ascontiguousarray(strip), np.ascontiguousarray(tmpl))
+            cc = kernels_ncc.ncc_scores(np.ascontiguousarray(strip), np.ascontiguousarray(tmpl))
         else:
             cc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         k = int(cc.argmax())

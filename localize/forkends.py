@@ -12,7 +12,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_forkglue, kernels_forks
+from appliance.localize import kernels_forkglue, kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
@@ -384,8 +384,8 @@ class ForkPlacing:
                                          float(((near[child] - xy) @ out).min()), d, rad[child],
                                          self.sm.f_px, self.sm.offset_px)
         if parents and not agree and (final or d_known is not None):   # the child's own crossings next to the parent
-            # (compiled: kernels.near_points, the same selection as np.hypot's)
-            pts = kernels.near_points(self.seg_points(child), float(p[0]), float(p[1]), 1.2 * r, 1.2 * r + 60)[0]
+            # (compiled: kernels_walks.near_points, the same selection as np.hypot's)
+            pts = kernels_walks.near_points(self.seg_points(child), float(p[0]), float(p[1]), 1.2 * r, 1.2 * r + 60)[0]
             agree = self._runs_agree(pts, d, rad[child])
         if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
             sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
@@ -562,7 +562,7 @@ class ForkPlacing:
         bilinear) crosses 128, to a fraction of a pixel. ``mask``: the left view's unless given.
         """
         mask = self.sm.left_mask if mask is None else mask
-        # (compiled whole: kernels_forks.child_outline_fork; its scans kernels.child_outline_pairs, the
+        # (compiled whole: kernels_forks.child_outline_fork; its scans kernels_walks.child_outline_pairs, the
         # values of _line_samples + _interval_middle, the mask read only where the scans look)
         found, xy = kernels_forks.child_outline_fork(np.ascontiguousarray(mask), *(np.ascontiguousarray(v, float) for v in (
             c1, e1, c2, e2, p0)), float(r_par), float(r_child))

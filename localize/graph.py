@@ -109,7 +109,7 @@ def _group(labels: np.ndarray, yx: np.ndarray, n: int) -> list:
 
 def build_graph(skel: Skeleton) -> SkeletonGraph:
     """The graph of a skeleton (see module docstring); works at the skeleton pixels only (compiled in
-    one call: :func:`kernels_graph.graph_arrays`, around :func:`kernels.graph_core`, whose labels are
+    one call: :func:`kernels_graph.graph_arrays`, around :func:`kernels_graph.graph_core`, whose labels are
     ``cv2.connectedComponents``' own)."""
     image = np.asarray(skel.image)
     if image.dtype != np.uint8:

@@ -1,4 +1,4 @@
-"""Compiled kernels of the feature check (eighth pass, speedG; docs/localize-numba.md).
+"""Compiled kernels of the feature check: its patches' placement and the per-piece estimate (docs/localize-numba.md).
 
 :func:`place_patches` is :func:`featurecheck._patches`' per-piece work in one pass: the pieces' arc
 lengths, the slope of each piece's disparity near the feature, the patch centres, directions and sizes,
@@ -8,7 +8,7 @@ steps' values bit for bit.
 
 :func:`estimate_pieces` is :func:`featurecheck.estimate`'s per-piece and per-feature steps, its sums in
 ``np.add.reduceat``'s order (the first term plus numpy's pairwise sum of the rest): the same values.
-Tests: tests/localize/test_kernels_speedG.py.
+Tests: tests/localize/test_kernels_check.py.
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _peak, _strip_buffers, _strip_scores
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_ncc import _peak, _strip_buffers, _strip_scores
 
 
 @numba.njit(**_JIT)
@@ -319,7 +320,7 @@ def estimate_pieces(feature, piece, s, d, g, score, d_px, consts, d_check, n_use
 
 @numba.njit(**_JIT)
 def wide_peaks(left, right, ty, tx, hh, hw, sx0, sx1, n0, n1, away, min_std):
-    """:func:`kernels.ncc_peaks` over wide strips, with what tells a unique peak: for each patch ``i``
+    """:func:`kernels_ncc.ncc_peaks` over wide strips, with what tells a unique peak: for each patch ``i``
     (centre ``(tx[i], ty[i])`` in ``left``, half height ``hh[i]``, half width ``hw``) not flat, its
     TM_CCOEFF_NORMED scores at the strip positions ``0 .. sx1[i] - sx0[i] - 2 hw - 1`` of ``right``.
 

@@ -1,9 +1,15 @@
-"""Compiled kernels of the dense path (seventh pass, speedD; docs/localize-numba.md).
+"""Compiled kernels of the dense path: the disparity candidates' lines, fits and picks of :mod:`single_edge`
+and :mod:`dense` (docs/localize-numba.md).
 
 Whole functions of :mod:`single_edge` and :mod:`dense` as one compiled loop each, with the same
 rules as the numpy code they replace. They agree with it up to rounding: the trigonometry of
 :func:`edge_to_axis` and the means are not numpy's bit for bit (checked per feature on the
-60-scene benchmark; tests/localize/test_kernels_speedD.py against the numpy versions).
+60-scene benchmark; tests/localize/test_kernels_dense.py against the numpy versions).
+
+Smaller steps of the same path, with the numpy steps' values: :func:`consensus_lines`
+(``dense._consensus_lines``), :func:`line_vote` and :func:`centre_line` (``single_edge.edge_consensus``' vote,
+``single_edge.centre_guess``), :func:`nearest_per_query` (``dense.fit_steep_many``'s pick) and
+:func:`near_junctions` (``dense._row_centres``' test).
 """
 
 from __future__ import annotations
@@ -11,21 +17,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import (
-    _JIT,
-    _horner,
-    _median,
-    _pairwise,
-    _readonly,
-    _sorted,
-    end_slopes_groups,
-    fit_groups,
-    line_vote,
-    nearest_per_query,
-    robust_fit_groups,
-    runs_between,
-    runs_find,
-)
+from appliance.localize.kernels import _JIT, _readonly
+from appliance.localize.kernels_fit import _fit_one, _group_polys, _horner, end_slopes_groups, fit_groups, robust_fit_groups
+from appliance.localize.kernels_runs import runs_between, runs_find
+from appliance.localize.kernels_stats import _median, _pairwise, _sorted
 
 OCCL_TOL_PX = 1.5       # steep_fit: a pick whose width disagreement is this + OCCL_SHARE * width off its piece's
 OCCL_SHARE = 0.02       # ... median is dropped (width_disagree; docs/localize-steepdrift.md)
@@ -795,8 +790,8 @@ def disparity_refit(tf, df, bc, te, de, be, degree):
     A piece with single-edge samples (``te``, ``de``) has its disparity refitted robustly to all its
     samples (whole crossings first, then single edges; :func:`curves.degree_for` of them), and keeps
     the inliers; a piece without keeps its whole crossings (``tf``, ``df``). Each piece's disparity
-    is then a least-squares fit to those (:func:`kernels.fit_groups`), with the straight lines' slopes
-    at its ends (:func:`kernels.end_slopes_groups`).
+    is then a least-squares fit to those (:func:`kernels_fit.fit_groups`), with the straight lines' slopes
+    at its ends (:func:`kernels_fit.end_slopes_groups`).
 
     Parameters
     ----------
@@ -1185,6 +1180,188 @@ def steep_radii(tf, wf, bc, live, coef, t0, ts):
     return out
 
 
+@numba.njit(**_JIT)
+def consensus_lines(t, d, bounds, live, ij, tol_px):
+    """``dense._consensus_lines``: per live piece ``live[m]`` (candidates ``bounds[k]:bounds[k + 1]``)
+    the line d(t) through the most candidates among the hypotheses ``ij[:, m]`` (pairs of candidate
+    indices; pairs less than 3 rows apart do not count), fitted to its inliers (:func:`fit_groups`
+    of degree 1); without a pair 3 rows apart, the candidates' median. Other pieces: a constant 0.
+
+    Returns coef (G, 4), t0 (G,), ts (G,), degree (G,) int64."""
+    ng = len(bounds) - 1
+    coef, t0, ts, deg = _group_polys(ng)
+    n_hyp = ij.shape[2]
+    for m in range(len(live)):
+        k = live[m]
+        lo, hi = bounds[k], bounds[k + 1]
+        best, best_count = -1, -2
+        for h in range(n_hyp):
+            i, j = ij[0, m, h], ij[1, m, h]
+            dt = t[j] - t[i]
+            if not abs(dt) >= 3:
+                if best_count < -1:
+                    best, best_count = h, -1
+                continue
+            slope = (d[j] - d[i]) / dt
+            count = 0
+            for s in range(lo, hi):
+                if abs(d[s] - ((t[s] - t[i]) * slope + d[i])) <= tol_px:
+                    count += 1
+            if count > best_count:
+                best, best_count = h, count
+        if best_count < 0:              # no pair 3 rows apart: the median
+            coef[k, 3] = _median(d[lo:hi])
+            continue
+        i, j = ij[0, m, best], ij[1, m, best]
+        slope = (d[j] - d[i]) / (t[j] - t[i])
+        tk = np.empty(best_count)
+        dk = np.empty(best_count)
+        c = 0
+        for s in range(lo, hi):
+            if abs(d[s] - ((t[s] - t[i]) * slope + d[i])) <= tol_px:
+                tk[c], dk[c] = t[s], d[s]
+                c += 1
+        t0[k], ts[k], deg[k] = _fit_one(tk, dk, 1, coef[k], m == len(live) - 1)
+    return coef, t0, ts, deg
+
+
+@numba.njit(**_JIT)
+def line_vote(cand_t, cand_d, slopes, tm, tol_px):
+    """``single_edge.edge_consensus``' vote: for each slope ``slopes[s]`` the offsets ``cand_d - slopes[s] *
+    (cand_t - tm)`` of the lines through the candidates (C,), in bins of ``tol_px`` from the lowest
+    offset ``lo`` over all slopes; the best window of two neighbouring bins (row-major first maximum of
+    the (S, nb - 1) window counts, as numpy's argmax). The same values as the numpy steps (the offsets
+    recomputed in the same two roundings instead of stored). Returns (lo, k_s, k_b)."""
+    n_s, n_c = len(slopes), len(cand_t)
+    dt = np.empty(n_c)
+    for c in range(n_c):
+        dt[c] = cand_t[c] - tm
+    lo = np.inf
+    for s in range(n_s):
+        for c in range(n_c):
+            lo = min(lo, cand_d[c] - slopes[s] * dt[c])
+    top = 0
+    bins = np.empty((n_s, n_c), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            b = np.int64(((cand_d[c] - slopes[s] * dt[c]) - lo) / tol_px)
+            bins[s, c] = b
+            top = max(top, b)
+    nb = top + 2
+    votes = np.zeros((n_s, nb), np.int64)
+    for s in range(n_s):
+        for c in range(n_c):
+            votes[s, bins[s, c]] += 1
+    best, k_s, k_b = -1, 0, 0
+    for s in range(n_s):
+        for b in range(nb - 1):
+            v = votes[s, b] + votes[s, b + 1]
+            if v > best:
+                best, k_s, k_b = v, s, b
+    return lo, k_s, k_b
+
+
+@numba.njit(**_JIT)
+def centre_line(t, s, half):
+    """``single_edge.centre_guess``'s values where the positions ``t`` (N,) are whole or half pixels
+    (its bincount path): each position's mean ``s`` (sums in input order, as ``np.bincount``'s), then
+    ``np.interp`` (numpy's rules: clamped ends, exact at the sample points, ``slope * (x - x_j) + y_j``)
+    at the whole positions ``ceil(first - half)`` .. ``floor(last + half)``. Returns (ok, ts, values);
+    ``ok`` False (other positions, or too sparse: the caller's numpy path) with empty arrays."""
+    n = len(t)
+    empty = np.zeros(0)
+    if n == 0:
+        return False, empty, empty
+    k0, k1 = np.int64(0), np.int64(0)
+    for i in range(n):
+        t2 = t[i] * 2.0
+        k = np.int64(t2)
+        if k != t2:
+            return False, empty, empty
+        if i == 0 or k < k0:
+            k0 = k
+        if i == 0 or k > k1:
+            k1 = k
+    if not k1 - k0 < 8 * n + 4096:
+        return False, empty, empty
+    count = np.zeros(k1 - k0 + 1, np.int64)
+    total = np.zeros(k1 - k0 + 1)
+    for i in range(n):
+        k = np.int64(t[i] * 2.0) - k0
+        count[k] += 1
+        total[k] += s[i]
+    m = 0
+    for k in range(len(count)):
+        if count[k]:
+            m += 1
+    xp, yp = np.empty(m), np.empty(m)
+    j = 0
+    for k in range(len(count)):
+        if count[k]:
+            xp[j] = (k + k0) / 2.0
+            yp[j] = total[k] / count[k]
+            j += 1
+    lo, hi = np.ceil(xp[0] - half), np.floor(xp[m - 1] + half) + 1
+    nt = max(np.int64(np.ceil(hi - lo)), 0)
+    ts, out = np.empty(nt), np.empty(nt)
+    j = 0
+    for i in range(nt):
+        x = lo + i
+        ts[i] = x
+        if x <= xp[0]:
+            out[i] = yp[0]              # (left of the first sample, or on it)
+        elif x >= xp[m - 1]:
+            out[i] = yp[m - 1]
+        else:
+            while xp[j + 1] <= x:       # (x rises: xp[j] <= x < xp[j + 1])
+                j += 1
+            if xp[j] == x:
+                out[i] = yp[j]
+            else:
+                slope = (yp[j + 1] - yp[j]) / (xp[j + 1] - xp[j])
+                out[i] = slope * (x - xp[j]) + yp[j]
+    return True, ts, out
+
+
+@numba.njit(**_JIT)
+def nearest_per_query(q, res):
+    """``dense.fit_steep_many``'s pick of each query's candidate nearest the model: for ``q`` (N,)
+    non-decreasing query ids, the index of each run of equal ids' smallest ``res`` (N,) (the first of
+    equal ones; NaN above all), in order: ``order = np.lexsort((res, q))`` taken at each id's first
+    place, the same indices."""
+    n = len(q)
+    out = np.empty(n, np.int64)
+    m = 0
+    i = 0
+    while i < n:
+        best = i
+        j = i + 1
+        while j < n and q[j] == q[i]:
+            if res[j] < res[best] or (np.isnan(res[best]) and not np.isnan(res[j])):
+                best = j
+            j += 1
+        out[m] = best
+        m += 1
+        i = j
+    return out[:m].copy()
+
+
+@numba.njit(**_JIT)
+def near_junctions(xc, rows, g, junction, nxy, thr):
+    """``dense._row_centres``' test of each sample (``xc``, ``rows`` (N,) float64 of piece ``g`` (N,)):
+    within ``thr[g, k]`` (np.hypot of the differences, the same values) of its piece's end ``k``'s node
+    ``nxy[g, k]`` (x, y) where ``junction[g, k]``. Returns (N,) bool."""
+    n = len(xc)
+    near = np.zeros(n, np.bool_)
+    for i in range(n):
+        p = g[i]
+        for k in range(2):
+            if junction[p, k] and np.hypot(xc[i] - nxy[p, k, 0], rows[i] - nxy[p, k, 1]) < thr[p, k]:
+                near[i] = True
+    return near
+
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     tab = tuple(_readonly(np.zeros(2, np.int64)) for _ in range(3))
@@ -1209,3 +1386,11 @@ def warm_up() -> None:
         steep_fit(f, b1, i1, i1, i1, i1, f, f, i1, f, f, f4, f, np.ones(1), i1, i1, i1, tab, ro, ro, 4, taken,
                   OCCL_TOL_PX, OCCL_SHARE, 1000.0, 0.0, 0.0, np.full((1, 2), np.nan))
     steep_radii(f3, f3, b2, np.zeros(1, np.int64), f4, f, np.ones(1))      # (twelfth pass, speedsteep)
+    f = np.zeros(4)
+    consensus_lines(np.arange(4.0), f, np.array([0, 4], np.int64), np.zeros(1, np.int64), np.zeros((2, 1, 2), np.int64),
+                    1.5)
+    line_vote(np.zeros(2), np.zeros(2), np.zeros(3), 0.0, 1.0)
+    centre_line(np.zeros(2), np.zeros(2), 0.5)
+    nearest_per_query(np.zeros(2, np.int64), np.zeros(2))
+    near_junctions(np.zeros(1), np.zeros(1), np.zeros(1, np.int64), np.zeros((1, 2), np.bool_), np.zeros((1, 2, 2)),
+                   np.zeros((1, 2)))

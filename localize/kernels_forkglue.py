@@ -12,7 +12,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, eval_clamped
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_fit import eval_clamped
 from appliance.localize.kernels_match import _at
 
 
@@ -32,7 +33,7 @@ def near_piece(pts, px, py, r):
     Returns
     -------
     sel : (K, 2) float64
-        The points kept, in order (:func:`kernels.near_points`' selection).
+        The points kept, in order (:func:`kernels_walks.near_points`' selection).
     dist : (N,) float64
         Every point's distance from the junction (``np.hypot``).
     u : (2,) float64
@@ -151,7 +152,7 @@ def walk_uv(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign, n):
     Returns
     -------
     uv : (n, 2) float64
-        (u, v) px, 1 px of ``t`` apart (:func:`kernels.eval_clamped`'s values).
+        (u, v) px, 1 px of ``t`` apart (:func:`kernels_fit.eval_clamped`'s values).
     """
     t = np.empty(n)
     for i in range(n):

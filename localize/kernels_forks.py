@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize import kernels
+from appliance.localize import kernels, kernels_fit, kernels_runs, kernels_stats, kernels_walks
 
 _JIT = kernels._JIT
 
@@ -67,7 +67,7 @@ def hidden_crossings(uv, r_min, skip, by_row, t_lo, t_hi, radius, poly, coef, n_
         for i in range(8):
             box_t[i] = i * step + lo
         box_t[7] = hi
-        b_s = kernels.eval_clamped(c, dc, t0[j], ts[j], lo, hi, no_slopes, True, box_t)
+        b_s = kernels_fit.eval_clamped(c, dc, t0[j], ts[j], lo, hi, no_slopes, True, box_t)
         s0, s1 = _min_max(b_s)
         b0, b1 = _min_max(box_t)
         u0, v0, u1, v1 = (s0, b0, s1, b1) if by_row[j] else (b0, s0, b1, s1)
@@ -81,7 +81,7 @@ def hidden_crossings(uv, r_min, skip, by_row, t_lo, t_hi, radius, poly, coef, n_
                 n_in += 1
         if n_in < 2:
             continue
-        s = kernels.eval_clamped(c, dc, t0[j], ts[j], lo, hi, no_slopes, True, ta)
+        s = kernels_fit.eval_clamped(c, dc, t0[j], ts[j], lo, hi, no_slopes, True, ta)
         prev_in = ta[0] >= lo - 2 and ta[0] <= hi + 2
         prev_sg = _sign(uv[0, 1 - a_col] - s[0])
         for i in range(1, n):
@@ -139,7 +139,7 @@ def tls_line(pts):
 def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
     """:func:`parent_axis`' scans of the cross-sections: per section k (``s`` (K,)), from its sample nearest
     ``t = 0`` that is on (within ``middle_max_r`` r + 1) outwards to the first off sample each side
-    (``t`` in -half..half, the mask read lazily by :func:`kernels.bilinear_u8`, cv2.remap's values).
+    (``t`` in -half..half, the mask read lazily by :func:`kernels_walks.bilinear_u8`, cv2.remap's values).
     Returns per section (K, 3): found (1/0), middle t, width (px)."""
     K = len(s)
     T = 2 * half + 1
@@ -155,7 +155,7 @@ def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
             for j in (half - dd, half + dd):
                 if vals[j] < 0:
                     t = float(j - half)
-                    vals[j] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+                    vals[j] = kernels_walks.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
                 if vals[j] >= 128.0:
                     c = j
                     break
@@ -167,7 +167,7 @@ def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
         while a >= 0:
             if vals[a] < 0:
                 t = float(a - half)
-                vals[a] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+                vals[a] = kernels_walks.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
             if vals[a] < 128.0:
                 break
             a -= 1
@@ -175,7 +175,7 @@ def _sections_k(mask, base, e, n, s, r, half, middle_max_r):
         while b < T:
             if vals[b] < 0:
                 t = float(b - half)
-                vals[b] = kernels.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
+                vals[b] = kernels_walks.bilinear_u8(mask, np.float32(bx + t * n[0]), np.float32(by + t * n[1]))
             if vals[b] < 128.0:
                 break
             b += 1
@@ -229,7 +229,7 @@ def parent_axis(mask, xy, e1, out, r_behind, r_ahead, r_child, n_sections, step_
         if ok[k]:
             widths[j] = f[k, 2]
             j += 1
-    w = kernels._median(widths)
+    w = kernels_stats._median(widths)
     mids = np.empty((n_ok, 2))
     m = 0
     for k in range(2 * K):
@@ -263,7 +263,7 @@ def child_outline_fork(mask, c1, e1, c2, e2, p0, r_par, r_child):
     """``ends.EndPlacer._fork_from_child_outline`` compiled whole: the fork from the child's outline in
     ``mask`` (H, W) uint8 where it leaves the parent (axis ``c1`` + t ``e1``; ``p0``: the junction on
     it; the child's line ``c2``, ``e2``; radii in px). Returns (found, xy (2,)); the scans are
-    :func:`kernels.child_outline_pairs`' (the same values), the products around them equal to numpy's
+    :func:`kernels_walks.child_outline_pairs`' (the same values), the products around them equal to numpy's
     up to rounding."""
     xy = np.zeros(2)
     nx, ny = -e1[1], e1[0]
@@ -286,7 +286,7 @@ def child_outline_fork(mask, c1, e1, c2, e2, p0, r_par, r_child):
         bases[k, 0], bases[k, 1] = c1[0] + hs[k] * nx, c1[1] + hs[k] * ny
         s_c[k] = s0 + hs[k] * cot
     reach = (4.7 * r_child + 3) / sin_t + 2
-    i, m1, m2 = kernels.child_outline_pairs(mask, bases, s_c, e1, reach, r_child, sin_t)
+    i, m1, m2 = kernels_walks.child_outline_pairs(mask, bases, s_c, e1, reach, r_child, sin_t)
     if i < 0:
         return False, xy
     t = m1 - (m2 - m1) * hs[2 * i] / step
@@ -299,7 +299,7 @@ def _line_fit(x, y):
     """``forkdisp``'s least-squares line ``y = a x + b`` (closed form; the plain sums numpy's pairwise
     ones, the products' sums in order): (ok, a, b), not ok when ``x`` has no spread."""
     n = len(x)
-    sx, sy = kernels._pairwise(x, 0, n), kernels._pairwise(y, 0, n)
+    sx, sy = kernels_stats._pairwise(x, 0, n), kernels_stats._pairwise(y, 0, n)
     sxx, sxy = 0.0, 0.0
     for i in range(n):
         sxx += x[i] * x[i]
@@ -338,7 +338,7 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
         d[i] = d_end + slope_d * dt
     if r_min < 0 or n < min_rows:
         return fail
-    il = kernels.runs_find(keys_l, rows_l, x1_l, width_l, ri, u)
+    il = kernels_runs.runs_find(keys_l, rows_l, x1_l, width_l, ri, u)
     m = min(n_gap + 20, n) - n_gap
     ref = np.empty(max(m, 0))
     n_ref = 0
@@ -348,7 +348,7 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
             n_ref += 1
     if n_ref == 0:
         return fail
-    w_end = kernels._median(ref[:n_ref])
+    w_end = kernels_stats._median(ref[:n_ref])
     k = np.empty(n, np.int64)
     nk = 0
     for i in range(n):
@@ -365,7 +365,7 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
         w_l[j] = span_l[il[k[j]]]
         rq[j] = ri[k[j]]
         xq[j] = c_l[j] - d[k[j]]
-    ir = kernels.runs_find(keys_r, rows_r, x1_r, width_r, rq, xq)
+    ir = kernels_runs.runs_find(keys_r, rows_r, x1_r, width_r, rq, xq)
     x, y, kk = np.empty(nk), np.empty(nk), np.empty(nk, np.int64)
     n2 = 0
     for j in range(nk):
@@ -385,11 +385,11 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     res = np.empty(n2)
     for j in range(n2):
         res[j] = y[j] - (a * x[j] + b)
-    med = kernels._median(res)
+    med = kernels_stats._median(res)
     dev = np.empty(n2)
     for j in range(n2):
         dev[j] = abs(res[j] - med)
-    mad = 1.4826 * kernels._median(dev)
+    mad = 1.4826 * kernels_stats._median(dev)
     keep = np.empty(n2, np.bool_)
     n_keep = 0
     for j in range(n2):
@@ -421,8 +421,8 @@ def runs_agree(pts, d, r, min_rows, keys_l, rows_l, x1_l, width_l, span_l, centr
                centre_r, d_min, d_max):
     """``ends.EndPlacer._runs_agree`` compiled whole: whether a piece's own row crossings at points ``pts``
     (N, 2) have disparity ``d`` (px). The rows of the points' line (:func:`tls_line`), the left crossing
-    on each (``kernels.runs_find``; not wider than a piece of radius ``r`` across the row), the right
-    crossings of a similar width in the working range ``d_min``..``d_max`` (``kernels.runs_between`` on
+    on each (``kernels_runs.runs_find``; not wider than a piece of radius ``r`` across the row), the right
+    crossings of a similar width in the working range ``d_min``..``d_max`` (``kernels_runs.runs_between`` on
     the right runs' centre keys); rows where one lies within 1 px or 0.6 % of ``d`` must be at least
     ``min_rows`` and 60 % of the rows with any. The same steps as numpy (the line up to rounding)."""
     if len(pts) < 2:
@@ -443,7 +443,7 @@ def runs_agree(pts, d, r, min_rows, keys_l, rows_l, x1_l, width_l, span_l, centr
         v = v0 + i
         rows[i] = np.int64(v)
         x[i] = c[0] + (v - c[1]) * e[0] / e[1]
-    il = kernels.runs_find(keys_l, rows_l, x1_l, width_l, rows, x)
+    il = kernels_runs.runs_find(keys_l, rows_l, x1_l, width_l, rows, x)
     w_max = 2.4 * r / sin_t + 3
     n = 0
     for i in range(nv):
@@ -457,7 +457,7 @@ def runs_agree(pts, d, r, min_rows, keys_l, rows_l, x1_l, width_l, span_l, centr
     for i in range(n):
         c_l[i], w_l[i] = centre_l[il[i]], span_l[il[i]]
         lo[i], hi[i] = c_l[i] - d_max, c_l[i] - d_min
-    q, rr = kernels.runs_between(ckeys_r, rows, width_r, lo, hi)
+    q, rr = kernels_runs.runs_between(ckeys_r, rows, width_r, lo, hi)
     tol = max(1.0, 0.006 * abs(d))
     n_cand = n_ok = 0
     last_c = last_ok = -1
@@ -488,14 +488,14 @@ def radius_median(img, scale, pts):
         x = min(max(np.int64(np.rint((pts[i, 0] + 0.5) / scale - 0.5)), 0), w - 1)
         y = min(max(np.int64(np.rint((pts[i, 1] + 0.5) / scale - 0.5)), 0), h - 1)
         vals[i] = img[y, x]
-    return kernels._median(vals)
+    return kernels_stats._median(vals)
 
 
 @numba.njit(**_JIT)
 def passes_through(mask, c, e, s_far_px, r_child_px, reach_px):
     """:func:`forkchild.passes_through` compiled whole: along ``c - s e`` (``c``, ``e`` (2,)) for ``s`` in
     ``s_far_px`` .. ``s_far_px + reach_px`` (1 px apart, ``np.arange``'s values), a sample is the
-    branch's where ``mask`` (bilinear, :func:`kernels.bilinear_u8`: cv2.remap's values at the float32
+    branch's where ``mask`` (bilinear, :func:`kernels_walks.bilinear_u8`: cv2.remap's values at the float32
     points) covers the line (>= 128) and leaves both sides ``1.5 r + 2`` px off it clear; whether
     ``max(6, ceil(1.5 r))`` such samples come in a row. Reads each sample's sides only where the line is
     covered, and stops at the first such run (the same answer)."""
@@ -510,9 +510,9 @@ def passes_through(mask, c, e, s_far_px, r_child_px, reach_px):
     for i in range(n):
         s = s_far_px if i == 0 else s_far_px + 1.0 if i == 1 else s_far_px + i * delta
         x, y = c[0] - s * e[0], c[1] - s * e[1]
-        if kernels.bilinear_u8(mask, np.float32(x), np.float32(y)) >= 128 \
-                and kernels.bilinear_u8(mask, np.float32(x + ox), np.float32(y + oy)) < 128 \
-                and kernels.bilinear_u8(mask, np.float32(x - ox), np.float32(y - oy)) < 128:
+        if kernels_walks.bilinear_u8(mask, np.float32(x), np.float32(y)) >= 128 \
+                and kernels_walks.bilinear_u8(mask, np.float32(x + ox), np.float32(y + oy)) < 128 \
+                and kernels_walks.bilinear_u8(mask, np.float32(x - ox), np.float32(y - oy)) < 128:
             run += 1
             if run >= need:
                 return True
@@ -528,7 +528,7 @@ def side_walks(mask, t, uv, normal, have_normal, by_row, coef, dcoef, t0, ts, lo
     ``have_normal``, else made as ``_walk_out`` makes them: the centre line (a :class:`curves.Poly` of
     coefficients ``coef``, derivative's ``dcoef``, scaling ``t0``, ``ts``, span ``lo``..``hi``; ``by_row``)
     half a unit of t either side, their difference normalised, turned a quarter), each read by
-    :func:`kernels.walk_edges` on ``mask``. Returns (index (2,), crosses (2,), the normals (N, 2)): the
+    :func:`kernels_walks.walk_edges` on ``mask``. Returns (index (2,), crosses (2,), the normals (N, 2)): the
     same values as the numpy steps."""
     n = len(t)
     if not have_normal:
@@ -536,7 +536,7 @@ def side_walks(mask, t, uv, normal, have_normal, by_row, coef, dcoef, t0, ts, lo
         for i in range(n):
             tt[i] = t[i] + 0.5
             tt[n + i] = t[i] - 0.5
-        sv = kernels.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, tt)
+        sv = kernels_fit.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, tt)
         normal = np.empty((n, 2))
         for i in range(n):
             if by_row:
@@ -556,7 +556,7 @@ def side_walks(mask, t, uv, normal, have_normal, by_row, coef, dcoef, t0, ts, lo
         pts[n + i, 1] = uv[i, 1] + neg * normal[i, 1]
     bounds = np.empty(3, np.int64)
     bounds[0], bounds[1], bounds[2] = 0, n, 2 * n
-    idx, crosses = kernels.walk_edges(mask, pts, bounds)
+    idx, crosses = kernels_walks.walk_edges(mask, pts, bounds)
     return idx, crosses, normal
 
 
@@ -593,7 +593,7 @@ def curve_points(coef, dcoef, t0, ts, lo, hi, by_row, a, b, n):
     for i in range(n):
         t[i] = (i / div) * delta + a if step == 0 else i * step + a
     t[n - 1] = b
-    sv = kernels.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, t)
+    sv = kernels_fit.eval_clamped(coef, dcoef, t0, ts, lo, hi, np.zeros(2), True, t)
     out = np.empty((n, 2))
     j, k = (0, 1) if by_row else (1, 0)
     for i in range(n):

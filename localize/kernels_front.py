@@ -1,18 +1,19 @@
-"""Compiled kernels of the front stages (seventh pass, speed02; docs/localize-numba.md).
+"""Compiled kernels of the front stages: the colour recogniser's bark look-up and the radius map's distance
+transform (docs/localize-numba.md).
 
 :func:`bark_lookup_rows` is the colour recogniser's bark test by :func:`segment.bark_lut_rows`' two-level
 table (~0.2 MB, which stays in the cache between the stages; eleventh pass, speedS): the values of the
 former ``kernels.bark_tiles`` (OpenCV's HSV thresholds, through :func:`segment.bark_lut`'s 2 MB table; the
 seventh pass's ``bark_lookup`` read that table) at a fraction of its cost; the pixels of a run of flagged
-tiles are read as one flat run per image row. Tests: tests/localize/test_kernels_bark_rows.py (equal to the
-one-level table on all 2^24 colours) and test_kernels_speed02.py (equal to ``bark_tiles``).
+tiles are read as one flat run per image row. Tests: tests/localize/test_kernels_front.py (equal to the
+one-level table on all 2^24 colours, and to ``bark_tiles``).
 
 :func:`distance_near` is the radius map's Euclidean distance transform, OpenCV's precise one
 (``cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)``) at ~1/7 of its cost on branch
 masks: the correctly rounded float32 root of the exact squared distance. OpenCV's (IPP's with one
 thread) is that value or one unit in the last place off (~1e-6 px), and not always the same from
 one call to the next; on the fixtures' masks they agree bit for bit, and the 60 scenes' results are
-unchanged. Tests: tests/localize/test_kernels_speed02.py.
+unchanged. Tests: tests/localize/test_kernels_front.py.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Compiled kernels of the front and back stages, ninth pass (speedR; docs/localize-numba.md).
+"""Compiled kernels of the pixel grid and the skeleton's graph: rectify's tiles, the skeleton's thinning, the
+graph's pixel work, prune, recover and the result's medians (docs/localize-numba.md).
 
 Whole functions of the stages around the match stage (rectify, skeleton, prune, recover, the result's
 assembly) and the lazy grey reads, each giving the values of the numpy / OpenCV code it replaces bit for
@@ -8,9 +9,12 @@ bit (the references are in tests/localize/test_kernels_graph.py):
   :func:`source_box` (a lazy read's source box), :func:`project_distorted` (``cv2.projectPoints``' model,
   for :meth:`Rectifier.to_original`);
 - skeleton: :func:`coarse_mask` (the fast skeleton's 4x smaller mask straight from the rectified
-  coverage), :func:`thin` (Zhang-Suen and the corner removal), :func:`corners` (the corner removal alone);
+  coverage), :func:`thin` (Zhang-Suen and the corner removal), :func:`corners` (the corner removal alone),
+  both on :func:`zhang_suen_flat` and :func:`remove_corners_flat` (the thinning passes over the listed
+  pixels of a flat padded image);
 - graph and prune: :func:`graph_arrays` (:func:`graph.build_graph`'s arrays around
-  :func:`kernels.graph_core`), :func:`spur_mask` (:func:`prune.spur_ids`' test);
+  :func:`graph_core`: the junction and segment labels by union-find, :func:`_components`),
+  :func:`spur_mask` (:func:`prune.spur_ids`' test);
 - recover: :func:`end_fit` (the ends' principal axes), :func:`bridge_pairs` (the candidate pairs of
   ends), :func:`line_pixels` (the bridges' pixels);
 - the result: :func:`group_medians` (each piece's median depth).
@@ -25,7 +29,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _sorted, graph_core, remove_corners_flat, zhang_suen_flat
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_stats import _sorted
 
 
 @numba.njit(**_JIT)
@@ -101,7 +106,7 @@ def _by_label(lab, on, n):
 @numba.njit(**_JIT)
 def graph_arrays(image, words, w, count, scale):
     """:func:`graph.build_graph` of a skeleton image in one call: the arrays of its
-    :class:`~appliance.localize.graph.SkeletonGraph` (the pixel work :func:`kernels.graph_core`'s).
+    :class:`~appliance.localize.graph.SkeletonGraph` (the pixel work :func:`graph_core`'s).
 
     Parameters
     ----------
@@ -435,7 +440,7 @@ def _scan(image, words, w2, flat):
 
 @numba.njit(**_JIT)
 def corners(image, words, corner, out):
-    """:func:`skeleton.remove_corners` of a binary image in one call (:func:`kernels.remove_corners_flat` on
+    """:func:`skeleton.remove_corners` of a binary image in one call (:func:`remove_corners_flat` on
     the zero-padded flat image built here). ``image`` (H, W8) uint8, non-zero = set, rows padded to a
     multiple of 8 px; ``words`` its 8-pixel words; ``corner`` (256,) bool; ``out`` (H, W) uint8 receives
     the result, 0/1."""
@@ -457,7 +462,7 @@ def thin(image, words, off, tab0, tab1, corner, out):
     """:func:`skeleton.zhang_suen` then :func:`skeleton.remove_corners` of a binary image in one call: the
     zero-padded flat image, the pixels that may go (set, not on the image's border) and the outline to
     start from (set pixels with a zero 8-neighbour inside the image, as ``m - cv2.erode(m, 3 x 3)``)
-    built here, then :func:`kernels.zhang_suen_flat` and :func:`kernels.remove_corners_flat` on it.
+    built here, then :func:`zhang_suen_flat` and :func:`remove_corners_flat` on it.
 
     Parameters
     ----------
@@ -676,6 +681,220 @@ def bridge_pairs(xy, axis, radius, segment, cos_max, max_gap_px, max_ratio):
     return ii[:c], jj[:c], ci[:c], cj[:c], dd[:c]
 
 
+@numba.njit(**_JIT)
+def _code(flat, p, off):
+    """Neighbour code of the padded flat pixel ``p``: bit k = neighbour k (``off[k]`` away) set."""
+    c = 0
+    for k in range(8):
+        if flat[np.uint64(p + off[k])] != 0:        # (unsigned: numba drops its negative-index test)
+            c |= 1 << k
+    return c
+
+
+@numba.njit(**_JIT)
+def zhang_suen_flat(flat, live, start, off, tab0, tab1):
+    """Zhang-Suen thinning in place on a zero-padded flat 0/1 image (``skeleton.zhang_suen``'s loop).
+
+    ``live`` (uint8, same size; modified): the pixels that may still go; ``start``: the first
+    sub-iteration's candidates (flat indices); ``off`` (8,): flat steps to the neighbours; ``tab0`` /
+    ``tab1`` (256,) bool: the sub-iterations' deletion tables. Each sub-iteration decides on the image
+    as the previous one left it, then deletes; later candidates are the live pixels next to a deletion
+    in the last two sub-iterations; stops after two sub-iterations without a deletion. Returns the
+    number of sub-iterations.
+    """
+    n = flat.size
+    near = (np.empty(n, np.int64), np.empty(n, np.int64))
+    n_near = np.zeros(2, np.int64)
+    for k in range(len(start)):
+        near[0][k] = start[k]
+        near[1][k] = start[k]
+    n_near[0] = n_near[1] = len(start)
+    seen = np.full(n, -1, np.int64)
+    cand = np.empty(n, np.int64)
+    gone = np.empty(n, np.int64)
+    i, quiet = 0, 0
+    while quiet < 2:
+        nc = 0
+        if i == 0:
+            for k in range(len(start)):
+                cand[nc] = start[k]
+                nc += 1
+        else:
+            for par in range(2):
+                lst = near[par]
+                for k in range(n_near[par]):
+                    p = lst[k]
+                    if live[p] != 0 and seen[p] != i:
+                        seen[p] = i
+                        cand[nc] = p
+                        nc += 1
+        tab = tab0 if (i & 1) == 0 else tab1
+        ng = 0
+        for k in range(nc):
+            p = cand[k]
+            if tab[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+            live[gone[k]] = 0
+        lst = near[i & 1]
+        m = 0
+        for k in range(ng):
+            for j in range(8):
+                q = gone[k] + off[j]
+                if live[q] != 0 and seen[q] != -2 - i:      # (each neighbour once per list)
+                    seen[q] = -2 - i
+                    lst[m] = q
+                    m += 1
+        n_near[i & 1] = m
+        quiet = 0 if ng else quiet + 1
+        i += 1
+    return i
+
+
+@numba.njit(**_JIT)
+def remove_corners_flat(flat, idx, w2, corner):
+    """``skeleton.remove_corners``' two passes in place on a zero-padded flat 0/1 image of row length
+    ``w2``: the set pixels ``idx`` (row-major flat indices) of parity 0, then of parity 1, each pass
+    deciding on the image as the previous pass left it (all its pixels first, then the deletions)."""
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    gone = np.empty(len(idx), np.int64)
+    for par in range(2):
+        ng = 0
+        for k in range(len(idx)):
+            p = idx[k]
+            if ((p // w2 + p % w2) & 1) == par and corner[_code(flat, p, off)]:
+                gone[ng] = p
+                ng += 1
+        for k in range(ng):
+            flat[gone[k]] = 0
+
+
+@numba.njit(**_JIT)
+def _find(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(**_JIT)
+def _components(idx, pos, on, w2, w):
+    """8-connected components of the pixels ``idx[on]`` (``idx``: row-major flat indices into a
+    zero-padded image of row length ``w2``): labels 1..n per pixel (0 where not ``on``) numbered as
+    ``cv2.connectedComponents`` numbers them, by the first 2 x 2 block of each (blocks row-major; the
+    block-based scan's order, checked on random images), and n. ``pos``: each flat pixel's index into
+    ``idx``, -1 where none."""
+    m = len(idx)
+    parent = np.arange(m)
+    for i in range(m):
+        if not on[i]:
+            continue
+        p = idx[i]
+        for q in (p - 1, p - w2 - 1, p - w2, p - w2 + 1):        # (neighbours scanned before p)
+            j = pos[q]
+            if j >= 0 and on[j]:
+                a, b = _find(parent, i), _find(parent, j)
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+    wb = (w + 1) // 2
+    first = np.full(m, np.iinfo(np.int64).max)
+    n_roots = 0
+    for i in range(m):
+        if on[i]:
+            r = _find(parent, i)
+            y, x = idx[i] // w2 - 1, idx[i] % w2 - 1
+            first[r] = min(first[r], (y // 2) * wb + x // 2)
+            n_roots += parent[i] == i
+    key = np.empty(n_roots, np.int64)                          # (first block, root) in one sortable key
+    c = 0
+    for i in range(m):
+        if on[i] and parent[i] == i:
+            key[c] = first[i] * m + i
+            c += 1
+    key = _sorted(key)                                         # (not np.argsort: its compile time)
+    rank = np.zeros(m, np.int64)
+    for k in range(n_roots):
+        rank[key[k] % m] = k + 1
+    lab = np.zeros(m, np.int64)
+    for i in range(m):
+        if on[i]:
+            lab[i] = rank[_find(parent, i)]
+    return lab, n_roots
+
+
+@numba.njit(**_JIT)
+def _unique_pairs(a, b, n):
+    """Distinct pairs (a[k], b[k]) of the first ``n``, sorted, as (K, 2) int64."""
+    key = np.empty(n, np.int64)
+    for k in range(n):
+        key[k] = (a[k] << 32) | b[k]
+    key = _sorted(key)
+    out = np.empty((n, 2), np.int64)
+    c = 0
+    for k in range(n):
+        if k == 0 or key[k] != key[k - 1]:
+            out[c, 0], out[c, 1] = key[k] >> 32, key[k] & 0xFFFFFFFF
+            c += 1
+    return out[:c]
+
+
+@numba.njit(**_JIT)
+def graph_core(flat, idx, w2, w, count):
+    """``graph.build_graph``'s pixel work on a zero-padded flat 0/1 skeleton (row length ``w2``, image
+    width ``w``; ``idx`` its set pixels, row-major): each pixel's neighbour count (``count`` table), the
+    junction (>= 3) and path (2) pixels' 8-connected component labels (as ``cv2.connectedComponents``
+    numbers them), the segment-node contacts (segment, node) and node-node contacts (node, node),
+    1-based, distinct and sorted, and per segment the steps to its E, SE, S, SW neighbours (4, S + 1).
+    Node ids: junctions 1..J by label, then the endpoints (1 neighbour) in row-major order."""
+    m = len(idx)
+    off = np.array([-w2, -w2 + 1, 1, w2 + 1, w2, w2 - 1, -1, -w2 - 1], np.int64)
+    pos = np.full(len(flat), -1, np.int32)
+    for i in range(m):
+        pos[idx[i]] = i
+    n = np.empty(m, np.int64)
+    for i in range(m):
+        c = 0
+        for k in range(8):
+            if flat[idx[i] + off[k]] != 0:
+                c |= 1 << k
+        n[i] = count[c]
+    jlab, n_j = _components(idx, pos, n >= 3, w2, w)
+    slab, n_s = _components(idx, pos, n == 2, w2, w)
+    node = jlab.copy()
+    e = n_j
+    for i in range(m):
+        if n[i] == 1:
+            e += 1
+            node[i] = e
+    ps, pn, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    steps = np.zeros((4, n_s + 1), np.int64)
+    for i in range(m):
+        if n[i] != 2:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0:
+                if node[j] > 0:
+                    ps[c], pn[c] = slab[i], node[j]
+                    c += 1
+                if 2 <= k <= 5 and slab[j] == slab[i]:
+                    steps[k - 2, slab[i]] += 1
+    sn = _unique_pairs(ps, pn, c)
+    a, b, c = np.empty(8 * m, np.int64), np.empty(8 * m, np.int64), 0
+    for i in range(m):
+        if node[i] == 0:
+            continue
+        for k in range(8):
+            j = pos[idx[i] + off[k]]
+            if j >= 0 and node[j] > 0 and node[j] != node[i]:
+                a[c], b[c] = min(node[i], node[j]), max(node[i], node[j])
+                c += 1
+    return n, jlab, n_j, slab, n_s, sn, _unique_pairs(a, b, c), steps
+
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     box = np.zeros((1, 4), np.int64)
@@ -696,3 +915,8 @@ def warm_up() -> None:
     thin(np.zeros((3, 8), np.uint8), np.zeros((3, 1), np.uint64), np.array([-10, -9, 1, 11, 10, 9, -1, -11], np.int64),
          tab, tab, tab, np.zeros((3, 8), np.uint8))
     graph_arrays(np.zeros((2, 8), np.uint8), np.zeros((2, 1), np.uint64), 8, np.zeros(256, np.uint8), 4)
+    img, tab, i = np.zeros(16, np.uint8), np.zeros(256, bool), np.arange(4, dtype=np.int64)
+    off = np.array([-4, -3, 1, 5, 4, 3, -1, -5], np.int64)
+    zhang_suen_flat(img, img.copy(), i[:0], off, tab, tab)
+    remove_corners_flat(img, i[:0], 4, tab)
+    graph_core(np.zeros(16, np.uint8), i[:0], 4, 2, np.zeros(256, np.uint8))

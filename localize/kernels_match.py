@@ -1,4 +1,5 @@
-"""Compiled kernels of the match stage, ninth pass (speedM; docs/localize-numba.md).
+"""Compiled kernels of the match stage's per-curve glue: a curve's samples, its side test, the runs near
+points and the flat search's line (docs/localize-numba.md).
 
 Each gives the values of the numpy / Python-float steps it replaces, bit for bit on every call recorded
 (fixtures 00-03, both mask sources) and on the 60 scenes:
@@ -6,7 +7,7 @@ Each gives the values of the numpy / Python-float steps it replaces, bit for bit
 - :func:`piece_uvd`: :func:`dense._piece_uvd` of a curve whose centre line and disparity are
   :class:`curves.Poly` (the samples along the span, ``BranchCurve.uvd``; their orientation,
   ``dense._oriented``; the end nodes joined or the curve carried towards them): ``curves.linspace``'s,
-  ``Poly.__call__``'s and ``BranchCurve._at``'s sums (``kernels.eval_clamped``'s values, point by point).
+  ``Poly.__call__``'s and ``BranchCurve._at``'s sums (``kernels_fit.eval_clamped``'s values, point by point).
   The orientation's two distances are libm's ``hypot``: Python's ``math.hypot`` may differ in the last
   bit, which decides only between two distances that are equal.
 - :func:`wider_on_right`: :meth:`tipends.TipPlacing._wider_on_right` of a Poly curve (the mean slope in
@@ -26,7 +27,10 @@ import numba
 import numpy as np
 
 from appliance.localize.curves import Poly
-from appliance.localize.kernels import _JIT, _horner, _pairwise, centre_line
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_dense import centre_line
+from appliance.localize.kernels_fit import _horner
+from appliance.localize.kernels_stats import _pairwise
 from appliance.localize.kernels_dense import flat_line
 
 
@@ -139,7 +143,7 @@ def piece_uvd(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, 
         if abs(t_n - t_near) < 2:
             continue
         te = _linspace(t_near, t_near + min(max(t_n - t_near, -reach_px), reach_px), 6)
-        for i in range(5):                      # (kernels.eval_clamped's values, point by point: finite t)
+        for i in range(5):                      # (kernels_fit.eval_clamped's values, point by point: finite t)
             j = 5 * k + (4 - i if k == 0 else i)
             ext[j, ax] = te[i + 1]
             ext[j, 1 - ax] = _at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, te[i + 1])
@@ -163,7 +167,7 @@ def piece_uvd(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo, hi, 
 
 @numba.njit(**_JIT)
 def _run_at(keys, rows, x1, width, row, x):
-    """``kernels.runs_find`` of one query (``Runs.find``): the run containing pixel (row, rint(x)), -1 if none
+    """``kernels_runs.runs_find`` of one query (``Runs.find``): the run containing pixel (row, rint(x)), -1 if none
     (or ``x`` not finite); the last start key at or before the pixel's by bisection."""
     if not np.isfinite(x):
         return -1
@@ -210,7 +214,7 @@ def wider_on_right(s_coef, s_dcoef, s_t0, s_ts, d_coef, d_dcoef, d_t0, d_ts, lo,
     slope = math.hypot(1.0, _pairwise(ds, 0, q) / q)          # (np.mean's sum: numpy's pairwise order)
     wide = 0
     lim = 1.6 * 2 * r * slope + 2
-    for i in range(q):                      # (c.s_at - c.d_at: kernels.eval_clamped's values, point by point)
+    for i in range(q):                      # (c.s_at - c.d_at: kernels_fit.eval_clamped's values, point by point)
         t = float(rows[i])
         x = _at(s_coef, s_dcoef, s_t0, s_ts, lo, hi, d_slopes, True, t) - \
             _at(d_coef, d_dcoef, d_t0, d_ts, lo, hi, d_slopes, own_d_slopes, t)

@@ -1,10 +1,10 @@
-"""Compiled kernels of :func:`subpixel.refine_runs`, twelfth pass (speedsteep; docs/localize-numba.md).
+"""Compiled kernels of the runs' sub-pixel refinement, :func:`subpixel.refine_runs` (docs/localize-numba.md).
 
 :func:`subpixel.refine_runs` moves the runs' boundaries to the grey image's outline. Its numpy glue
 (concatenations, fancy indexing, ``np.where`` over all 2R boundaries, a few dozen calls of 10-30 us on
 ~5000 runs) is replaced by two loops, with the same values bit for bit; the grey step itself
 (:func:`subpixel.refine_boundaries`: OpenCV's remap of the queried pixels, then
-``kernels.refine_steps``) stays between them:
+:func:`refine_steps`, below) stays between them:
 
 - :func:`remap_tables`: :func:`subpixel.gather`'s look-up of the queried pixels' entries in the
   view's remap tables (the remap itself stays OpenCV's);
@@ -17,7 +17,7 @@
 - :func:`refine_apply`: the rest of :func:`subpixel.refine_runs`: the bias, the mix, the clamp to the
   run's middle and the pixels taken into the run.
 
-Tests: tests/localize/test_kernels_speedsteep.py (against the numpy code it replaced).
+Tests: tests/localize/test_kernels_refine.py (against the numpy code it replaced).
 """
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ import math
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT, _median
+from appliance.localize.kernels import _JIT, _readonly
+from appliance.localize.kernels_stats import _median
 
 
 @numba.njit(**_JIT)
@@ -238,6 +239,51 @@ def remap_tables(m1, m2, row, col, w, width):
     return map1.reshape(size // width, width), map2.reshape(size // width, width)
 
 
+@numba.njit(**_JIT)
+def refine_steps(p, x_px, xi, log_tab, min_step, min_share, max_shift_px):
+    """``subpixel.refine_boundaries`` after its gather: each boundary ``x_px`` (K,) (pixel ``xi`` (K,) int64)
+    moved to the grey step along its row from the 7 pixels ``p`` (K, 7) float32 (whole grey levels
+    0-255) centred on ``xi``, with numpy's float32 / float64 steps in the same order (the same values).
+    ``log_tab`` (256,) float32: numpy's float32 ``log`` of ``max(v, 1e-3)`` for the steps' values ``v``
+    (whole levels: index ``max(v, 0)``), so the logs are numpy's own."""
+    n = len(x_px)
+    out = np.empty(n)
+    f0, half, neg = np.float32(0.0), np.float32(0.5), np.float32(-1e-6)
+    two = np.float32(2.0)
+    lim = np.float32(0.5 * min_share)
+    for i in range(n):
+        out[i] = x_px[i]
+        raw = p[i, 5] + p[i, 6] - p[i, 0] - p[i, 1]
+        sg = np.float32(1.0) if raw > f0 else np.float32(-1.0) if raw < f0 else f0
+        d = np.float32(x_px[i] - xi[i])
+        best, k = -np.inf, 0
+        for j in range(1, 5):
+            v = (p[i, j + 1] - p[i, j]) * sg
+            if (j == 1 and d > f0) or (j == 4 and d < f0):
+                continue
+            if v > best:
+                best, k = v, j
+        if k == 0:                      # (every candidate -inf: numpy's argmax takes the first)
+            k = 2 if d > f0 else 1
+        a = (p[i, k] - p[i, k - 1]) * sg
+        b = (p[i, k + 1] - p[i, k]) * sg
+        c = (p[i, k + 2] - p[i, k + 1]) * sg
+        if not (b >= np.float32(min_step) and b >= lim * abs(raw) and b > a and b >= c):
+            continue
+        if a > f0 and c > f0:
+            la = log_tab[int(a)] if a >= np.float32(1.0) else log_tab[0]
+            lb = log_tab[int(b)] if b >= np.float32(1.0) else log_tab[0]
+            lc = log_tab[int(c)] if c >= np.float32(1.0) else log_tab[0]
+            frac = half * (la - lc) / min(la - two * lb + lc, neg)
+        else:
+            frac = half * (a - c) / min(a - two * b + c, neg)
+        shift = (float(k) - 2.5 - float(d)) + float(frac)
+        if abs(shift) <= max_shift_px:
+            out[i] = x_px[i] + shift
+    return out
+
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     i2, f2, b2 = np.zeros(2, np.int64), np.zeros(2), np.zeros(2, np.bool_)
@@ -245,3 +291,5 @@ def warm_up() -> None:
     todo, rows, xs = refine_todo(i2, f2, f2, b2, False, np.zeros((4, 4), np.uint8), True, 1.0)   # (find_runs'
     sel, bias, share, mad = refine_stats(i2, f2, f2, todo, xs, np.zeros((4, 4), np.float32), True, 50, 256)  # runs:
     refine_apply(i2, i2, i2, f2, f2, 4, todo, xs, sel, bias, True, 1.0, 0.6)                      # writable)
+    refine_steps(np.zeros((1, 7), np.float32), np.zeros(1), np.ones(1, np.int64), _readonly(np.zeros(256, np.float32)),
+                 12.0, 0.25, 1.5)

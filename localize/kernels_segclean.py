@@ -1,4 +1,4 @@
-"""Compiled kernels of the segment stage's component clean-up, twelfth pass (speedseg; docs/localize-numba.md).
+"""Compiled kernels of the segment stage's component clean-up (docs/localize-numba.md).
 
 ``segment.drop_small`` (the colour recogniser's removal of small components) keeps OpenCV's blocks' means
 (``skeleton.block_mean``) and ``cv2.connectedComponents`` of them; the numpy steps that followed on the

@@ -1,4 +1,5 @@
-"""Compiled kernels of the segment stage, tenth pass (segspeed; docs/localize-numba.md).
+"""Compiled kernels of the segment stage: the colour recogniser's morphology on tiles, the outline
+unmixing and the disc tests of its blocks (docs/localize-numba.md).
 
 :func:`open_close_tiles` is the colour recogniser's clean-up morphology, OpenCV's opening then closing
 with the 3 x 3 cross (``cv2.morphologyEx(.., MORPH_OPEN / MORPH_CLOSE, getStructuringElement(
@@ -13,14 +14,20 @@ MORPH_GRADIENT, np.ones((3, 3)))``) of the cleaned mask on the same tiles grown 
 
 Where the whole image was tested (most tiles flagged: fixture 03's grass) the callers keep OpenCV's calls.
 
-Tests: tests/localize/test_kernels_segspeed.py.
+:func:`unmix_blocks` is the outline unmixing's per-block step (each outline pixel's coverage from its
+colour between the block's bark and background colours). :func:`blocks_hold_disc` and
+:func:`blocks_disc_colour` are ``segment.drop_small``'s disc test of the large components' blocks (which
+pixels hold a whole disc of mask around them) and their colour sums.
+
+Tests: tests/localize/test_kernels_segment.py (the unmixing, the morphology) and test_kernels_segclean.py
+(the disc tests, within ``drop_small``).
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT
+from appliance.localize.kernels import _JIT, _readonly
 
 
 @numba.njit(**_JIT)
@@ -157,8 +164,115 @@ def gradient_tiles(mask, tiles, tile_px, out):
     return out
 
 
+@numba.njit(**_JIT)
+def unmix_blocks(bgr, ring, blocks, n_o, s_o, chi, min_sin2, factor, out):
+    """``segment.unmix_edges``' per-block unmixing and the coverage of its outline pixels, float32 in
+    numpy's order of operations (the numpy steps' values bit for bit).
+
+    For each block ``blocks[i]`` (row-major index into ``n_o`` (hs, ws) float32, the background's
+    255-weighted sample count, and ``s_o`` (hs, ws, 3) float32, its colour sums): the background's
+    mean colour ``c_o``, and where it has samples (n > 0.5) and is at least ``sqrt(min_sin2)`` off the
+    bark's chromaticity ``chi`` (3,) float32, the vector ``v = (c_o - (c_o . chi) chi) / det``; each of
+    the block's ``factor`` x ``factor`` pixels where ``ring`` (H, W) is non-zero then gets
+    ``clip((1 - p . v) * 255 + 0.5, 0, 255)`` as uint8 in ``out`` (H, W), ``p`` its BGR colour. Returns
+    the number of blocks unmixed.
+    """
+    ws = n_o.shape[1]
+    one, scale, half = np.float32(1.0), np.float32(255.0), np.float32(0.5)
+    inv255, lim = np.float32(1.0 / 255), np.float32(min_sin2)
+    done = 0
+    for i in range(len(blocks)):
+        by, bx = blocks[i] // ws, blocks[i] % ws
+        n = n_o[by, bx] * inv255
+        nn = max(n, one)
+        c0, c1, c2 = s_o[by, bx, 0] / nn, s_o[by, bx, 1] / nn, s_o[by, bx, 2] / nn
+        c_chi = c0 * chi[0]
+        c_chi += c1 * chi[1]
+        c_chi += c2 * chi[2]
+        c_c = c0 * c0
+        c_c += c1 * c1
+        c_c += c2 * c2
+        det = c_c - c_chi * c_chi
+        if not (n > half and det > lim * c_c):
+            continue
+        done += 1
+        v0, v1, v2 = (c0 - c_chi * chi[0]) / det, (c1 - c_chi * chi[1]) / det, (c2 - c_chi * chi[2]) / det
+        for y_ in range(by * factor, (by + 1) * factor):
+            y = np.uint64(y_)                       # (unsigned indices: no negative-index tests)
+            for x_ in range(bx * factor, (bx + 1) * factor):
+                x = np.uint64(x_)
+                if ring[y, x] == 0:
+                    continue
+                c = np.float32(bgr[y, x, 0]) * v0
+                c += np.float32(bgr[y, x, 1]) * v1
+                c += np.float32(bgr[y, x, 2]) * v2
+                c = (one - c) * scale + half
+                out[y, x] = np.uint8(min(max(c, np.float32(0.0)), np.float32(255.0)))
+    return done
+
+
+@numba.njit(**_JIT)
+def _holds_disc(mask, y, x, dy, dx):
+    """Whether every pixel at the offsets (``dy``, ``dx``) (M,) from (``y``, ``x``) is set in ``mask``
+    (H, W) uint8 (inside it and non-zero); stops at the first unset one."""
+    h, w = mask.shape
+    for m in range(len(dy)):
+        yy, xx = y + dy[m], x + dx[m]
+        if yy < 0 or yy >= h or xx < 0 or xx >= w or mask[yy, xx] == 0:
+            return False
+    return True
+
+
+@numba.njit(**_JIT)
+def blocks_hold_disc(mask, gy, gx, comp, n_comp, factor, dy, dx):
+    """Which components hold a disc: ``out[c]`` is True when some set pixel of the ``factor`` x
+    ``factor`` blocks (``gy``, ``gx``) (K,) of component ``comp`` (K,) (0..``n_comp`` - 1) has every
+    pixel at the offsets (``dy``, ``dx``) (M,) set too (:func:`_holds_disc`, inside ``mask`` (H, W)
+    uint8). A component's test stops at its first such pixel."""
+    h, w = mask.shape
+    out = np.zeros(n_comp, np.bool_)
+    for k in range(len(gy)):
+        c = comp[k]
+        if out[c]:
+            continue
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if not out[c] and mask[y, x] != 0 and _holds_disc(mask, y, x, dy, dx):
+                    out[c] = True
+    return out
+
+
+@numba.njit(**_JIT)
+def blocks_disc_colour(mask, bgr, gy, gx, comp, n_comp, factor, dy, dx):
+    """:func:`blocks_hold_disc`'s test over every set pixel of the blocks: per component the number of
+    pixels whose disc offsets are all set (``count`` (n_comp,) int64) and the sum of their BGR colours
+    in ``bgr`` (H, W, 3) uint8 (``sums`` (n_comp, 3) float64): the colour of its inside, free of the
+    outline's mixed pixels."""
+    h, w = mask.shape
+    count = np.zeros(n_comp, np.int64)
+    sums = np.zeros((n_comp, 3), np.float64)
+    for k in range(len(gy)):
+        c = comp[k]
+        y0, x0 = gy[k] * factor, gx[k] * factor
+        for y in range(y0, min(y0 + factor, h)):
+            for x in range(x0, min(x0 + factor, w)):
+                if mask[y, x] != 0 and _holds_disc(mask, y, x, dy, dx):
+                    count[c] += 1
+                    for ch in range(3):
+                        sums[c, ch] += bgr[y, x, ch]
+    return count, sums
+
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     img, tiles = np.zeros((4, 4), np.uint8), np.ones((1, 1), np.uint8)
     open_close_tiles(img, tiles, 4, img.copy())
     gradient_tiles(img, tiles, 4, img.copy())
+    i = np.zeros(1, np.int64)
+    unmix_blocks(np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.uint8), i[:1], np.zeros((1, 1), np.float32),
+                 np.zeros((1, 1, 3), np.float32), np.zeros(3, np.float32), 0.0025, 4, np.zeros((4, 4), np.uint8))
+    ro = _readonly(np.zeros(1, np.int64))        # (the disc's offsets: segment._disc_offsets' cached, read-only)
+    blocks_hold_disc(np.zeros((4, 4), np.uint8), i, i, i, 1, 4, ro, ro)
+    blocks_disc_colour(np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8), i, i, i, 1, 4, ro, ro)

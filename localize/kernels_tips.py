@@ -1,8 +1,9 @@
-"""Compiled tips' checks (numba; the seventh pass, docs/localize-numba.md "Seventh pass: tips (speedT)").
+"""Compiled tips' checks: the caps' shapes, fits and disparities and the ends' outline and disparity tests
+(numba; docs/localize-numba.md).
 
 Each kernel replaces one of the tips' functions (tips.py, ends.py's tip helpers), a few dozen small
 numpy calls per end, by one compiled loop: the same rules, the same values where the arithmetic is
-the same (the mask reads are :func:`kernels.bilinear_u8`, cv2.remap's), at rounding level where
+the same (the mask reads are :func:`kernels_walks.bilinear_u8`, cv2.remap's), at rounding level where
 numpy's vectorised trigonometry and libm's differ in the last bits.
 """
 
@@ -12,7 +13,10 @@ import math
 
 import numba
 import numpy as np
-from appliance.localize.kernels import _JIT, _median, bilinear_u8, masked_sqdiff
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_ncc import masked_sqdiff
+from appliance.localize.kernels_stats import _median
+from appliance.localize.kernels_walks import bilinear_u8
 
 # (tips.py's constants, repeated for the kernels: the tests check them against tips.py's)
 CAP_WIDTH_BACK = 1.5
@@ -21,7 +25,7 @@ ROUND_BACK = 1.0 - math.sqrt(0.51)       # a round cap's setback 0.7 radius off 
 
 @numba.njit(**_JIT)
 def _last_on1(mask, sx, sy, dx, dy, n_s):
-    """``kernels.last_on`` of one line ``(sx, sy) + s (dx, dy)``, ``s = 0, 0.5, 1, ...`` (its first ``n_s``
+    """``kernels_walks.last_on`` of one line ``(sx, sy) + s (dx, dy)``, ``s = 0, 0.5, 1, ...`` (its first ``n_s``
     samples): where it last has ``mask`` at or above 128, interpolated; NaN where it starts off the mask
     or does not leave it. The same values (the sample points in float32, the reads cv2.remap's)."""
     sx32, sy32, dx32, dy32 = np.float32(sx), np.float32(sy), np.float32(dx), np.float32(dy)

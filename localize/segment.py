@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import cv2
 import numpy as np
 from appliance.config.schema import SegmentConfig
-from appliance.localize import kernels, kernels_front, kernels_segclean, kernels_segment
+from appliance.localize import kernels_front, kernels_segclean, kernels_segment
 from appliance.localize.errors import LocalizeError
 from appliance.localize.skeleton import binary, block_mean
 
@@ -291,8 +291,8 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     is small but wide; specks of bark colour that survive the opening are not: on the 60 scenes'
     views no dropped component holding a disc of radius 3.5 px lay off the exact masks, 133 on
     them did (72 % of the branch pixels dropped). The disc is tested at full size on the small
-    components' pixels only (:func:`kernels.blocks_hold_disc`, with the colour
-    :func:`kernels.blocks_disc_colour`: ~0.1 ms per pair). The chromaticity (one plant's bark: the
+    components' pixels only (:func:`kernels_segment.blocks_hold_disc`, with the colour
+    :func:`kernels_segment.blocks_disc_colour`: ~0.1 ms per pair). The chromaticity (one plant's bark: the
     unmixing's model, :func:`unmix_edges`) keeps out wide blobs of out-of-focus background that
     pass the colour thresholds (real images: bokeh of brown foliage); the rendered scenes' twig
     pieces lie within 1.5 deg of it. ``small_bgr``: :func:`sample_nearest` (``bgr``, ``factor``) when
@@ -335,9 +335,9 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
             gy, gx, comp = kernels_segclean.component_blocks(idx, labels, comp_of, ws)
             dy, dx = _disc_offsets(float(keep_radius_px))
             if bgr is None or keep_chroma_deg <= 0:
-                keep = kernels.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
+                keep = kernels_segment.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
             else:
-                count, sums = kernels.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
+                count, sums = kernels_segment.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
                 keep = count > 0
                 if keep.any():
                     chi = _bark_chroma(bgr if small_bgr is None else small_bgr, cover, idx, labels, small, hs, ws,
@@ -428,7 +428,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     this is the exact masks' pixel-coverage rule; the soft values give the rectified coverage
     sub-pixel outlines. ~0.5 ms per 1280x960 image alone, ~1.2 ms cache-cold (outline pixels
     found per block; the blocks' unmixing and their pixels in one compiled pass,
-    :func:`kernels.unmix_blocks`).
+    :func:`kernels_segment.unmix_blocks`).
 
     ``out`` (may be ``mask`` itself) receives the result, a copy of ``mask`` by default;
     ``scratch``, a uint8 (H, W) array that may be overwritten (not ``mask``), holds the outline.
@@ -465,7 +465,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     s_o = cv2.boxFilter(cv2.bitwise_and(small, small, mask=away), cv2.CV_32F, win, normalize=False)
     # per block the background's mean colour and the unmixing vector, then each outline pixel's 1 - p . v
     # (compiled: numpy's float32 steps, the same values)
-    kernels.unmix_blocks(bgr, ring, bi, n_o, s_o, chi, _MIN_SIN2, factor, out)
+    kernels_segment.unmix_blocks(bgr, ring, bi, n_o, s_o, chi, _MIN_SIN2, factor, out)
     return out
 
 

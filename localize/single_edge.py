@@ -12,7 +12,7 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels, kernels_dense
+from appliance.localize import kernels_dense
 from appliance.localize.curves import (
     BranchCurve,
     Poly,
@@ -32,7 +32,7 @@ from appliance.localize.radius import RadiusMap
 def centre_guess(pts: np.ndarray, axis: int, scale: int) -> tuple[np.ndarray, np.ndarray]:
     """Integer positions along ``axis`` (1: rows) covered by a piece and its interpolated centre there."""
     t, s = pts[:, axis], pts[:, 1 - axis]
-    ok, ts, xs = kernels.centre_line(np.ascontiguousarray(t, float), np.ascontiguousarray(s, float),
+    ok, ts, xs = kernels_dense.centre_line(np.ascontiguousarray(t, float), np.ascontiguousarray(s, float),
                                      (scale - 1) / 2)
     if ok:                              # (whole or half pixels: the values below, compiled)
         return ts, xs

@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_graph
+from appliance.localize import kernels_graph
 
 # neighbour k of pixel (y, x) is at (y + DY[k], x + DX[k]): N, NE, E, SE, S, SW, W, NW
 DY = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
@@ -175,14 +175,14 @@ def remove_corners(skel01: np.ndarray) -> np.ndarray:
 
     After this every pixel of a simple path has exactly two neighbours, so the paper's
     neighbour-count rules (1: endpoint, >= 3: bifurcation) hold. Each pass decides on the image
-    as the previous pass left it (compiled: :func:`kernels.remove_corners_flat`).
+    as the previous pass left it (compiled: :func:`kernels_graph.remove_corners_flat`).
     """
     _, _, corner = neighbour_tables()
     image = _words_image(skel01)
     if image is None:
         img = SparseImage.from_image(skel01)
         idx = np.flatnonzero(img.flat.view(bool))             # (0/1 bytes) row-major, as pixels()
-        kernels.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
+        kernels_graph.remove_corners_flat(img.flat, idx, img.shape[1] + 2, corner)
         return img.image()
     return kernels_graph.corners(image, image.view(np.uint64), corner, np.empty(skel01.shape, np.uint8))
 
@@ -248,7 +248,7 @@ def zhang_suen(mask: np.ndarray) -> np.ndarray:
     outline = cv2.copyMakeBorder(m - cv2.erode(m, np.ones((3, 3), np.uint8)), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
     start = np.flatnonzero(outline.reshape(-1).view(bool))        # row-major, as pixels()
     start = start[live.take(start).view(bool)]
-    kernels.zhang_suen_flat(flat, live, start, (DY * (w + 2) + DX).astype(np.int64), *tables)
+    kernels_graph.zhang_suen_flat(flat, live, start, (DY * (w + 2) + DX).astype(np.int64), *tables)
     return binary(flat.reshape(h + 2, w + 2)[1:-1, 1:-1])
 
 

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels_ncc
 from appliance.localize.curves import BranchCurve
 from appliance.localize.matching import StereoMasks
 
@@ -93,7 +93,7 @@ def _patches(c: BranchCurve, f_px: float, shape: tuple[int, int]) -> tuple[list,
 
 def _scores(left, right, us: list, vs: list, los: list, his: list, hw: int) -> np.ndarray:
     """Best normalised correlation (P,) of each patch (centres ``us``, ``vs`` int, half width ``hw``, half
-    height ``HALF_H_PX``) over its disparities ``los``..``his`` int (:func:`kernels.ncc_search`: the
+    height ``HALF_H_PX``) over its disparities ``los``..``his`` int (:func:`kernels_ncc.ncc_search`: the
     same scores as matchTemplate's TM_CCOEFF_NORMED; strips clipped at the image's edge); -1 for a patch
     without texture (std < 1 grey level). The images are read once each, over the box the patches and
     their strips need."""
@@ -111,10 +111,10 @@ def _scores(left, right, us: list, vs: list, los: list, his: list, hw: int) -> n
     uv = np.array([us, vs], np.int64).T.copy()
     lo0, hi0 = min(los), max(his)
     if max(los) - lo0 <= 1 and hi0 - min(his) <= 1:     # (nearly) one window for all: one call, over their union
-        kernels.ncc_search(lbox, rbox, uv, hhs, hw, lo0, hi0, h, w, y0, lx0, rx0, d_out, score)
+        kernels_ncc.ncc_search(lbox, rbox, uv, hhs, hw, lo0, hi0, h, w, y0, lx0, rx0, d_out, score)
         return score
     for i in range(n):                       # (a few patches, each with its own window)
-        kernels.ncc_search(lbox, rbox, uv[i:i + 1], hhs[:1], hw, los[i], his[i], h, w, y0, lx0, rx0,
+        kernels_ncc.ncc_search(lbox, rbox, uv[i:i + 1], hhs[:1], hw, los[i], his[i], h, w, y0, lx0, rx0,
                            d_out[i:i + 1], score[i:i + 1])
     return score
 

@@ -14,7 +14,7 @@ import dataclasses
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_match, kernels_refine
+from appliance.localize import kernels_match, kernels_refine
 from appliance.localize.curves import median
 from appliance.localize.edges import Runs
 
@@ -97,7 +97,7 @@ def refine_boundaries(gray, row: np.ndarray, x_px: np.ndarray, min_step: float =
     xi = np.rint(x_px).astype(np.int64)
     p = gather(gray, np.asarray(row, np.int64), xi[:, None] + np.arange(-3, 4))    # (K, 7) float32
     if gray.dtype == np.uint8:          # whole grey levels: the steps below in one compiled loop (the same values)
-        return kernels.refine_steps(p, x_px, xi, _LOG_STEPS, float(min_step), float(min_share), float(max_shift_px))
+        return kernels_refine.refine_steps(p, x_px, xi, _LOG_STEPS, float(min_step), float(min_share), float(max_shift_px))
     raw = p[:, 5] + p[:, 6] - p[:, 0] - p[:, 1]            # twice the plateaus' difference, right - left
     step = np.diff(p, axis=1)
     step *= np.sign(raw)[:, None]                          # (K, 6): > 0 along the plateaus' step

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize import kernels
+from appliance.localize import kernels_ncc
 
 
 def _flat(patch: np.ndarray, min_std: float) -> bool:
@@ -89,7 +89,7 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:      # every patch in one compiled call (exact scores)
-        kernels.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv,
+        kernels_ncc.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv,
                            np.ascontiguousarray(hhs), hw, lo, hi, h, w, by0, lx0, rx0, d_out, score)
         return d_out, score, None
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \
@@ -313,8 +313,8 @@ def nearer_in_front(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
         strip = right[v - hh:v + hh + 1, x0:u - 1 + hh + 1]
         if strip.shape[1] <= tmpl.shape[1]:
             continue
-        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:      # (exact scores: kernels.ncc_scores)
-            c = kernels.ncc_scores(np.require(strip, None, ["C", "W"]), np.require(tmpl, None, ["C", "W"]))
+        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:      # (exact scores: kernels_ncc.ncc_scores)
+            c = kernels_ncc.ncc_scores(np.require(strip, None, ["C", "W"]), np.require(tmpl, None, ["C", "W"]))
         else:
             c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
         d = u - (x0 + np.arange(len(c)) + hh)          # disparity of each position

@@ -19,7 +19,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_tips
+from appliance.localize import kernels_ncc, kernels_tips, kernels_walks
 from appliance.localize.caps import cap_disparity
 from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
 from appliance.localize.edges import Runs
@@ -193,8 +193,8 @@ def front_disparity(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, d_br
     strip = np.ascontiguousarray(right[v - hh:v + hh + 1, x0:u + hh])
     if strip.shape[1] <= tmpl.shape[1] or float(tmpl.std()) < 2.0:
         return None
-    if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (kernels.ncc_scores): OpenCV's
-        c = kernels.ncc_scores(strip, tmpl)                       # float32 scores up to ~5e-4
+    if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (kernels_ncc.ncc_scores): OpenCV's
+        c = kernels_ncc.ncc_scores(strip, tmpl)                       # float32 scores up to ~5e-4
     else:
         c = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
     d = u - (x0 + np.arange(len(c)) + hh)
@@ -274,14 +274,14 @@ def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np
     them read as on the mask, so each line's result is that of reading it alone."""
     if mask.dtype == np.uint8 and len(s) >= 2 and len(starts):       # compiled: the same values
         n = np.full(len(starts), len(s), np.int64) if n_s is None else np.ascontiguousarray(n_s, np.int64)
-        return kernels.last_on(np.ascontiguousarray(mask), np.ascontiguousarray(starts, float), np.ascontiguousarray(directions, float),
+        return kernels_walks.last_on(np.ascontiguousarray(mask), np.ascontiguousarray(starts, float), np.ascontiguousarray(directions, float),
                                np.ascontiguousarray(s, float), np.minimum(n, len(s)))
     return _last_on_np(mask, starts, directions, s, n_s)
 
 
 def _last_on_np(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray,
                 n_s: np.ndarray | None = None) -> np.ndarray:
-    """:func:`_last_on` by one cv2.remap of all lines (the reference of :func:`kernels.last_on`)."""
+    """:func:`_last_on` by one cv2.remap of all lines (the reference of :func:`kernels_walks.last_on`)."""
     s32 = s.astype(np.float32)
     mx = starts[:, :1].astype(np.float32) + directions[:, :1].astype(np.float32) * s32      # (K, S)
     my = starts[:, 1:].astype(np.float32) + directions[:, 1:].astype(np.float32) * s32

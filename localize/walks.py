@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from appliance.localize import kernels, kernels_forks
+from appliance.localize import kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly
 
 # where a walk along the centre line leaves the mask: the last sample at or above half coverage
@@ -24,7 +24,7 @@ def walk_edges(mask: np.ndarray, uv: np.ndarray, bounds: np.ndarray) -> tuple[np
     sample at or above 128, interpolated between that sample and the next, and whether it has one (W,)
     (False: the walk never leaves the mask, or starts off it; the index is then the last on-sample's, or 0).
     """
-    return kernels.walk_edges(np.ascontiguousarray(mask), np.ascontiguousarray(uv, float),
+    return kernels_walks.walk_edges(np.ascontiguousarray(mask), np.ascontiguousarray(uv, float),
                               np.ascontiguousarray(bounds, np.int64))
 
 

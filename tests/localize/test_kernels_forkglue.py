@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels, kernels_forkglue, kernels_forks
+from appliance.localize import kernels_forkglue, kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly
 
 
@@ -29,7 +29,7 @@ def test_warm_up_compiles_the_localizer_s_signatures():
 
 def _near_piece_ref(pts, p, r):
     """ForkPlacing.fork's former steps: EndPlacer._near_points, then the direction from the junction."""
-    sel, dist = kernels.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
+    sel, dist = kernels_walks.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))
     near = sel if len(sel) >= 3 else pts[np.argsort(dist)[:15]]
     v = near.sum(0) / len(near) - p
     return near, v / max(np.hypot(*v), 1e-9)
@@ -65,7 +65,7 @@ def test_near_piece_is_the_former_steps_bit_for_bit():
         np.testing.assert_array_equal(a, b)
         np.testing.assert_array_equal(ua, ub)          # (atol 0: the same sums, the same hypot)
         checked_many += len(a) >= 3 and len(a) != min(len(pts), 15)
-        checked_few += len(kernels.near_points(pts, float(p[0]), float(p[1]), 1.6 * r, 1.6 * r + max(40.0, 4 * r))[0]) < 3
+        checked_few += len(kernels_walks.near_points(pts, float(p[0]), float(p[1]), 1.6 * r, 1.6 * r + max(40.0, 4 * r))[0]) < 3
     assert checked_few > 20 and checked_many > 100          # both paths exercised
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from tests.localize.test_rectify import distorted_rig
+
 from appliance.localize import kernels_graph
 from appliance.localize.rectify import Rectifier
 from appliance.localize.skeleton import block_mean
-
-from tests.localize.test_rectify import distorted_rig
 
 
 def needed_tiles_reference(rect: Rectifier, image: np.ndarray, side: int) -> np.ndarray:
@@ -75,8 +75,7 @@ def test_needed_tiles_kernel_joins_runs_of_one_tile_row_only():
 
 
 def build_graph_reference(skel):
-    """graph.build_graph before speedR: kernels.graph_core and numpy glue."""
-    from appliance.localize import kernels
+    """graph.build_graph before speedR: kernels_graph.graph_core and numpy glue."""
     from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph, _group
     from appliance.localize.skeleton import SparseImage, neighbour_tables
     img = SparseImage.from_image(skel.image)
@@ -86,7 +85,7 @@ def build_graph_reference(skel):
     yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
     yx -= 1
     count, _, _ = neighbour_tables()
-    n, jlab, n_j, slab, n_s, sn, nn, steps = kernels.graph_core(img.flat, idx, w + 2, w, count)
+    n, jlab, n_j, slab, n_s, sn, nn, steps = kernels_graph.graph_core(img.flat, idx, w + 2, w, count)
     jm, em, pm = n >= 3, n == 1, n == 2
     jyx, eyx, pyx = yx[jm], yx[em], yx[pm]
     jlab, slab = jlab[jm], slab[pm]
@@ -505,3 +504,174 @@ def test_recover_collinear_is_the_numpy_matrices_recovery():
             assert_same_graph(a, b)
             bridged += int(a.seg_recovered.sum())
     assert bridged > 10
+
+
+def _zhang_suen_numpy(mask):
+    """The numpy thinning the kernel replaced (every sub-iteration over all pixels, all at once)."""
+    from appliance.localize.skeleton import SparseImage, zhang_suen_tables
+    tables = zhang_suen_tables()
+    img = SparseImage.from_image(mask)
+    h, w = img.shape
+    inner = np.zeros((h + 2, w + 2), bool)
+    inner[2:h, 2:w] = True                       # (pixels on the image border stay)
+    i, quiet = 0, 0
+    while quiet < 2:
+        idx = np.flatnonzero(img.flat.view(bool) & inner.reshape(-1))
+        gone = idx[tables[i & 1][img.codes(idx)]]
+        img.flat[gone] = 0
+        quiet = 0 if len(gone) else quiet + 1
+        i += 1
+    return img.image()
+
+
+def _remove_corners_numpy(skel01):
+    """The numpy corner removal the kernel replaced (two passes by parity, each all at once)."""
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    corner = neighbour_tables()[2]
+    img = SparseImage.from_image(skel01)
+    idx = np.flatnonzero(img.flat.view(bool))
+    parity = (idx // (img.shape[1] + 2) + idx % (img.shape[1] + 2)) & 1
+    for p in (0, 1):
+        at = idx[parity == p]
+        img.flat[at[corner[img.codes(at)]]] = 0
+    return img.image()
+
+
+def test_thinning_and_corner_kernels_are_the_numpy_passes():
+    """zhang_suen / remove_corners (compiled) give the numpy passes' images on random blobs and
+    noise, and zhang_suen is still cv2.ximgproc.thinning where OpenCV's contrib module is there."""
+    import cv2
+
+    from appliance.localize.skeleton import remove_corners, zhang_suen
+    rng = np.random.default_rng(5)
+    thinning = getattr(getattr(cv2, "ximgproc", None), "thinning", None)
+    for _ in range(120):
+        h, w = rng.integers(3, 50, 2)
+        m = (rng.random((h, w)) < rng.uniform(0.2, 0.95)).astype(np.uint8)
+        m = cv2.dilate(m, np.ones((int(rng.integers(1, 4)),) * 2, np.uint8))
+        thin = zhang_suen(m)
+        np.testing.assert_array_equal(thin, _zhang_suen_numpy(m))
+        if thinning is not None:
+            np.testing.assert_array_equal(thin, thinning(m * 255) > 0)
+        noise = (rng.random((h, w)) < 0.5).astype(np.uint8)
+        for img in (thin, noise):
+            np.testing.assert_array_equal(remove_corners(img), _remove_corners_numpy(img))
+    assert zhang_suen(np.ones((9, 9), np.uint8))[4, 4] == 1 and remove_corners(np.eye(5, dtype=np.uint8)).sum() == 5
+
+
+def _labels_numpy(shape: tuple[int, int], yx: np.ndarray) -> tuple[int, np.ndarray]:
+    """8-connected components of a few pixels (N, 2): (count, label 1..count of each pixel)."""
+    import cv2
+    img = np.zeros(shape, np.uint8)
+    img[yx[:, 0], yx[:, 1]] = 1
+    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    return n - 1, lab[yx[:, 0], yx[:, 1]]
+
+
+def _unique_pairs_numpy(pairs: np.ndarray) -> np.ndarray:
+    """Distinct rows of a (N, 2) array of non-negative ints, sorted."""
+    if len(pairs) == 0:
+        return pairs.reshape(0, 2)
+    key = pairs[:, 0].astype(np.int64) << 32 | pairs[:, 1].astype(np.int64)
+    key = np.unique(key)
+    return np.column_stack([key >> 32, key & 0xFFFFFFFF])
+
+
+def _build_graph_numpy(skel):
+    """graph.build_graph before kernels_graph.graph_core (numpy and cv2.connectedComponents)."""
+    from appliance.localize import graph as G
+    from appliance.localize.skeleton import SparseImage, neighbour_tables
+    from appliance.localize.graph import ENDPOINT, JUNCTION, SkeletonGraph
+    img = SparseImage.from_image(skel.image)
+    h, w = img.shape
+    idx = np.flatnonzero(img.flat.view(bool))                # (0/1 bytes: a valid bool view) row-major
+    yx = np.empty((len(idx), 2), np.int64)
+    yx[:, 0], yx[:, 1] = np.divmod(idx, w + 2)
+    yx -= 1
+    count, _, _ = neighbour_tables()
+    n = count[img.codes(idx)]
+    jyx, eyx, pyx = yx[n >= 3], yx[n == 1], yx[n == 2]
+    pidx = idx[n == 2]
+
+    n_j, jlab = _labels_numpy(img.shape, jyx)
+    node_pixels = G._group(jlab, jyx, n_j) + list(eyx[:, None, :])
+    n_nodes = len(node_pixels)
+    node_of = np.concatenate([jlab, n_j + 1 + np.arange(len(eyx))])     # 1-based node id of each node pixel
+    node_yx = np.zeros((n_nodes, 2))
+    if n_nodes:
+        nyx = np.concatenate([jyx, eyx])                    # (2-D: np.vstack's)
+        size = np.bincount(node_of, minlength=n_nodes + 1)[1:]
+        for c in (0, 1):
+            node_yx[:, c] = np.bincount(node_of, weights=nyx[:, c], minlength=n_nodes + 1)[1:] / size
+    node_kind = np.concatenate([np.full(n_j, JUNCTION), np.full(len(eyx), ENDPOINT)]).astype(int)
+
+    n_s, slab = _labels_numpy(img.shape, pyx)
+    seg_yx = G._group(slab, pyx, n_s)
+
+    # segment <-> node contacts, and node <-> node contacts (segments without pixels), looked up
+    # at the skeleton pixels in flat, zero-padded id images, all 8 neighbours at once
+    node_flat = np.zeros(img.flat.shape, np.int32)
+    seg_flat = np.zeros(img.flat.shape, np.int32)
+    nidx = np.concatenate([idx[n >= 3], idx[n == 1]])
+    node_flat[nidx] = node_of
+    seg_flat[pidx] = slab
+    off = img.offsets()
+    at = pidx[:, None] + off                                    # (P, 8)
+    nb = node_flat.take(at)
+    hit = nb > 0
+    sn = np.column_stack([np.broadcast_to(slab[:, None], nb.shape)[hit], nb[hit]])
+    nb = node_flat.take(nidx[:, None] + off)
+    hit = (nb > 0) & (nb != node_of[:, None])
+    nn = np.sort(np.column_stack([np.broadcast_to(node_of[:, None], nb.shape)[hit], nb[hit]]), axis=1)
+    # E, SE, S, SW: each step along a segment counted once; added direction by direction (the same sums)
+    same = seg_flat.take(at[:, 2:6]) == slab[:, None]
+    steps = np.bincount((slab[:, None] + np.arange(4) * (n_s + 1))[same], minlength=4 * (n_s + 1)).reshape(4, n_s + 1)
+    length = np.zeros(n_s + 1)
+    for k in range(4):
+        length += (np.sqrt(2) if k in (1, 3) else 1.0) * steps[k]
+    sn = _unique_pairs_numpy(sn) - 1                                  # sorted by segment, then node
+    nn = _unique_pairs_numpy(nn) - 1
+    ends = np.full((n_s, 2), -1)
+    first = np.searchsorted(sn[:, 0], sn[:, 0])               # rank of each contact within its segment
+    rank = np.arange(len(sn)) - first
+    two = rank < 2
+    ends[sn[two, 0], rank[two]] = sn[two, 1]
+    filled = np.minimum(np.bincount(sn[:, 0], minlength=n_s), 2)
+    length = length[1:] + filled                    # plus one step onto each end node
+    seg_nodes = np.vstack([ends, nn]).astype(int) if len(nn) else ends
+    seg_yx = seg_yx + [np.zeros((0, 2), int)] * len(nn)
+    length = np.concatenate([length, np.ones(len(nn))]) * skel.scale
+    return SkeletonGraph(img.shape, skel.scale, node_yx, node_kind, node_pixels, seg_nodes.reshape(-1, 2),
+                         seg_yx, length)
+
+
+def test_graph_core_gives_the_numpy_graph():
+    """build_graph (its pixel work compiled) gives the numpy and cv2.connectedComponents graph, every
+    array the same, on random images (any pixels, any scale) and their thinned skeletons; the kernel's
+    component labels are cv2.connectedComponents' numbers."""
+    import cv2
+
+    from appliance.localize.graph import build_graph
+    from appliance.localize.skeleton import Skeleton, SparseImage, neighbour_tables, skeletonize
+
+    rng = np.random.default_rng(9)
+    for _ in range(150):
+        h, w = rng.integers(1, 45, 2)
+        img = (rng.random((h, w)) < rng.uniform(0.02, 0.7)).astype(np.uint8)
+        for skel in (Skeleton(img, int(rng.integers(1, 5))), skeletonize(img * 255, "thinning")):
+            a, b = build_graph(skel), _build_graph_numpy(skel)
+            assert a.shape == b.shape and a.scale == b.scale
+            for f in ("node_yx", "node_kind", "seg_nodes", "seg_length_px", "seg_recovered"):
+                assert getattr(a, f).dtype == getattr(b, f).dtype
+                np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+            for f in ("node_pixels", "seg_yx"):
+                assert len(getattr(a, f)) == len(getattr(b, f))
+                for p, q in zip(getattr(a, f), getattr(b, f)):
+                    np.testing.assert_array_equal(p, q)
+        sp = SparseImage.from_image(img)
+        idx = np.flatnonzero(sp.flat)
+        _, jlab, n_j, _, _, _, _, _ = kernels_graph.graph_core(sp.flat, idx, w + 2, w, np.full(256, 3, np.uint8))
+        n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)    # (every pixel a junction)
+        assert n_j == n - 1
+        np.testing.assert_array_equal(jlab, lab.reshape(-1)[np.flatnonzero(img)])
+    assert len(build_graph(Skeleton(np.eye(6, dtype=np.uint8))).seg_yx) == 1 and neighbour_tables()[0][3] == 2

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 from appliance.commands.common import effective_config
-from appliance.localize import kernels, kernels_segment
+from appliance.localize import kernels_segment
 from appliance.localize.segment import _K3, _disc_offsets, _near_chroma, drop_small, sample_nearest, segment_mask
 from appliance.localize.skeleton import block_mean
 
@@ -59,9 +59,9 @@ def drop_small_ref(mask, min_area_px, factor=4, keep_radius_px=0.0, bgr=None, ke
             dy, dx = _disc_offsets(float(keep_radius_px))
             comp = comp.astype(np.int64)
             if bgr is None or keep_chroma_deg <= 0:
-                keep = kernels.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
+                keep = kernels_segment.blocks_hold_disc(mask, gy, gx, comp, len(ids), factor, dy, dx)
             else:
-                count, sums = kernels.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
+                count, sums = kernels_segment.blocks_disc_colour(mask, bgr, gy, gx, comp, len(ids), factor, dy, dx)
                 keep = count > 0
                 if keep.any():
                     chi = _bark_chroma_ref(bgr if small_bgr is None else small_bgr, cover, idx[small[lab]], factor,

@@ -1,10 +1,11 @@
-"""The dense path's kernels of the seventh numba pass (localize/kernels_dense.py) against the numpy code
+"""The dense path's kernels (localize/kernels_dense.py) against the numpy code
 they replace (kept here as the reference)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
+
 from appliance.localize import kernels_dense, single_edge
 from appliance.localize.curves import degree_for, median, robust_fit
 from appliance.localize.edges import find_runs
@@ -253,7 +254,6 @@ def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, ro
                      runs_r, taken):
     """``dense.fit_steep_many``'s middle steps as they were in numpy (the picks, the centre line and width,
     ``single_edge.edge_samples``)."""
-    from appliance.localize import kernels
     from appliance.localize.curves import GroupPolys, robust_fit_groups
     ng = len(alive)
     alive = alive.copy()
@@ -261,7 +261,7 @@ def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, ro
         sel = alive[gq]
         q, rr, cd, cw, gq = q[sel], rr[sel], cd[sel], cw[sel], gq[sel]
         res = np.abs(cd - model(gq, t[q]))
-        first = kernels.nearest_per_query(q, res)
+        first = kernels_dense.nearest_per_query(q, res)
         chosen = first[res[first] <= tol]
         alive &= np.bincount(gq[chosen], minlength=ng) >= np.maximum(4, 0.25 * n)
         chosen = chosen[alive[gq[chosen]]]
@@ -504,7 +504,6 @@ def _consensus_piece_numpy(rows, xc, pts, runs_l, runs_r, taken, rm, d_range_px,
                            tol_px=1.0, min_share=0.5, max_gradient=0.25):
     """``single_edge.edge_consensus``'s steps for one piece as they were in numpy: None or (u_poly, d_poly,
     t_range, radius, n, end_slopes, right_runs); marks the right runs taken."""
-    from appliance.localize import kernels
     from appliance.localize.curves import angle_deg, degree_for, end_slopes, percentile
     from appliance.localize.radius import radius_at
     dmin, dmax = d_range_px
@@ -526,7 +525,7 @@ def _consensus_piece_numpy(rows, xc, pts, runs_l, runs_r, taken, rm, d_range_px,
     cand_d = np.concatenate([a_l[q] - runs_r.left_px[rr], b_l[q] - runs_r.right_px[rr]])
     cand_q = np.concatenate([q, q])
     tm = float(cand_t.mean())
-    lo, k_s, k_b = kernels.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))
+    lo, k_s, k_b = kernels_dense.line_vote(cand_t, cand_d, slopes, tm, float(tol_px))
     line = lo + (k_b + 1) * tol_px + slopes[k_s] * (cand_t - tm)
     sel = np.abs(cand_d - line) <= 1.5 * tol_px
     if np.count_nonzero(np.bincount(cand_q[sel])) < max(12, min_share * len(ri)):
@@ -666,3 +665,140 @@ def test_disparity_refit_is_the_numpy_fits():
         for a, b in ((coef, polys.coef), (t0, polys.t0), (ts, polys.ts), (deg, polys.degree), (sl, slopes),
                      (t_lo, span[:, 0]), (t_hi, span[:, 1]), (n, n_fit)):
             np.testing.assert_array_equal(a, b)
+
+
+def _vote_by_numpy(cand_t, cand_d, slopes, tm, tol_px):
+    """single_edge.edge_consensus' former vote (numpy)."""
+    d0 = slopes[:, None] * (cand_t - tm)
+    np.subtract(cand_d, d0, out=d0)
+    lo = float(d0.min())
+    d0 -= lo
+    d0 /= tol_px
+    bins = d0.astype(np.intp)
+    nb = int(bins.max()) + 2
+    bins += np.arange(len(slopes))[:, None] * nb
+    votes = np.bincount(bins.ravel(), minlength=len(slopes) * nb).reshape(len(slopes), nb)
+    window = votes[:, :-1] + votes[:, 1:]
+    k_s, k_b = np.unravel_index(int(window.argmax()), window.shape)
+    return lo, int(k_s), int(k_b)
+
+
+def test_line_vote_is_the_numpy_vote():
+    rng = np.random.default_rng(9)
+    slopes = np.linspace(-0.25, 0.25, 21)
+    for _ in range(300):
+        n = int(rng.integers(1, 400))
+        t = np.sort(rng.integers(0, 900, n)).astype(float)
+        d = rng.uniform(100, 300, n)
+        if rng.random() < 0.7:                                     # a line through some of them
+            on = rng.random(n) < rng.uniform(0.2, 0.9)
+            d[on] = 180 + rng.uniform(-0.2, 0.2) * (t[on] - t.mean()) + rng.normal(0, 0.3, on.sum())
+        if rng.random() < 0.2:
+            d = np.round(d)                                        # ties between bins and windows
+        tm = float(t.mean())
+        tol = float(rng.choice([1.0, 0.5, 1.5]))
+        assert kernels_dense.line_vote(t, d, slopes, tm, tol) == _vote_by_numpy(t, d, slopes, tm, tol)
+
+
+def _centre_guess_by_numpy(pts, axis, scale):
+    """single_edge.centre_guess' numpy steps (bincount means, np.interp)."""
+    t, s = pts[:, axis], pts[:, 1 - axis]
+    k = (t * 2.0).astype(np.int64)
+    k0 = int(k.min())
+    k -= k0
+    count = np.bincount(k)
+    nz = np.flatnonzero(count)
+    uniq = (nz + k0) / 2.0
+    s_mean = np.bincount(k, s)[nz] / count[nz]
+    half = (scale - 1) / 2
+    ts = np.arange(np.ceil(uniq[0] - half), np.floor(uniq[-1] + half) + 1)
+    return ts, np.interp(ts, uniq, s_mean)
+
+
+def test_centre_line_is_centre_guess_numpy_steps():
+    from appliance.localize.single_edge import centre_guess
+    rng = np.random.default_rng(10)
+    for trial in range(500):
+        n = int(rng.integers(1, 300))
+        scale = int(rng.choice([1, 2, 4]))
+        t = np.sort(rng.integers(0, 900, n)) / (2.0 if trial % 2 else 1.0)      # whole or half pixels
+        s = np.cumsum(rng.normal(0, 1.5, n)) + rng.uniform(0, 1000)
+        if trial % 7 == 0:
+            s = np.round(s)
+        pts = np.column_stack([s, t]) if trial % 3 else np.column_stack([t, s])
+        axis = 1 if trial % 3 else 0
+        ok, ts, xs = kernels_dense.centre_line(np.ascontiguousarray(pts[:, axis]), np.ascontiguousarray(pts[:, 1 - axis]),
+                                         (scale - 1) / 2)
+        assert ok
+        ref = _centre_guess_by_numpy(pts, axis, scale)
+        assert np.array_equal(ts, ref[0]) and np.array_equal(xs, ref[1])
+        got = centre_guess(pts, axis, scale)
+        assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    # other positions (not whole or half pixels), or sparse ones: the numpy path
+    assert not kernels_dense.centre_line(np.array([0.25, 3.0]), np.zeros(2), 0.0)[0]
+    assert not kernels_dense.centre_line(np.array([0.0, 1e6]), np.zeros(2), 0.0)[0]
+    ts, xs = centre_guess(np.array([[0.0, 0.25], [2.0, 3.0]]), 1, 1)
+    assert np.array_equal(ts, [1.0, 2.0, 3.0])
+
+
+def test_nearest_per_query_is_lexsorts_pick():
+    """Sorted query ids with ties and NaN residuals: the same picks as lexsort at each id's first place."""
+    rng = np.random.default_rng(3)
+    for trial in range(1000):
+        n = int(rng.integers(1, 60))
+        q = np.sort(rng.integers(0, max(n // 2, 1), n)).astype(np.int64)
+        res = np.round(rng.uniform(0, 3, n), 1)            # (ties)
+        if trial % 4 == 0:
+            res[rng.random(n) < 0.3] = np.nan
+        order = np.lexsort((res, q))
+        want = order[np.concatenate([[True], q[order][1:] != q[order][:-1]])]
+        assert np.array_equal(kernels_dense.nearest_per_query(q, res), want)
+
+
+def test_near_junctions_is_the_numpy_test():
+    """Samples near pieces' end nodes (junction or not, thresholds per end): the same as the former numpy
+    steps (the differences to each end's node, np.hypot, the threshold per piece)."""
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        n_pieces, n = int(rng.integers(1, 8)), int(rng.integers(1, 200))
+        g = np.sort(rng.integers(0, n_pieces, n)).astype(np.int64)
+        xc, rows = rng.uniform(0, 100, n), np.round(rng.uniform(0, 100, n))
+        junction = rng.random((n_pieces, 2)) < 0.6
+        nxy = rng.uniform(0, 100, (n_pieces, 2, 2))
+        thr = rng.uniform(1, 40, (n_pieces, 2))
+        want = np.zeros(n, bool)
+        for k in range(2):
+            d = np.column_stack([xc, rows]) - nxy[:, k][g]
+            want |= junction[:, k][g] & (np.hypot(d[:, 0], d[:, 1]) < thr[:, k][g])
+        assert np.array_equal(kernels_dense.near_junctions(xc, rows, g, junction, nxy, thr), want)
+
+
+def test_steep_radii_equal_the_numpy_tail_bit_for_bit():
+    """kernels_dense.steep_radii against fit_steep_many's former numpy steps (GroupPolys of the centre lines'
+    derivatives, the widths across the slope, each curve's median): random curves of degrees 0-3, dead
+    curves between live ones, even and odd sample counts; atol 0 px."""
+    from appliance.localize import kernels_dense
+    from appliance.localize.curves import GroupPolys, Poly
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        ng = int(rng.integers(1, 9))
+        counts = rng.integers(1, 40, ng)
+        bc = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        alive = rng.random(ng) < 0.75
+        tf = np.concatenate([np.sort(rng.uniform(0, 960, c)) for c in counts])
+        wf = rng.uniform(1, 60, bc[-1])
+        live = np.flatnonzero(alive).tolist()
+        u_polys = [Poly(rng.normal(0, 30, int(rng.integers(1, 5))), float(rng.uniform(0, 960)),
+                        float(rng.uniform(1, 400))) for _ in live]
+        sel = np.repeat(alive, np.diff(bc))
+        slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
+                                                             tf[sel]) if live else np.zeros(0)
+        ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
+        starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
+        want = [float(median(ratio[starts[i]:starts[i + 1]])) for i in range(len(live))]
+        ucoef = np.zeros((len(live), 4))
+        for i, p in enumerate(u_polys):
+            ucoef[i, 4 - len(p.coef):] = p.coef
+        got = kernels_dense.steep_radii(tf, wf, bc, np.array(live, np.int64), ucoef,
+                                        np.array([p.t0 for p in u_polys], float), np.array([p.ts for p in u_polys], float))
+        np.testing.assert_array_equal(got, want)

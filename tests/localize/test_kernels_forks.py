@@ -4,7 +4,8 @@ code they replace."""
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels, kernels_forks
+
+from appliance.localize import kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly, Spliced, linspace
 
 
@@ -201,8 +202,7 @@ def test_parent_axis_kernel_is_the_numpy_steps_up_to_rounding():
 
 
 def _child_outline_numpy(c1, e1, c2, e2, p0, r_par, r_child, mask):
-    """ends.EndPlacer._fork_from_child_outline's former numpy steps around kernels.child_outline_pairs."""
-    from appliance.localize import kernels
+    """ends.EndPlacer._fork_from_child_outline's former numpy steps around kernels_walks.child_outline_pairs."""
     n = np.array([-e1[1], e1[0]])
     n = (np.sign(np.dot(c2 - p0, n)) or 1.0) * n
     sin_t = abs(e1[0] * e2[1] - e1[1] * e2[0])
@@ -214,7 +214,7 @@ def _child_outline_numpy(c1, e1, c2, e2, p0, r_par, r_child, mask):
     pairs = [(r_par + 3.0, r_par + 3.0 + step), (r_par + 3.0 + r_child, r_par + 3.0 + r_child + step)]
     hs = np.array([h for pair in pairs for h in pair])
     reach = (4.7 * r_child + 3) / sin_t + 2
-    i, m1, m2 = kernels.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
+    i, m1, m2 = kernels_walks.child_outline_pairs(np.ascontiguousarray(mask), c1 + hs[:, None] * n, s0 + hs * cot,
                                             np.asarray(e1, float), float(reach), float(r_child), float(sin_t))
     if i < 0:
         return None
@@ -384,14 +384,6 @@ def test_side_near_kernel_is_the_numpy_steps_up_to_rounding():
             np.testing.assert_allclose([got.d_px, got.mad_px, got.slope], [want[0], want[5], want[6]], rtol=0,
                                        atol=1e-9)
     assert n_found > 50 and n_none > 50
-
-
-def test_pairwise_is_numpys_sum_bit_for_bit():
-    """kernels._pairwise (the line fits' sums, walked with a stack) against ndarray.sum on 1-400 random values."""
-    rng = np.random.default_rng(17)
-    for n in [*range(1, 400), 1000, 4097]:
-        a = rng.normal(0, 100, n)
-        assert kernels._pairwise(a, 0, n) == a.sum()
 
 
 def _runs_agree_numpy(runs_l, runs_r, d_range, pts, d, r, min_rows=3):

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import cv2
 import numpy as np
-from appliance.localize import caps, kernels, kernels_tips, tips
+from appliance.localize import caps, kernels_ncc, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
@@ -55,7 +55,7 @@ def _ref_cap_shapes_offsets(mask, ends_):
 
 
 def _ref_cap_disparity(sm, centre_xy, half_px, out, min_margin=caps.MIN_FIT_MARGIN):
-    """caps.cap_disparity before the pass (numpy steps around kernels.masked_sqdiff)."""
+    """caps.cap_disparity before the pass (numpy steps around kernels_ncc.masked_sqdiff)."""
     h, w = sm.left_mask.shape
     x, y = np.rint(centre_xy).astype(int)
     x0, x1, y0, y1 = x - half_px, x + half_px + 1, y - half_px, y + half_px + 1
@@ -70,7 +70,7 @@ def _ref_cap_disparity(sm, centre_xy, half_px, out, min_margin=caps.MIN_FIT_MARG
     if s1 - s0 < x1 - x0 + 2:
         return None
     strip = sm.right_mask[y0:y1, s0:s1].astype(np.float32)
-    err = kernels.masked_sqdiff(np.ascontiguousarray(sm.right_mask[y0:y1, s0:s1]),
+    err = kernels_ncc.masked_sqdiff(np.ascontiguousarray(sm.right_mask[y0:y1, s0:s1]),
                                 np.ascontiguousarray(sm.left_mask[y0:y1, x0:x1]), half.astype(np.uint8)) / n
     k = int(np.argmin(err))
     cand = np.flatnonzero(np.abs(np.arange(len(err)) - k) > half_px)

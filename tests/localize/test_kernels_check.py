@@ -4,8 +4,8 @@
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import featurecheck, kernels
-from appliance.localize import featurecheck as FC
+
+from appliance.localize import featurecheck, featurecheck as FC
 from appliance.localize.matching import FeatureUVD, PieceUVD
 
 
@@ -204,7 +204,6 @@ def test_patches_are_the_numpy_steps():
     assert all(len(v) == 0 for v in empty.values())
 
 
-
 def _table(rng: np.random.Generator, nf: int):
     """A random patch table (rows grouped by feature, then piece; 0-14 patches a piece, some without a
     disparity or matched weakly, on a line, on a line with outliers, or scattered) and the features'
@@ -245,40 +244,6 @@ def test_estimate_is_the_numpy_steps():
         none += np.isnan(got[0]).sum()
         agree += (got[0] == d_px).sum()
     assert verdicts > 300 and none > 300 and agree > 100 and verdicts - agree > 100
-
-
-def _runs_numpy(on: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rows, first and last columns of the runs of True of a bool image (row-major), by np.diff."""
-    pad = np.zeros((on.shape[0], on.shape[1] + 2), np.int8)
-    pad[:, 1:-1] = on
-    d = np.diff(pad, axis=1)
-    r0, c0 = np.nonzero(d == 1)
-    _, c1 = np.nonzero(d == -1)
-    return r0, c0, c1 - 1
-
-
-def test_mask_runs_reads_by_unsigned_index():
-    """kernels.mask_runs (its scan now indexing by np.uint64) against np.diff's runs on masks with long
-    stretches off and on (the word-at-a-time skips), runs at the rows' ends and soft edges, for both
-    thresholds (above 127 and above 0), and a mask with more runs than the first buffer holds."""
-    rng = np.random.default_rng(13)
-    for h, w in ((40, 333), (7, 1280), (64, 64)):
-        m = np.zeros((h, w), np.uint8)
-        for _ in range(3 * h):
-            y, x, n = rng.integers(0, h), rng.integers(0, w), rng.integers(1, 120)
-            m[y, x:x + n] = 255
-        m[rng.random((h, w)) < 0.02] = rng.integers(1, 255)                  # soft pixels and specks
-        for above in (127, 0):
-            flat = m.reshape(-1)
-            rows, x0, x1, left, right = kernels.mask_runs(flat, flat.view(np.uint64), w, above, above == 127)
-            for got, want in zip((rows, x0, x1), _runs_numpy(m > above)):
-                np.testing.assert_array_equal(got, want)
-            assert len(rows) > h and (left <= x0).all() and (right >= x1).all()
-    comb = np.zeros((64, 512), np.uint8)
-    comb[:, ::2] = 255                                                       # 16384 runs (> the first 1024)
-    flat = comb.reshape(-1)
-    rows, x0, x1, _, _ = kernels.mask_runs(flat, flat.view(np.uint64), 512, 0, False)
-    assert len(rows) == 64 * 256 and (x1 == x0).all()
 
 
 def test_warm_up_compiles_the_signatures_the_check_uses():

@@ -1,8 +1,11 @@
-"""The twelfth pass's kernels (speedsteep) against the numpy code they replaced (kept here as the reference)."""
+"""The runs' sub-pixel refinement kernels (localize/kernels_refine.py) against the numpy code they replaced (kept
+here as the reference)."""
+
 from __future__ import annotations
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 
@@ -155,37 +158,6 @@ def test_short_line_clean_equals_polyfit():
     assert not dense._short_line_clean(40 + 0.05 * u, np.r_[0.5, np.ones(7)], u)
 
 
-def test_steep_radii_equal_the_numpy_tail_bit_for_bit():
-    """kernels_dense.steep_radii against fit_steep_many's former numpy steps (GroupPolys of the centre lines'
-    derivatives, the widths across the slope, each curve's median): random curves of degrees 0-3, dead
-    curves between live ones, even and odd sample counts; atol 0 px."""
-    from appliance.localize import kernels_dense
-    from appliance.localize.curves import GroupPolys, Poly
-    rng = np.random.default_rng(11)
-    for _ in range(200):
-        ng = int(rng.integers(1, 9))
-        counts = rng.integers(1, 40, ng)
-        bc = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        alive = rng.random(ng) < 0.75
-        tf = np.concatenate([np.sort(rng.uniform(0, 960, c)) for c in counts])
-        wf = rng.uniform(1, 60, bc[-1])
-        live = np.flatnonzero(alive).tolist()
-        u_polys = [Poly(rng.normal(0, 30, int(rng.integers(1, 5))), float(rng.uniform(0, 960)),
-                        float(rng.uniform(1, 400))) for _ in live]
-        sel = np.repeat(alive, np.diff(bc))
-        slope_u = GroupPolys.of([p.deriv() for p in u_polys])(np.repeat(np.arange(len(live)), np.diff(bc)[live]),
-                                                             tf[sel]) if live else np.zeros(0)
-        ratio = 0.5 * wf[sel] / np.sqrt(1 + slope_u ** 2)
-        starts = np.concatenate([[0], np.cumsum(np.diff(bc)[live])]).tolist()
-        want = [float(median(ratio[starts[i]:starts[i + 1]])) for i in range(len(live))]
-        ucoef = np.zeros((len(live), 4))
-        for i, p in enumerate(u_polys):
-            ucoef[i, 4 - len(p.coef):] = p.coef
-        got = kernels_dense.steep_radii(tf, wf, bc, np.array(live, np.int64), ucoef,
-                                        np.array([p.t0 for p in u_polys], float), np.array([p.ts for p in u_polys], float))
-        np.testing.assert_array_equal(got, want)
-
-
 def _gather_numpy(gray, row, col):
     """subpixel.gather of a LazyRectified before the twelfth pass (numpy's takes of the map entries)."""
     import cv2
@@ -248,3 +220,28 @@ def test_warm_up_compiles_the_signatures_the_localizer_passes():
     for masks in ((None, None), (truth.mask_left, truth.mask_right)):
         assert loc.localize(left, right, mask_left=masks[0], mask_right=masks[1]).features
     assert [len(f.signatures) for f in mine] == before
+
+
+def test_refine_steps_is_refine_boundaries_numpy_steps():
+    from appliance.localize.subpixel import refine_boundaries
+    rng = np.random.default_rng(8)
+    moved = 0
+    for _ in range(30):
+        h, w = 40, 200
+        img = np.zeros((h, w), np.float32)
+        for _ in range(8):                                         # blurred bars at sub-pixel positions
+            x0, x1 = sorted(rng.uniform(0, w, 2))
+            img[:, int(x0):int(x1)] += rng.uniform(-120, 120)
+        img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.5, 2.0)) + 120 + rng.normal(0, rng.uniform(0, 8), img.shape)
+        gray = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        gray[:, 50:60] = 0                                         # steps into black / flat
+        k = 400
+        row = rng.integers(0, h, k)
+        x = rng.uniform(-3, w + 3, k)
+        x[:20] = np.rint(x[:20])                                   # on whole pixels (d == 0)
+        for kw in ({}, {"min_step": 5.0, "min_share": 0.1, "max_shift_px": 2.0}):
+            got = refine_boundaries(gray, row, x, **kw)            # (uint8: kernels_refine.refine_steps)
+            ref = refine_boundaries(gray.astype(np.float32), row, x, **kw)     # (float32: the numpy steps)
+            assert got.dtype == ref.dtype and np.array_equal(got, ref)
+            moved += int((got != x).sum())
+    assert moved > 2000

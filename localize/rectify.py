@@ -46,7 +46,7 @@ class Rectifier:
     tiles: tuple = ()
     _sources: dict = field(default_factory=dict, repr=False)   # tile_sources() cache
 
-    TILE_PX = (32, 32)      # output tile (rows, cols) of the sparse remap
+    TILE_PX = (64, 16)      # output tile (rows, cols) of the sparse remap (tall and narrow: fewer calls, less area)
     BLOCK_PX = 8            # source pixels per cell of the "anything here" map
     SPARSE_MAX = 0.7        # remap in full when more than this share of the image is needed
 

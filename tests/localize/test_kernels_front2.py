@@ -67,3 +67,35 @@ def test_tall_narrow_tiles_give_the_full_remap(size):
             need = rect._needed_tiles(mask, side)
             assert ((need[:, 1] - need[:, 0]) * (need[:, 3] - need[:, 2])).sum() < 0.7 * mask.size
             np.testing.assert_array_equal(rect.rectify(mask, side, fast=True), full)   # atol 0 (levels)
+
+
+def _read_box_reference(map1: np.ndarray, y0: int, y1: int, x0: int, x1: int, h: int, w: int):
+    """The box of the source pixels (ix, iy), (ix + 1, iy + 1) a fixed-point linear remap reads, by numpy."""
+    m = map1[y0:y1, x0:x1].reshape(-1, 2).astype(np.int64)
+    return (max(int(m[:, 1].min()), 0), min(int(m[:, 1].max()) + 2, h),
+            max(int(m[:, 0].min()), 0), min(int(m[:, 0].max()) + 2, w))
+
+
+@pytest.mark.parametrize("size", [(320, 240), (333, 251)])
+def test_read_box_and_lazy_reads_of_exactly_those_pixels(size):
+    from appliance.localize import kernels_graph
+    from appliance.localize.rectify import LazyRectified
+    w, h = size
+    rect = Rectifier.from_calibration(distorted_rig(w, h))
+    rng = np.random.default_rng(w + h)
+    bgr = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
+    for side in (0, 1):
+        m1, m2 = rect.maps[side]
+        full = cv2.remap(grey, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        for _ in range(150):
+            y0, x0 = int(rng.integers(0, h)), int(rng.integers(0, w))
+            y1, x1 = min(h, y0 + int(rng.integers(1, 40))), min(w, x0 + int(rng.integers(1, 90)))
+            assert kernels_graph.read_box(m1, y0, y1, x0, x1, h, w) == _read_box_reference(m1, y0, y1, x0, x1, h, w)
+            lazy = LazyRectified(rect, bgr, side)
+            lazy._grey = np.full((h, w), 77, np.uint8)         # (a pixel read but not converted would show)
+            np.testing.assert_array_equal(lazy[y0:y1, x0:x1], full[y0:y1, x0:x1])    # atol 0 (levels)
+        for y0, y1, x0, x1 in ((0, 3, 0, 3), (h - 2, h, w - 5, w), (0, h, 0, w)):   # corners (outside), whole
+            lazy = LazyRectified(rect, bgr, side)
+            lazy._grey = np.full((h, w), 77, np.uint8)
+            np.testing.assert_array_equal(lazy[y0:y1, x0:x1], full[y0:y1, x0:x1])

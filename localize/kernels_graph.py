@@ -600,6 +600,25 @@ def source_box(lo, hi, i0, i1, j0, j1):
 
 
 @numba.njit(**_JIT)
+def read_box(map1, y0, y1, x0, x1, h, w):
+    """The source pixels a linear remap of the output rows ``y0:y1``, columns ``x0:x1`` reads through the
+    fixed-point table ``map1`` (H, W, 2) int16 (``cv2.initUndistortRectifyMap``'s CV_16SC2: each output
+    pixel's source column and row, rounded down; it reads those and the next ones): ``(sy0, sy1, sx0,
+    sx1)``, end exclusive, clipped to the source image of ``h`` rows and ``w`` columns (empty: nothing of
+    the image is read). Thirteenth pass (speedfront2): the exact box, instead of :func:`source_box`'s union
+    of whole tiles' boxes (3-5x the pixels on the fixtures' reads)."""
+    ax0, ay0 = np.int64(1 << 20), np.int64(1 << 20)
+    ax1, ay1 = np.int64(-(1 << 20)), np.int64(-(1 << 20))
+    for y in range(y0, y1):
+        row = map1[y]
+        for x in range(x0, x1):
+            sx, sy = np.int64(row[x, 0]), np.int64(row[x, 1])
+            ax0, ax1 = min(ax0, sx), max(ax1, sx)
+            ay0, ay1 = min(ay0, sy), max(ay1, sy)
+    return max(ay0, 0), min(ay1 + 2, h), max(ax0, 0), min(ax1 + 2, w)
+
+
+@numba.njit(**_JIT)
 def project_distorted(rays, K, k, out):
     """``cv2.projectPoints(rays, 0, 0, K, D)`` (no rotation, no translation, no tilt), bit for bit: OpenCV's
     distortion model in OpenCV's order of operations (the reciprocal of Z times X and Y, then the radial,
@@ -906,6 +925,7 @@ def warm_up() -> None:
     bridge_pairs(np.zeros((2, 2)), np.zeros((2, 2)), np.ones(2), np.arange(2), 0.9, 60.0, 2.0)
     grid = np.zeros((1, 1, 2), np.int64)
     source_box(grid, grid, 0, 1, 0, 1)
+    read_box(np.zeros((1, 1, 2), np.int16), 0, 1, 0, 1, 1, 1)
     coarse_mask(np.zeros((4, 1), np.uint64), np.zeros((1, 2), np.uint8))
     group_medians(np.zeros(3), np.array([0, 1, 3], np.int64))
     spur_mask(np.zeros((1, 2), np.int64), np.ones(1, np.int64), np.zeros((1, 2)), np.zeros(1), 2, 2, 5.0, 1.5,

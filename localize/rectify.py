@@ -46,7 +46,7 @@ class Rectifier:
     tiles: tuple = ()
     _sources: dict = field(default_factory=dict, repr=False)   # tile_sources() cache
 
-    TILE_PX = (32, 32)      # output tile (rows, cols) of the sparse remap
+    TILE_PX = (64, 16)      # output tile (rows, cols) of the sparse remap (tall and narrow: fewer calls, less area)
     BLOCK_PX = 8            # source pixels per cell of the "anything here" map
     SPARSE_MAX = 0.7        # remap in full when more than this share of the image is needed
 
@@ -65,7 +65,6 @@ class Rectifier:
         tiles = tuple(_tile_sources(*cv2.convertMaps(m1, m2, cv2.CV_32FC1), cls.TILE_PX) for m1, m2 in maps)
         rect = cls(calib, maps, valid, tiles)
         for side in (0, 1):
-            rect.source_grid(side, GREY_TILE_PX)         # LazyRectified's source boxes, ready for the first frame
             rect.float_maps(side)                        # the masks' remap tables
             rect._cell_boxes(side)                       # and their tiles' source cells
         return rect
@@ -258,9 +257,11 @@ class LazyRectified:
 
     The matcher reads the grey images only in small patches and strips; rectifying just the
     area read (one remap of exactly that rectangle) saves most of a full remap. A BGR ``image``
-    is converted to grey only in the source area of the read (the union of the source boxes of
-    the ``tile_px`` tiles it covers): the same grey image as converting it all first, as the
-    conversion and the remap are per pixel. Nothing is cached: a read costs about its area.
+    is converted to grey only in the source area of the read (the box of the pixels the remap reads,
+    :func:`kernels_graph.read_box` over the fixed-point table: thirteenth pass; before, the union of
+    the source boxes of the ``tile_px`` tiles it covers, 3-5x the pixels): the same grey image as
+    converting it all first, as the conversion and the remap are per pixel. Nothing is cached: a
+    read costs about its area. (``tile_px``: kept for callers; no longer used.)
     """
 
     def __init__(self, rectifier: Rectifier, image: np.ndarray, side: int, tile_px: tuple[int, int] = GREY_TILE_PX):
@@ -270,7 +271,6 @@ class LazyRectified:
         self.shape = (h, w)
         self.dtype = image.dtype
         self._grey = None                                   # BGR input: grey where reads need it
-        self._boxes = rectifier.source_grid(side, tile_px) if image.ndim == 3 else None
 
     def __getitem__(self, index):
         ys, xs = index
@@ -280,8 +280,8 @@ class LazyRectified:
             return np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), self.dtype)
         src = self.image
         if src.ndim == 3:
-            sy0, sy1, sx0, sx1 = kernels_graph.source_box(*self._boxes, y0 // self.th, (y1 - 1) // self.th + 1,
-                                                           x0 // self.tw, (x1 - 1) // self.tw + 1)
+            sy0, sy1, sx0, sx1 = kernels_graph.read_box(self.rectifier.maps[self.side][0], y0, y1, x0, x1,
+                                                         *src.shape[:2])      # (exactly the pixels read)
             if sy1 <= sy0 or sx1 <= sx0:                    # the area sees nothing of the image
                 return np.zeros((y1 - y0, x1 - x0), np.uint8)
             if self._grey is None:

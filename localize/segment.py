@@ -170,6 +170,8 @@ def sample_nearest(img: np.ndarray, factor: int) -> np.ndarray:
     nearest-neighbour resize), shape (H // factor, W // factor[, C])."""
     h, w = img.shape[:2]
     hs, ws = h // factor, w // factor
+    if img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3 and img.flags.c_contiguous and hs and ws:
+        return kernels_front.sample_every(img, factor, np.empty((hs, ws, 3), np.uint8))   # (compiled: the same copy)
     return cv2.resize(img[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
 
 

@@ -7,11 +7,14 @@ from pathlib import Path
 import cv2
 import numba
 import numpy as np
+import pytest
 
 from appliance.commands.common import effective_config
 from appliance.localize import kernels_front
 from appliance.localize.radius import NEAR_MAX_SHARE, ridge_radius_map
-from appliance.localize.segment import _hsv_threshold, bark_hsv, bark_lut, bark_lut_rows, bark_mask, segment_mask
+from appliance.localize.segment import (
+    _hsv_threshold, bark_hsv, bark_lut, bark_lut_rows, bark_mask, sample_nearest, segment_mask,
+)
 from appliance.localize.skeleton import binary, skeletonize
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "scenes"
@@ -257,3 +260,35 @@ def test_tiles_and_ragged_edges_untouched_elsewhere():
     old, new = _both(img.reshape(-1), w, tiles, t, cfg, h * w)
     np.testing.assert_array_equal(new, old)
     assert (new == 7).any() and (new == 255).any()
+
+
+def _reference(img: np.ndarray, factor: int) -> np.ndarray:
+    """sample_nearest before speedfront2: OpenCV's nearest-neighbour resize of the whole blocks."""
+    h, w = img.shape[:2]
+    hs, ws = h // factor, w // factor
+    return cv2.resize(img[:hs * factor, :ws * factor], (ws, hs), interpolation=cv2.INTER_NEAREST)
+
+
+@pytest.mark.parametrize("shape, factor", [(s, f) for s in [(960, 1280), (251, 333), (7, 9), (4, 4), (5, 1283)]
+                                           for f in [1, 2, 3, 4, 5] if min(s) >= f])   # (at least one whole block)
+def test_sample_every_is_the_nearest_resize(shape, factor):
+    rng = np.random.default_rng(shape[0] * 7 + factor)
+    img = rng.integers(0, 256, (*shape, 3), dtype=np.uint8)
+    got = sample_nearest(img, factor)
+    assert got.dtype == np.uint8 and got.flags.c_contiguous
+    np.testing.assert_array_equal(got, _reference(img, factor))       # atol 0 (levels)
+    img.setflags(write=False)                                         # (a read-only image: the same)
+    np.testing.assert_array_equal(sample_nearest(img, factor), _reference(img, factor))
+
+
+def test_sample_every_constructed_and_fallbacks():
+    img = np.zeros((12, 16, 3), np.uint8)
+    img[4, 8] = (1, 2, 3)                                             # a block's first pixel: sampled
+    img[5, 9] = (9, 9, 9)                                             # not a first pixel: not
+    out = kernels_front.sample_every(img, 4, np.zeros((3, 4, 3), np.uint8))
+    assert out[1, 2].tolist() == [1, 2, 3] and out.sum() == 6
+    view = np.zeros((40, 60, 3), np.uint8)[::2, ::3]                  # not contiguous: OpenCV's path
+    view[...] = np.arange(view.size, dtype=np.uint32).reshape(view.shape) % 251
+    np.testing.assert_array_equal(sample_nearest(view, 4), _reference(view, 4))
+    grey = np.arange(200, dtype=np.uint8).reshape(10, 20)             # one channel: OpenCV's path
+    np.testing.assert_array_equal(sample_nearest(grey, 3), grey[:9:3, :18:3])

@@ -1,0 +1,66 @@
+"""kernels_flanks against the numpy code it replaces (thirteenth pass, speedmatch2): the same values, atol 0."""
+
+import math
+
+import numpy as np
+
+from appliance.localize import kernels_flanks, tips
+
+
+def _shares_reference(left_mask, right_mask, uv_edge, out, d_px, r):
+    """tips.right_flanks_filled's numpy reads as they were (main d7e2c88): the two shares."""
+    h = int(math.ceil(2.5 * r))
+    ys, xs = np.mgrid[-h:h + 1, -h:h + 1]
+    along = xs * out[0] + ys * out[1]
+    across = np.abs(ys * out[0] - xs * out[1])
+    sel = (along >= -r) & (along <= 0.5) & (across > 1.3 * r) & (across <= 2.3 * r)
+    yy = np.rint(uv_edge[1]).astype(int) + ys[sel]
+    share = []
+    for mask, x0 in ((left_mask, uv_edge[0]), (right_mask, uv_edge[0] - d_px)):
+        xx = int(np.rint(x0)) + xs[sel]
+        inside = (yy >= 0) & (yy < mask.shape[0]) & (xx >= 0) & (xx < mask.shape[1])
+        share.append(np.count_nonzero(mask[yy[inside], xx[inside]] >= 128) / max(len(yy), 1))
+    return share
+
+
+def _masks(rng, h=120, w=160):
+    """Two random blob masks (uint8, 0/255 with some grey values around 128)."""
+    out = []
+    for _ in range(2):
+        m = (rng.random((h // 8, w // 8)) < 0.5).repeat(8, 0).repeat(8, 1).astype(np.uint8) * 255
+        m[rng.random((h, w)) < 0.05] = rng.integers(120, 136)
+        out.append(m)
+    return out
+
+
+def test_flank_shares_random_and_constructed():
+    rng = np.random.default_rng(5)
+    left, right = _masks(rng)
+    cases = []
+    for _ in range(400):                                   # random ends, some near or beyond the border
+        ang = rng.uniform(0, 2 * np.pi)
+        cases.append((np.array([rng.uniform(-10, 170), rng.uniform(-10, 130)]), np.array([np.cos(ang), np.sin(ang)]),
+                      rng.uniform(-5, 60), rng.uniform(0.3, 12)))
+    for out in ((1.0, 0.0), (0.0, 1.0), (0.0, -1.0), (-1.0, 0.0), (math.sqrt(0.5), math.sqrt(0.5))):
+        for uv in ((80.5, 60.5), (81.5, 59.5), (0.0, 0.0), (159.0, 119.0)):   # half pixels: rint's half to even
+            cases.append((np.array(uv), np.array(out), 12.5, 4.0))
+    for uv, out, d, r in cases:
+        ref = _shares_reference(left, right, uv, out, d, r)
+        got = kernels_flanks.flank_shares(left, right, float(uv[0]), float(uv[1]), float(out[0]), float(out[1]),
+                                          float(d), float(r))
+        np.testing.assert_allclose(got, ref, atol=0, rtol=0)
+        assert tips.right_flanks_filled(left, right, uv, out, d, r) == (ref[1] - ref[0] > tips.FLANK_SHARE)
+
+
+def test_flank_shares_filled_right_view():
+    """A right view with mask beside the cap only: filled; the same mask in both views: not."""
+    left = np.zeros((60, 80), np.uint8)
+    left[:, 36:44] = 255                                   # a vertical branch, its end at row 30 (out: down)
+    left[31:, :] = 0
+    right = left.copy()
+    uv, out, r = np.array([40.0, 30.0]), np.array([0.0, 1.0]), 4.0
+    assert not tips.right_flanks_filled(left, right, uv, out, 0.0, r)
+    right[20:40, 20:60] = 255                              # something beside the cap in the right view
+    assert tips.right_flanks_filled(left, right, uv, out, 0.0, r)
+    np.testing.assert_allclose(kernels_flanks.flank_shares(left, right, 40.0, 30.0, 0.0, 1.0, 0.0, r),
+                               _shares_reference(left, right, uv, out, 0.0, r), atol=0, rtol=0)

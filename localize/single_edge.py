@@ -85,22 +85,30 @@ def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.
     straight lines fitted to its last ``reach_px`` of rows on that side, and that end's row. None if the
     rows overlap its span or lie further than ``reach_px`` from it."""
     lo, hi = c.t_range
-    if rows.max() < lo:
+    r_max, r_min = float(rows.max()), float(rows.min())
+    if r_max < lo:
         end, t = lo, linspace(lo, min(hi, lo + reach_px), 8)
-    elif rows.min() > hi:
+    elif r_min > hi:
         end, t = hi, linspace(max(lo, hi - reach_px), hi, 8)
     else:
         return None
-    if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
+    if min(abs(r_max - end), abs(r_min - end)) > reach_px:
         return None
-    y = np.stack([c.s_at(t), c.d_at(t)])                  # (2, 8) centre column, disparity
-    y0 = y.mean(1)
+    s, d = c.s_at(t), c.d_at(t)                           # (8,) centre column, disparity
+    # (Python floats, the same sums: the means are numpy's pairwise sums of 8 values, _mean8)
+    s0, d0, t_mean = _mean8(s.tolist()), _mean8(d.tolist()), _mean8(t.tolist())
     if t[-1] - t[0] < 5:
-        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1]), end
-    dt = t - t.mean()
-    slope = (y @ dt) / float(dt @ dt)                      # least-squares lines
-    out = y0[:, None] + slope[:, None] * (rows - t.mean())
-    return out[0], out[1], end
+        return np.full(len(rows), s0), np.full(len(rows), d0), end
+    dt = t - t_mean
+    slope = (np.stack([s, d]) @ dt) / float(dt @ dt)      # least-squares lines (numpy's products and sums)
+    x = rows - t_mean
+    return s0 + float(slope[0]) * x, d0 + float(slope[1]) * x, end
+
+
+def _mean8(v: list) -> float:
+    """``np.mean`` of 8 float64 values, the same value bit for bit: numpy's pairwise sum of 8 (its eight
+    partial sums of one value each, added in pairs), over 8."""
+    return (((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))) / 8
 
 
 def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> float:

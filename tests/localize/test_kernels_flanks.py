@@ -64,3 +64,58 @@ def test_flank_shares_filled_right_view():
     assert tips.right_flanks_filled(left, right, uv, out, 0.0, r)
     np.testing.assert_allclose(kernels_flanks.flank_shares(left, right, 40.0, 30.0, 0.0, 1.0, 0.0, r),
                                _shares_reference(left, right, uv, out, 0.0, r), atol=0, rtol=0)
+
+
+def _donor_model_reference(c, rows, reach_px):
+    """single_edge._donor_model as it was (main d7e2c88)."""
+    from appliance.localize.curves import linspace
+    lo, hi = c.t_range
+    if rows.max() < lo:
+        end, t = lo, linspace(lo, min(hi, lo + reach_px), 8)
+    elif rows.min() > hi:
+        end, t = hi, linspace(max(lo, hi - reach_px), hi, 8)
+    else:
+        return None
+    if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
+        return None
+    y = np.stack([c.s_at(t), c.d_at(t)])
+    y0 = y.mean(1)
+    if t[-1] - t[0] < 5:
+        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1]), end
+    dt = t - t.mean()
+    slope = (y @ dt) / float(dt @ dt)
+    out = y0[:, None] + slope[:, None] * (rows - t.mean())
+    return out[0], out[1], end
+
+
+def test_donor_model_same_values():
+    """single_edge._donor_model (Python-float means, thirteenth pass) against the numpy steps it replaces:
+    random steep curves (lines, quadratics; spans short and long; ends with and without slopes), rows
+    on either side, near and beyond the reach; atol 0 px."""
+    from appliance.localize import single_edge
+    from appliance.localize.curves import BranchCurve, Poly
+    rng = np.random.default_rng(11)
+    n_models = 0
+    for _ in range(600):
+        lo = rng.uniform(0, 800)
+        hi = lo + rng.choice([rng.uniform(0, 6), rng.uniform(6, 300)])
+        deg = int(rng.integers(0, 3))
+        s_poly = Poly(rng.normal(0, [30.0, 80.0, 600.0][-deg - 1:]) + np.r_[np.zeros(deg), 640.0],
+                      float(0.5 * (lo + hi)), max(0.5 * (hi - lo), 1.0))
+        d_poly = Poly(rng.normal(0, [0.5, 3.0, 40.0][-deg - 1:]), float(0.5 * (lo + hi)), max(0.5 * (hi - lo), 1.0))
+        slopes = None if rng.random() < 0.5 else (float(rng.normal(0, 0.1)), float(rng.normal(0, 0.1)))
+        c = BranchCurve(1, True, (lo, hi), s_poly, d_poly, float(rng.uniform(2, 12)), 50, slopes)
+        side = rng.choice([-1, 1])
+        r0 = (hi + rng.uniform(0.5, 160)) if side > 0 else (lo - rng.uniform(0.5, 160) - 60)
+        rows = np.arange(np.floor(r0), np.floor(r0) + rng.integers(8, 60), dtype=float)
+        if rng.random() < 0.1:
+            rows = np.linspace(lo - 5, hi + 5, 20)         # overlapping the span: None
+        reach = float(rng.choice([120.0, 40.0]))
+        ref, got = _donor_model_reference(c, rows, reach), single_edge._donor_model(c, rows, reach)
+        assert (ref is None) == (got is None)
+        if ref is not None:
+            n_models += 1
+            np.testing.assert_allclose(got[0], ref[0], atol=0, rtol=0)
+            np.testing.assert_allclose(got[1], ref[1], atol=0, rtol=0)
+            assert got[2] == ref[2]
+    assert n_models > 150

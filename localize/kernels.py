@@ -984,8 +984,8 @@ def warm_up() -> None:
     kernels_refine.warm_up()
     from appliance.localize import kernels_segclean  # (the segment stage's clean-up, twelfth pass: imports this one)
     kernels_segclean.warm_up()
-    from appliance.localize import kernels_flanks  # (the tip glue's flank shares, thirteenth pass: imports this one)
-    kernels_flanks.warm_up()
+    from appliance.localize import kernels_endreads  # (the tip glue's flank shares, thirteenth pass: imports this one)
+    kernels_endreads.warm_up()
 
 
 # --- match stage (speedm)

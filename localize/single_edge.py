@@ -12,7 +12,7 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels, kernels_dense
+from appliance.localize import kernels, kernels_dense, kernels_endreads
 from appliance.localize.curves import (
     BranchCurve,
     Poly,
@@ -118,11 +118,10 @@ def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> flo
     lo, hi = c.t_range
     t = np.arange(end, min(hi, end + n_rows) + 1.0) if end == lo else np.arange(max(lo, end - n_rows), end + 1.0)
     u = c.s_at(t)
-    i = runs_l.find(t.astype(int), u)
-    w = np.where(i >= 0, runs_l.span_px[np.maximum(i, 0)], np.nan)
     ref = 2 * c.radius_px * np.sqrt(1 + (float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)) ** 2)
-    ok = np.abs(w - ref) <= 0.5 * ref
-    return 0.5 * (float(median(w[ok])) if ok.sum() >= 5 else ref)
+    keys, rows, x1 = runs_l._find_tables        # (compiled: the same crossings, selection and median)
+    return kernels_endreads.end_half_width(keys, rows, x1, runs_l.width, runs_l.span_px, np.ascontiguousarray(t, float),
+                                           np.ascontiguousarray(u, float), float(ref))
 
 
 def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, half: np.ndarray, runs_l: Runs,

@@ -19,7 +19,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels, kernels_flanks, kernels_tips
+from appliance.localize import kernels, kernels_endreads, kernels_tips
 from appliance.localize.caps import cap_disparity
 from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
 from appliance.localize.edges import Runs
@@ -481,8 +481,8 @@ def right_flanks_filled(left_mask: np.ndarray, right_mask: np.ndarray, uv_edge: 
         True when the right flanks' mask share exceeds the left's by more than :data:`FLANK_SHARE`
         (something touches the cap in the right view only: its run end is not the cap's).
     """
-    # (compiled: the same offsets, products, comparisons and counts as the numpy selection, kernels_flanks)
-    share = kernels_flanks.flank_shares(np.ascontiguousarray(left_mask), np.ascontiguousarray(right_mask),
+    # (compiled: the same offsets, products, comparisons and counts as the numpy selection, kernels_endreads)
+    share = kernels_endreads.flank_shares(np.ascontiguousarray(left_mask), np.ascontiguousarray(right_mask),
                                         float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(out[1]),
                                         float(d_px), float(r))
     return bool(share[1] - share[0] > FLANK_SHARE)

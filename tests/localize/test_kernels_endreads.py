@@ -1,10 +1,10 @@
-"""kernels_flanks against the numpy code it replaces (thirteenth pass, speedmatch2): the same values, atol 0."""
+"""kernels_endreads against the numpy code it replaces (thirteenth pass, speedmatch2): the same values, atol 0."""
 
 import math
 
 import numpy as np
 
-from appliance.localize import kernels_flanks, tips
+from appliance.localize import kernels_endreads, tips
 
 
 def _shares_reference(left_mask, right_mask, uv_edge, out, d_px, r):
@@ -46,7 +46,7 @@ def test_flank_shares_random_and_constructed():
             cases.append((np.array(uv), np.array(out), 12.5, 4.0))
     for uv, out, d, r in cases:
         ref = _shares_reference(left, right, uv, out, d, r)
-        got = kernels_flanks.flank_shares(left, right, float(uv[0]), float(uv[1]), float(out[0]), float(out[1]),
+        got = kernels_endreads.flank_shares(left, right, float(uv[0]), float(uv[1]), float(out[0]), float(out[1]),
                                           float(d), float(r))
         np.testing.assert_allclose(got, ref, atol=0, rtol=0)
         assert tips.right_flanks_filled(left, right, uv, out, d, r) == (ref[1] - ref[0] > tips.FLANK_SHARE)
@@ -62,7 +62,7 @@ def test_flank_shares_filled_right_view():
     assert not tips.right_flanks_filled(left, right, uv, out, 0.0, r)
     right[20:40, 20:60] = 255                              # something beside the cap in the right view
     assert tips.right_flanks_filled(left, right, uv, out, 0.0, r)
-    np.testing.assert_allclose(kernels_flanks.flank_shares(left, right, 40.0, 30.0, 0.0, 1.0, 0.0, r),
+    np.testing.assert_allclose(kernels_endreads.flank_shares(left, right, 40.0, 30.0, 0.0, 1.0, 0.0, r),
                                _shares_reference(left, right, uv, out, 0.0, r), atol=0, rtol=0)
 
 
@@ -119,3 +119,49 @@ def test_donor_model_same_values():
             np.testing.assert_allclose(got[1], ref[1], atol=0, rtol=0)
             assert got[2] == ref[2]
     assert n_models > 150
+
+
+def _end_half_reference(c, end, runs_l, n_rows=30):
+    """single_edge._end_half as it was (main d7e2c88)."""
+    from appliance.localize.curves import median
+    lo, hi = c.t_range
+    t = np.arange(end, min(hi, end + n_rows) + 1.0) if end == lo else np.arange(max(lo, end - n_rows), end + 1.0)
+    u = c.s_at(t)
+    i = runs_l.find(t.astype(int), u)
+    w = np.where(i >= 0, runs_l.span_px[np.maximum(i, 0)], np.nan)
+    ref = 2 * c.radius_px * np.sqrt(1 + (float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)) ** 2)
+    ok = np.abs(w - ref) <= 0.5 * ref
+    return 0.5 * (float(median(w[ok])) if ok.sum() >= 5 else ref)
+
+
+def test_end_half_same_values():
+    """single_edge._end_half (kernels_endreads.end_half_width) against the numpy steps it replaces: a soft
+    mask of bands of varying width (so medians of odd and even counts, too few crossings, rows off the
+    mask), curves at either end; atol 0 px."""
+    from appliance.localize import single_edge
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.edges import find_runs
+    rng = np.random.default_rng(3)
+    h, w = 200, 240
+    mask = np.zeros((h, w), np.uint8)
+    for _ in range(6):                                     # slanted bands, widths changing along them
+        x0, slope, width = rng.uniform(20, 220), rng.uniform(-0.6, 0.6), rng.uniform(3, 20)
+        for y in range(h):
+            xc, ww = x0 + slope * y, width + 3 * np.sin(y / 7.0)
+            a, b = int(max(xc - ww / 2, 0)), int(min(xc + ww / 2, w))
+            mask[y, a:b] = 255
+            if 0 < a < w:
+                mask[y, a - 1] = rng.integers(1, 255)      # soft edges
+    mask[rng.random((h, w)) < 0.02] = 0                    # holes: runs cut short
+    runs = find_runs(mask, soft=True)
+    n_same = 0
+    for _ in range(300):
+        lo = float(rng.integers(0, 150))
+        hi = lo + float(rng.choice([rng.integers(0, 10), rng.integers(10, 60)]))
+        s_poly = Poly(np.array([rng.uniform(-0.6, 0.6) * 25, rng.uniform(20, 220)]), 0.5 * (lo + hi), 25.0)
+        c = BranchCurve(1, True, (lo, hi), s_poly, Poly(np.array([20.0])), float(rng.uniform(1.5, 10)), 40)
+        for end in (lo, hi):
+            ref, got = _end_half_reference(c, end, runs), single_edge._end_half(c, end, runs)
+            assert got == ref
+            n_same += 1
+    assert n_same == 600

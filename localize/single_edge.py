@@ -12,7 +12,7 @@ sees a thick branch's outline at other surface points).
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels_dense
+from appliance.localize import kernels_dense, kernels_endreads
 from appliance.localize.curves import (
     BranchCurve,
     Poly,
@@ -85,22 +85,30 @@ def _donor_model(c: BranchCurve, rows: np.ndarray, reach_px: float) -> tuple[np.
     straight lines fitted to its last ``reach_px`` of rows on that side, and that end's row. None if the
     rows overlap its span or lie further than ``reach_px`` from it."""
     lo, hi = c.t_range
-    if rows.max() < lo:
+    r_max, r_min = float(rows.max()), float(rows.min())
+    if r_max < lo:
         end, t = lo, linspace(lo, min(hi, lo + reach_px), 8)
-    elif rows.min() > hi:
+    elif r_min > hi:
         end, t = hi, linspace(max(lo, hi - reach_px), hi, 8)
     else:
         return None
-    if min(abs(rows.max() - end), abs(rows.min() - end)) > reach_px:
+    if min(abs(r_max - end), abs(r_min - end)) > reach_px:
         return None
-    y = np.stack([c.s_at(t), c.d_at(t)])                  # (2, 8) centre column, disparity
-    y0 = y.mean(1)
+    s, d = c.s_at(t), c.d_at(t)                           # (8,) centre column, disparity
+    # (Python floats, the same sums: the means are numpy's pairwise sums of 8 values, _mean8)
+    s0, d0, t_mean = _mean8(s.tolist()), _mean8(d.tolist()), _mean8(t.tolist())
     if t[-1] - t[0] < 5:
-        return np.full(len(rows), y0[0]), np.full(len(rows), y0[1]), end
-    dt = t - t.mean()
-    slope = (y @ dt) / float(dt @ dt)                      # least-squares lines
-    out = y0[:, None] + slope[:, None] * (rows - t.mean())
-    return out[0], out[1], end
+        return np.full(len(rows), s0), np.full(len(rows), d0), end
+    dt = t - t_mean
+    slope = (np.stack([s, d]) @ dt) / float(dt @ dt)      # least-squares lines (numpy's products and sums)
+    x = rows - t_mean
+    return s0 + float(slope[0]) * x, d0 + float(slope[1]) * x, end
+
+
+def _mean8(v: list) -> float:
+    """``np.mean`` of 8 float64 values, the same value bit for bit: numpy's pairwise sum of 8 (its eight
+    partial sums of one value each, added in pairs), over 8."""
+    return (((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))) / 8
 
 
 def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> float:
@@ -110,11 +118,10 @@ def _end_half(c: BranchCurve, end: float, runs_l: Runs, n_rows: int = 30) -> flo
     lo, hi = c.t_range
     t = np.arange(end, min(hi, end + n_rows) + 1.0) if end == lo else np.arange(max(lo, end - n_rows), end + 1.0)
     u = c.s_at(t)
-    i = runs_l.find(t.astype(int), u)
-    w = np.where(i >= 0, runs_l.span_px[np.maximum(i, 0)], np.nan)
     ref = 2 * c.radius_px * np.sqrt(1 + (float(u[-1] - u[0]) / max(float(t[-1] - t[0]), 1.0)) ** 2)
-    ok = np.abs(w - ref) <= 0.5 * ref
-    return 0.5 * (float(median(w[ok])) if ok.sum() >= 5 else ref)
+    keys, rows, x1 = runs_l._find_tables        # (compiled: the same crossings, selection and median)
+    return kernels_endreads.end_half_width(keys, rows, x1, runs_l.width, runs_l.span_px, np.ascontiguousarray(t, float),
+                                           np.ascontiguousarray(u, float), float(ref))
 
 
 def _edge_track(rows: np.ndarray, xc: np.ndarray, u: np.ndarray, d: np.ndarray, half: np.ndarray, runs_l: Runs,

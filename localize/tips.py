@@ -19,7 +19,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels_ncc, kernels_tips, kernels_walks
+from appliance.localize import kernels_endreads, kernels_ncc, kernels_tips, kernels_walks
 from appliance.localize.caps import cap_disparity
 from appliance.localize.curves import BranchCurve, Poly, angle_deg, median
 from appliance.localize.edges import Runs
@@ -481,15 +481,8 @@ def right_flanks_filled(left_mask: np.ndarray, right_mask: np.ndarray, uv_edge: 
         True when the right flanks' mask share exceeds the left's by more than :data:`FLANK_SHARE`
         (something touches the cap in the right view only: its run end is not the cap's).
     """
-    h = int(math.ceil(2.5 * r))
-    ys, xs = np.mgrid[-h:h + 1, -h:h + 1]
-    along = xs * out[0] + ys * out[1]
-    across = np.abs(ys * out[0] - xs * out[1])
-    sel = (along >= -r) & (along <= 0.5) & (across > 1.3 * r) & (across <= 2.3 * r)
-    yy = np.rint(uv_edge[1]).astype(int) + ys[sel]
-    share = []
-    for mask, x0 in ((left_mask, uv_edge[0]), (right_mask, uv_edge[0] - d_px)):
-        xx = int(np.rint(x0)) + xs[sel]
-        inside = (yy >= 0) & (yy < mask.shape[0]) & (xx >= 0) & (xx < mask.shape[1])
-        share.append(np.count_nonzero(mask[yy[inside], xx[inside]] >= 128) / max(len(yy), 1))
+    # (compiled: the same offsets, products, comparisons and counts as the numpy selection, kernels_endreads)
+    share = kernels_endreads.flank_shares(np.ascontiguousarray(left_mask), np.ascontiguousarray(right_mask),
+                                        float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(out[1]),
+                                        float(d_px), float(r))
     return bool(share[1] - share[0] > FLANK_SHARE)

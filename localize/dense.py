@@ -48,6 +48,7 @@ from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
+from appliance.localize.patchmask import share_difference
 from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.rectify import ReadBox
 from appliance.localize.steepcheck import withheld_segments
@@ -416,12 +417,49 @@ def _short_line_clean(d_surf: np.ndarray, score: np.ndarray, u: np.ndarray) -> b
     return bool(np.abs(res).max() <= SHORT_LINE_MAX_RES_PX)
 
 
+# gross19b (docs/localize-gross19b.md): a flat piece's texture patch counts only where its share on the branch
+# in the left view and in the right view at the piece's disparity agree within FLAT_MAX_SHARE_DIFF (patchmask.py: a
+# leaf over the piece in one view pulls the patch's reading, and with it the piece's whole curve). None: off.
+FLAT_MAX_SHARE_DIFF = 0.15
+FLAT_SHARE_MIN_KEPT = 3                 # the patches dropped only where at least this many matched ones stay
+
+
+def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
+    ``d`` (N,) px (the median of the pairwise slopes, the median intercept; a few stray readings do not
+    move it; the median for one reading or one column)."""
+    i, j = np.triu_indices(len(u), 1)
+    du = u[j] - u[i]
+    keep = du != 0
+    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
+    return float(np.median(d - k * u)) + k * u
+
+
+def _two_view_patches(sm: StereoMasks, uv: np.ndarray, d_surf: np.ndarray, radius: float) -> np.ndarray:
+    """``d_surf`` (N,) px with the patches at ``uv`` (N, 2) whose two views' shares on the branch differ by
+    more than ``FLAT_MAX_SHARE_DIFF`` (:func:`patchmask.share_difference`, the right view at the piece's line
+    through the readings, :func:`_piece_line`) set to NaN; ``d_surf`` itself when the rule is off, no patch
+    differs, or fewer than ``FLAT_SHARE_MIN_KEPT`` matched patches would stay."""
+    ok = np.isfinite(d_surf)
+    if FLAT_MAX_SHARE_DIFF is None or not ok.any():
+        return d_surf
+    diff = share_difference(sm.left_mask, sm.right_mask, uv[ok], _piece_line(uv[ok, 0], d_surf[ok]),
+                            _patch_half_h(radius), 12)
+    bad = diff > FLAT_MAX_SHARE_DIFF
+    if not bad.any() or ok.sum() - bad.sum() < FLAT_SHARE_MIN_KEPT:
+        return d_surf                   # (too few left to read the piece: as before, seed 134 T9)
+    out = np.array(d_surf, float)
+    out[np.flatnonzero(ok)[bad]] = np.nan
+    return out
+
+
 def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
                  uv: np.ndarray, found: tuple) -> BranchCurve | None:
     """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
     ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
     g, sm = b.g, b.sm
     d_surf, score = found
+    d_surf = _two_view_patches(sm, uv, np.asarray(d_surf, float), radius)
     # compiled: the texture patches' fit (the numpy steps of texture.py and flatfit.py, equal up to rounding)
     args = (np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
             np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),

@@ -441,9 +441,10 @@ def _two_view_patches(sm: StereoMasks, uv: np.ndarray, d_surf: np.ndarray, radiu
     through the readings, :func:`_piece_line`) set to NaN; ``d_surf`` itself when the rule is off, no patch
     differs, or fewer than ``FLAT_SHARE_MIN_KEPT`` matched patches would stay."""
     ok = np.isfinite(d_surf)
-    if FLAT_MAX_SHARE_DIFF is None or not ok.any():
+    left_mask = getattr(sm, "left_mask", None)          # (a stand-in with the right mask only: not checked)
+    if FLAT_MAX_SHARE_DIFF is None or left_mask is None or not ok.any():
         return d_surf
-    diff = share_difference(sm.left_mask, sm.right_mask, uv[ok], _piece_line(uv[ok, 0], d_surf[ok]),
+    diff = share_difference(left_mask, sm.right_mask, uv[ok], _piece_line(uv[ok, 0], d_surf[ok]),
                             _patch_half_h(radius), 12)
     bad = diff > FLAT_MAX_SHARE_DIFF
     if not bad.any() or ok.sum() - bad.sum() < FLAT_SHARE_MIN_KEPT:

@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels, kernels_dense, kernels_match
+from appliance.localize import kernels, kernels_dense, kernels_match, kernels_patchshare
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -48,7 +48,6 @@ from appliance.localize.edges import Runs, find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.graph import ENDPOINT, JOINT, JUNCTION, SkeletonGraph
 from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMasks
-from appliance.localize.patchmask import share_difference
 from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.rectify import ReadBox
 from appliance.localize.steepcheck import withheld_segments
@@ -425,13 +424,15 @@ FLAT_SHARE_MIN_KEPT = 3                 # the patches dropped only where at leas
 
 
 def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
-    ``d`` (N,) px (the median of the pairwise slopes, the median intercept; a few stray readings do not
-    move it; the median for one reading or one column)."""
-    i, j = np.triu_indices(len(u), 1)
-    du = u[j] - u[i]
+    """The piece's disparity (N,) px at the columns ``u`` (N,) px: a Theil-Sen line through the readings
+    ``d`` (N,) px (the median of the slopes of the pairs half the piece apart, the median intercept: a few
+    stray readings do not move it; the reading itself for one)."""
+    h = len(u) // 2
+    if h == 0:
+        return np.full(len(u), float(d[0]))
+    du = u[h:2 * h] - u[:h]             # the pairs half the piece apart (the columns rise along the piece)
     keep = du != 0
-    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
+    k = float(np.median((d[h:2 * h] - d[:h])[keep] / du[keep])) if keep.any() else 0.0
     return float(np.median(d - k * u)) + k * u
 
 
@@ -444,11 +445,13 @@ def _two_view_patches(sm: StereoMasks, uv: np.ndarray, d_surf: np.ndarray, radiu
     left_mask = getattr(sm, "left_mask", None)          # (a stand-in with the right mask only: not checked)
     if FLAT_MAX_SHARE_DIFF is None or left_mask is None or not ok.any():
         return d_surf
-    diff = share_difference(left_mask, sm.right_mask, uv[ok], _piece_line(uv[ok, 0], d_surf[ok]),
-                            _patch_half_h(radius), 12)
-    bad = diff > FLAT_MAX_SHARE_DIFF
-    if not bad.any() or ok.sum() - bad.sum() < FLAT_SHARE_MIN_KEPT:
-        return d_surf                   # (too few left to read the piece: as before, seed 134 T9)
+    # compiled: _piece_line and patchmask.share_difference's numbers, the drop and the FLAT_SHARE_MIN_KEPT guard
+    bad = kernels_patchshare.flat_share_dropped(left_mask, sm.right_mask, np.ascontiguousarray(uv[ok, 0], float),
+                                                np.ascontiguousarray(uv[ok, 1], float), d_surf[ok],
+                                                _patch_half_h(radius), 12, float(FLAT_MAX_SHARE_DIFF),
+                                                FLAT_SHARE_MIN_KEPT)
+    if not bad.any():
+        return d_surf
     out = np.array(d_surf, float)
     out[np.flatnonzero(ok)[bad]] = np.nan
     return out

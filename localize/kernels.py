@@ -984,6 +984,7 @@ def warm_up() -> None:
     kernels_refine.warm_up()
     from appliance.localize import kernels_segclean  # (the segment stage's clean-up, twelfth pass: imports this one)
     kernels_segclean.warm_up()
+    __import__("appliance.localize.kernels_patchshare", fromlist=["warm_up"]).warm_up()  # (gross19b: imports this one)
 
 
 # --- match stage (speedm)

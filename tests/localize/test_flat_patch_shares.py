@@ -86,3 +86,23 @@ def test_a_stray_patch_off_the_branch_in_one_view_does_not_cost_a_flat_tip(rende
         assert row.result_id >= 0 and abs(row.dz_mm) <= 1.5
     else:
         assert row.result_id < 0
+
+
+def test_the_compiled_drop_equals_the_numpy_shares():
+    # kernels_patchshare.flat_share_dropped against _piece_line + patchmask.share_difference on random masks
+    from appliance.localize.kernels_patchshare import flat_share_dropped
+    from appliance.localize.patchmask import share_difference
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        left = (rng.uniform(0, 1, (60, 120)) < 0.7).astype(np.uint8) * 255
+        right = (rng.uniform(0, 1, (60, 120)) < 0.7).astype(np.uint8) * 255
+        n = int(rng.integers(1, 15))
+        u = np.sort(rng.uniform(-5, 125, n))
+        v = rng.uniform(-5, 65, n)
+        d = rng.uniform(5, 15, n)
+        hh = int(rng.integers(1, 5))
+        diff = share_difference(left, right, np.column_stack([u, v]), dense._piece_line(u, d), hh, 12)
+        want = diff > 0.15
+        if not want.any() or n - want.sum() < 3:
+            want[:] = False
+        assert np.array_equal(flat_share_dropped(left, right, u, v, d, hh, 12, 0.15, 3), want)

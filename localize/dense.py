@@ -424,15 +424,13 @@ FLAT_SHARE_MIN_KEPT = 3                 # the patches dropped only where at leas
 
 
 def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """The piece's disparity (N,) px at the columns ``u`` (N,) px: a Theil-Sen line through the readings
-    ``d`` (N,) px (the median of the slopes of the pairs half the piece apart, the median intercept: a few
-    stray readings do not move it; the reading itself for one)."""
-    h = len(u) // 2
-    if h == 0:
-        return np.full(len(u), float(d[0]))
-    du = u[h:2 * h] - u[:h]             # the pairs half the piece apart (the columns rise along the piece)
+    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
+    ``d`` (N,) px (the median of the pairwise slopes, the median intercept: a few stray readings do not
+    move it; the median for one reading). The numpy reference of kernels_patchshare.flat_share_dropped."""
+    i, j = np.triu_indices(len(u), 1)
+    du = u[j] - u[i]
     keep = du != 0
-    k = float(np.median((d[h:2 * h] - d[:h])[keep] / du[keep])) if keep.any() else 0.0
+    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
     return float(np.median(d - k * u)) + k * u
 
 

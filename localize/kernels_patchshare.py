@@ -26,34 +26,29 @@ def _inside(mask, cx, cy, hh, hw):
 @numba.njit(**_JIT)
 def flat_share_dropped(left_mask, right_mask, u, v, d, hh, hw, max_diff, min_kept):
     """The patches (N,) bool to drop: ``u``, ``v``, ``d`` (N,) px the matched patches' centres and readings.
-    The piece's line through the readings (dense._piece_line: the median slope of the pairs half the piece
-    apart, the median intercept); each patch's share in the left mask at (u, v) and in the right mask at
+    The piece's line through the readings (dense._piece_line: the median of the pairwise slopes, the median
+    intercept); each patch's share in the left mask at (u, v) and in the right mask at
     (u - line, v) (centres rounded half to even, as patchmask.inside_fraction); dropped where they differ by
     more than ``max_diff``, none when fewer than ``min_kept`` would stay."""
     n = len(u)
     out = np.zeros(n, np.bool_)
     if n == 0:
         return out
-    half = n // 2
-    k = 0.0
-    if half > 0:
-        sl = np.empty(half)
-        m = 0
-        for i in range(half):
-            du = u[half + i] - u[i]
+    m = 0
+    sl = np.empty(n * (n - 1) // 2)
+    for i in range(n):
+        for j in range(i + 1, n):
+            du = u[j] - u[i]
             if du != 0:
-                sl[m] = (d[half + i] - d[i]) / du
+                sl[m] = (d[j] - d[i]) / du
                 m += 1
-        if m > 0:
-            k = np.median(sl[:m])
-        b = np.median(d - k * u)
-    else:
-        b = d[0]
+    k = np.median(sl[:m]) if m > 0 else 0.0
+    b = np.median(d - k * u)
     area = float((2 * hh + 1) * (2 * hw + 1))
     cy = np.rint(v)
     nbad = 0
     for i in range(n):
-        line = b + k * u[i] if half > 0 else b
+        line = b + k * u[i]
         fl = _inside(left_mask, int(np.rint(u[i])), int(cy[i]), hh, hw) / area
         fr = _inside(right_mask, int(np.rint(u[i] - line)), int(cy[i]), hh, hw) / area
         if abs(fl - fr) > max_diff:

@@ -31,7 +31,7 @@ from appliance.localize.curves import (
     linspace,
     median,
 )
-from appliance.localize import kernels_dense, kernels_match
+from appliance.localize import kernels_dense, kernels_match, kernels_patchshare
 from appliance.localize.caps import cap_curves
 from appliance.localize.tips import flat_cap_curves
 from appliance.localize.flatfit import (
@@ -416,12 +416,52 @@ def _short_line_clean(d_surf: np.ndarray, score: np.ndarray, u: np.ndarray) -> b
     return bool(np.abs(res).max() <= SHORT_LINE_MAX_RES_PX)
 
 
+# gross19b (docs/localize-gross19b.md): a flat piece's texture patch counts only where its share on the branch
+# in the left view and in the right view at the piece's disparity agree within FLAT_MAX_SHARE_DIFF (patchmask.py: a
+# leaf over the piece in one view pulls the patch's reading, and with it the piece's whole curve). None: off.
+FLAT_MAX_SHARE_DIFF = 0.15
+FLAT_SHARE_MIN_KEPT = 3                 # the patches dropped only where at least this many matched ones stay
+
+
+def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
+    ``d`` (N,) px (the median of the pairwise slopes, the median intercept: a few stray readings do not
+    move it; the median for one reading). The numpy reference of kernels_patchshare.flat_share_dropped."""
+    i, j = np.triu_indices(len(u), 1)
+    du = u[j] - u[i]
+    keep = du != 0
+    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
+    return float(np.median(d - k * u)) + k * u
+
+
+def _two_view_patches(sm: StereoMasks, uv: np.ndarray, d_surf: np.ndarray, radius: float) -> np.ndarray:
+    """``d_surf`` (N,) px with the patches at ``uv`` (N, 2) whose two views' shares on the branch differ by
+    more than ``FLAT_MAX_SHARE_DIFF`` (:func:`patchmask.share_difference`, the right view at the piece's line
+    through the readings, :func:`_piece_line`) set to NaN; ``d_surf`` itself when the rule is off, no patch
+    differs, or fewer than ``FLAT_SHARE_MIN_KEPT`` matched patches would stay."""
+    ok = np.isfinite(d_surf)
+    left_mask = getattr(sm, "left_mask", None)          # (a stand-in with the right mask only: not checked)
+    if FLAT_MAX_SHARE_DIFF is None or left_mask is None or not ok.any():
+        return d_surf
+    # compiled: _piece_line and patchmask.share_difference's numbers, the drop and the FLAT_SHARE_MIN_KEPT guard
+    bad = kernels_patchshare.flat_share_dropped(left_mask, sm.right_mask, np.ascontiguousarray(uv[ok, 0], float),
+                                                np.ascontiguousarray(uv[ok, 1], float), d_surf[ok],
+                                                _patch_half_h(radius), 12, float(FLAT_MAX_SHARE_DIFF),
+                                                FLAT_SHARE_MIN_KEPT)
+    if not bad.any():
+        return d_surf
+    out = np.array(d_surf, float)
+    out[np.flatnonzero(ok)[bad]] = np.nan
+    return out
+
+
 def _flat_finish(b: EndPlacer, s: int, v_poly: Poly, radius: float, lo: float, hi: float, u: np.ndarray,
                  uv: np.ndarray, found: tuple) -> BranchCurve | None:
     """:func:`_flat_curve`'s curve from the texture disparities ``found`` (d, score) of the patches at
     ``u`` (``uv``), or else from the forks/joints at the piece's ends."""
     g, sm = b.g, b.sm
     d_surf, score = found
+    d_surf = _two_view_patches(sm, uv, np.asarray(d_surf, float), radius)
     # compiled: the texture patches' fit (the numpy steps of texture.py and flatfit.py, equal up to rounding)
     args = (np.ascontiguousarray(d_surf, float), np.ascontiguousarray(score, float), np.ascontiguousarray(u, float),
             np.ascontiguousarray(uv[:, 1]), sm.right_mask, np.ascontiguousarray(v_poly.coef, float), float(v_poly.t0),

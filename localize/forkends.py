@@ -224,7 +224,7 @@ class ForkPlacing:
         parents = [s for s in (pa, pb) if s in self.curves]
         if not parents and not final:
             return
-        c1, e1 = kernels_forkglue.tls_line_pair(near[pa], near[pb])      # (_line of the two, concatenated)
+        c1, e1 = kernels_forks.tls_line_pair(near[pa], near[pb])      # (_line of the two, concatenated)
         if child in self.curves:             # the child's own fitted centre line where it starts
             cc = self.curves[child]
             lo, hi = cc.t_range

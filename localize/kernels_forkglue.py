@@ -68,39 +68,6 @@ def near_piece(pts, px, py, r):
 
 
 @numba.njit(**_JIT)
-def tls_line_pair(a, b):
-    """:func:`kernels_forks.tls_line` of the points ``a`` (N, 2) followed by ``b`` (M, 2) (px), without
-    concatenating them: the same sums in the same order. Returns the centroid (2,) and the unit
-    direction (2,)."""
-    n = a.shape[0] + b.shape[0]
-    cx, cy = 0.0, 0.0
-    for i in range(a.shape[0]):
-        cx += a[i, 0]
-        cy += a[i, 1]
-    for i in range(b.shape[0]):
-        cx += b[i, 0]
-        cy += b[i, 1]
-    cx /= n
-    cy /= n
-    sxx, syy, sxy = 0.0, 0.0, 0.0
-    for i in range(a.shape[0]):
-        qx, qy = a[i, 0] - cx, a[i, 1] - cy
-        sxx += qx * qx
-        syy += qy * qy
-        sxy += qx * qy
-    for i in range(b.shape[0]):
-        qx, qy = b[i, 0] - cx, b[i, 1] - cy
-        sxx += qx * qx
-        syy += qy * qy
-        sxy += qx * qy
-    ang = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
-    c, e = np.empty(2), np.empty(2)
-    c[0], c[1] = cx, cy
-    e[0], e[1] = np.cos(ang), np.sin(ang)
-    return c, e
-
-
-@numba.njit(**_JIT)
 def edge_frame(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign):
     """A tip's edge point on its centre line and the line's outward direction there (``_tip_place``).
 
@@ -170,7 +137,6 @@ def walk_uv(coef, dcoef, t0, ts, lo, hi, by_row, t_edge, sign, n):
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     pts = np.zeros((3, 2))
-    tls_line_pair(pts, pts)                    # (fork's near points: near_piece's or a fancy index's, writable)
     pts.setflags(write=False)                  # (EndPlacer.seg_points' read-only points)
     near_piece(pts, 0.0, 0.0, 1.0)
     v = np.array([1.0, 0.0])

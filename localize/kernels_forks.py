@@ -110,29 +110,45 @@ def _min_max(a):
 
 
 @numba.njit(**_JIT)
+def tls_line_pair(a, b):
+    """:func:`tls_line` of the points ``a`` (N, 2) followed by ``b`` (M, 2) (px), without
+    concatenating them: the same sums in the same order. Returns the centroid (2,) and the unit
+    direction (2,)."""
+    n = a.shape[0] + b.shape[0]
+    cx, cy = 0.0, 0.0
+    for i in range(a.shape[0]):
+        cx += a[i, 0]
+        cy += a[i, 1]
+    for i in range(b.shape[0]):
+        cx += b[i, 0]
+        cy += b[i, 1]
+    cx /= n
+    cy /= n
+    sxx, syy, sxy = 0.0, 0.0, 0.0
+    for i in range(a.shape[0]):
+        qx, qy = a[i, 0] - cx, a[i, 1] - cy
+        sxx += qx * qx
+        syy += qy * qy
+        sxy += qx * qy
+    for i in range(b.shape[0]):
+        qx, qy = b[i, 0] - cx, b[i, 1] - cy
+        sxx += qx * qx
+        syy += qy * qy
+        sxy += qx * qy
+    ang = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    c, e = np.empty(2), np.empty(2)
+    c[0], c[1] = cx, cy
+    e[0], e[1] = np.cos(ang), np.sin(ang)
+    return c, e
+
+
+@numba.njit(**_JIT)
 def tls_line(pts):
     """Total-least-squares line through points ``pts`` (N, 2) (x, y; px): centroid (2,) and unit
     direction (2,) (``ends._line``, and :func:`parent_axis`' fits: the centroid as numpy's row-by-row
     sum, the second moments summed in order, the direction ``0.5 arctan2(2 sxy, sxx - syy)``; equal up
     to rounding)."""
-    n = pts.shape[0]
-    cx, cy = 0.0, 0.0
-    for i in range(n):
-        cx += pts[i, 0]
-        cy += pts[i, 1]
-    cx /= n
-    cy /= n
-    sxx, syy, sxy = 0.0, 0.0, 0.0
-    for i in range(n):
-        qx, qy = pts[i, 0] - cx, pts[i, 1] - cy
-        sxx += qx * qx
-        syy += qy * qy
-        sxy += qx * qy
-    a = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
-    c, e = np.empty(2), np.empty(2)
-    c[0], c[1] = cx, cy
-    e[0], e[1] = np.cos(a), np.sin(a)
-    return c, e
+    return tls_line_pair(pts, pts[:0])
 
 
 @numba.njit(**_JIT)
@@ -626,6 +642,7 @@ def warm_up() -> None:
     child_outline_fork(np.zeros((4, 4), np.uint8), v, v, v, v[::-1].copy(), v, 1.0, 1.0)
     pts = np.zeros((3, 2))
     tls_line(pts)
+    tls_line_pair(pts, pts)
     radius_median(np.zeros((2, 2), np.float32), 1, pts)
     pts.setflags(write=False)                                 # (EndPlacer.seg_points' read-only points)
     tls_line(pts)

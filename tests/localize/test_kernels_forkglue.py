@@ -16,7 +16,7 @@ def test_warm_up_compiles_the_localizer_s_signatures():
     from appliance.commands.localize import load_inputs
     from appliance.localize import Localizer
     kernels_forkglue.warm_up()
-    ks = (kernels_forkglue.near_piece, kernels_forkglue.tls_line_pair, kernels_forkglue.edge_frame,
+    ks = (kernels_forkglue.near_piece, kernels_forks.tls_line_pair, kernels_forkglue.edge_frame,
           kernels_forkglue.walk_uv)
     before = [len(k.signatures) for k in ks]
     root = Path(__file__).resolve().parents[2]
@@ -77,7 +77,7 @@ def test_tls_line_pair_is_tls_line_of_the_concatenation():
         if rng.integers(2):
             a.setflags(write=False)
         c0, e0 = kernels_forks.tls_line(np.concatenate([a, b]))
-        c1, e1 = kernels_forkglue.tls_line_pair(a, b)
+        c1, e1 = kernels_forks.tls_line_pair(a, b)
         np.testing.assert_array_equal(c0, c1)
         np.testing.assert_array_equal(e0, e1)
 

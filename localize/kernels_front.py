@@ -72,6 +72,31 @@ def distance_near(mask, out):
 
 
 @numba.njit(**_JIT)
+def tile_runs(tiles, tile_px, h, w):
+    """The runs of consecutive flagged tiles of each tile row of ``tiles`` (TH, TW) (non-zero: flagged; each
+    ``tile_px`` square, the last tile row and column reaching the bottom and right edges of an image ``h`` x
+    ``w`` px) as pixel rectangles, row by row, left to right: (K, 4) int64 ``y0, y1, x0, x1`` (half-open)."""
+    th, tw = tiles.shape
+    out = np.empty((th * ((tw + 1) // 2), 4), np.int64)
+    k = 0
+    for ty in range(th):
+        y0 = ty * tile_px
+        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+        tx = 0
+        while tx < tw:
+            if tiles[ty, tx] == 0:
+                tx += 1
+                continue
+            t0 = tx
+            while tx < tw and tiles[ty, tx] != 0:
+                tx += 1
+            out[k, 0], out[k, 1] = y0, y1
+            out[k, 2], out[k, 3] = t0 * tile_px, (w if tx == tw else min(tx * tile_px, w))
+            k += 1
+    return out[:k]
+
+
+@numba.njit(**_JIT)
 def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
     """The bark test of every pixel of the flagged tiles by a two-level colour table; the rest of ``out``
     untouched. Returns ``out``.
@@ -86,29 +111,18 @@ def bark_lookup_rows(px, width, index, rows, tiles, tile_px, out):
     """
     w = width
     h = out.size // w
-    th, tw = tiles.shape
     one = np.uint8(1)
-    for ty in range(th):
-        y0 = ty * tile_px
-        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
-        tx = 0
-        while tx < tw:
-            if tiles[ty, tx] == 0:
-                tx += 1
-                continue
-            t0 = tx
-            while tx < tw and tiles[ty, tx] != 0:
-                tx += 1
-            x0 = t0 * tile_px
-            x1 = w if tx == tw else min(tx * tile_px, w)
-            for y in range(y0, y1):
-                # (slices read from 0: numba then knows the indices are not negative, ~1.5x faster)
-                src = px[3 * (y * w + x0):3 * (y * w + x1)]
-                dst = out[y * w + x0:y * w + x1]
-                for i in range(len(dst)):
-                    row = np.uint32(index[(np.uint32(src[3 * i]) << 8) | np.uint32(src[3 * i + 1])])
-                    r = np.uint32(src[3 * i + 2])
-                    dst[i] = np.uint8(0) - ((rows[(row << 5) | (r >> 3)] >> (r & 7)) & one)
+    runs = tile_runs(tiles, tile_px, h, w)
+    for k in range(runs.shape[0]):
+        y0, y1, x0, x1 = runs[k, 0], runs[k, 1], runs[k, 2], runs[k, 3]
+        for y in range(y0, y1):
+            # (slices read from 0: numba then knows the indices are not negative, ~1.5x faster)
+            src = px[3 * (y * w + x0):3 * (y * w + x1)]
+            dst = out[y * w + x0:y * w + x1]
+            for i in range(len(dst)):
+                row = np.uint32(index[(np.uint32(src[3 * i]) << 8) | np.uint32(src[3 * i + 1])])
+                r = np.uint32(src[3 * i + 2])
+                dst[i] = np.uint8(0) - ((rows[(row << 5) | (r >> 3)] >> (r & 7)) & one)
     return out
 
 

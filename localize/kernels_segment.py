@@ -28,6 +28,7 @@ import numba
 import numpy as np
 
 from appliance.localize.kernels import _JIT, _readonly
+from appliance.localize.kernels_front import tile_runs
 
 
 @numba.njit(**_JIT)
@@ -79,30 +80,20 @@ def open_close_tiles(raw, tiles, tile_px, out):
     between go to two buffers of one tile row and 4 px above and below it (small: cached).
     """
     h, w = raw.shape
-    th, tw = tiles.shape
+    th = tiles.shape[0]
     g = 4
     bh = max(tile_px, h - (th - 1) * tile_px) + 2 * g
     a = np.empty(bh * w, np.uint8)
     b = np.empty(bh * w, np.uint8)
     src, dst = raw.reshape(-1), out.reshape(-1)
-    for ty in range(th):
-        y0 = ty * tile_px
-        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+    runs = tile_runs(tiles, tile_px, h, w)
+    for k in range(runs.shape[0]):
+        y0, y1, x0, x1 = runs[k, 0], runs[k, 1], runs[k, 2], runs[k, 3]
         base = y0 - g                                       # (the image row of the buffers' first row)
-        tx = 0
-        while tx < tw:
-            if tiles[ty, tx] == 0:
-                tx += 1
-                continue
-            t0 = tx
-            while tx < tw and tiles[ty, tx] != 0:
-                tx += 1
-            x0 = t0 * tile_px
-            x1 = w if tx == tw else min(tx * tile_px, w)
-            _cross(src, 0, a, base, w, h, max(y0 - 4, 0), min(y1 + 4, h), max(x0 - 4, 0), min(x1 + 4, w), False)
-            _cross(a, base, b, base, w, h, max(y0 - 3, 0), min(y1 + 3, h), max(x0 - 3, 0), min(x1 + 3, w), True)
-            _cross(b, base, a, base, w, h, max(y0 - 2, 0), min(y1 + 2, h), max(x0 - 2, 0), min(x1 + 2, w), True)
-            _cross(a, base, dst, 0, w, h, max(y0 - 1, 0), min(y1 + 1, h), max(x0 - 1, 0), min(x1 + 1, w), False)
+        _cross(src, 0, a, base, w, h, max(y0 - 4, 0), min(y1 + 4, h), max(x0 - 4, 0), min(x1 + 4, w), False)
+        _cross(a, base, b, base, w, h, max(y0 - 3, 0), min(y1 + 3, h), max(x0 - 3, 0), min(x1 + 3, w), True)
+        _cross(b, base, a, base, w, h, max(y0 - 2, 0), min(y1 + 2, h), max(x0 - 2, 0), min(x1 + 2, w), True)
+        _cross(a, base, dst, 0, w, h, max(y0 - 1, 0), min(y1 + 1, h), max(x0 - 1, 0), min(x1 + 1, w), False)
     return out
 
 
@@ -119,48 +110,39 @@ def gradient_tiles(mask, tiles, tile_px, out):
     reused). Both C-contiguous.
     """
     h, w = mask.shape
-    th, tw = tiles.shape
+    th = tiles.shape[0]
     g = 3
     bh = max(tile_px, h - (th - 1) * tile_px) + 2 * g
     hi = np.empty(bh * w, np.uint8)                       # each row's maximum over 3 columns
     lo = np.empty(bh * w, np.uint8)                       # ... minimum
     src, dst = mask.reshape(-1), out.reshape(-1)
     one = np.uint64(1)
-    for ty in range(th):
-        y0 = ty * tile_px
-        y1 = h if ty == th - 1 else min(y0 + tile_px, h)
+    runs = tile_runs(tiles, tile_px, h, w)
+    for k in range(runs.shape[0]):
+        y0, y1 = runs[k, 0], runs[k, 1]
         base = y0 - g
-        tx = 0
-        while tx < tw:
-            if tiles[ty, tx] == 0:
-                tx += 1
-                continue
-            t0 = tx
-            while tx < tw and tiles[ty, tx] != 0:
-                tx += 1
-            x0 = max(t0 * tile_px - 2, 0)
-            x1 = min(w if tx == tw else tx * tile_px + 2, w)
-            for y in range(max(y0 - 3, 0), min(y1 + 3, h)):
-                o, q = np.uint64(y * w), np.uint64((y - base) * w)
-                xa, xb = max(x0, 1), min(x1, w - 1)
-                for x_ in (x0, x1 - 1):                      # (the image's first and last columns)
-                    if xa <= x_ < xb or x_ < x0 or x_ >= x1:
-                        continue
-                    x = np.uint64(x_)
-                    lf, rt = np.uint64(max(x_ - 1, 0)), np.uint64(min(x_ + 1, w - 1))
-                    hi[q + x] = max(max(src[o + lf], src[o + x]), src[o + rt])
-                    lo[q + x] = min(min(src[o + lf], src[o + x]), src[o + rt])
-                for x in range(np.uint64(xa), np.uint64(xb)):
-                    hi[q + x] = max(max(src[o + x - one], src[o + x]), src[o + x + one])
-                for x in range(np.uint64(xa), np.uint64(xb)):
-                    lo[q + x] = min(min(src[o + x - one], src[o + x]), src[o + x + one])
-            for y in range(max(y0 - 2, 0), min(y1 + 2, h)):
-                q = np.uint64((y - base) * w)
-                qu, qd = np.uint64((max(y - 1, 0) - base) * w), np.uint64((min(y + 1, h - 1) - base) * w)
-                o = np.uint64(y * w)
-                for x in range(np.uint64(x0), np.uint64(x1)):
-                    dst[o + x] = (max(max(hi[qu + x], hi[q + x]), hi[qd + x])
-                                  - min(min(lo[qu + x], lo[q + x]), lo[qd + x]))
+        x0, x1 = max(runs[k, 2] - 2, 0), min(runs[k, 3] + 2, w)
+        for y in range(max(y0 - 3, 0), min(y1 + 3, h)):
+            o, q = np.uint64(y * w), np.uint64((y - base) * w)
+            xa, xb = max(x0, 1), min(x1, w - 1)
+            for x_ in (x0, x1 - 1):                      # (the image's first and last columns)
+                if xa <= x_ < xb or x_ < x0 or x_ >= x1:
+                    continue
+                x = np.uint64(x_)
+                lf, rt = np.uint64(max(x_ - 1, 0)), np.uint64(min(x_ + 1, w - 1))
+                hi[q + x] = max(max(src[o + lf], src[o + x]), src[o + rt])
+                lo[q + x] = min(min(src[o + lf], src[o + x]), src[o + rt])
+            for x in range(np.uint64(xa), np.uint64(xb)):
+                hi[q + x] = max(max(src[o + x - one], src[o + x]), src[o + x + one])
+            for x in range(np.uint64(xa), np.uint64(xb)):
+                lo[q + x] = min(min(src[o + x - one], src[o + x]), src[o + x + one])
+        for y in range(max(y0 - 2, 0), min(y1 + 2, h)):
+            q = np.uint64((y - base) * w)
+            qu, qd = np.uint64((max(y - 1, 0) - base) * w), np.uint64((min(y + 1, h - 1) - base) * w)
+            o = np.uint64(y * w)
+            for x in range(np.uint64(x0), np.uint64(x1)):
+                dst[o + x] = (max(max(hi[qu + x], hi[q + x]), hi[qd + x])
+                              - min(min(lo[qu + x], lo[q + x]), lo[qd + x]))
     return out
 
 

@@ -41,9 +41,9 @@ class _Measuring(Localizer):
     """The localizer keeping the last pair's feature checks (``Matching.stats["feature_check"]``, one per
     reported feature, in the result's order: nothing is withheld at an infinite threshold)."""
 
-    def _assemble(self, m, stamp_ns):
+    def _assemble(self, m, stamp_ns, withheld=()):
         self.checks = m.stats.get("feature_check", [])
-        return super()._assemble(m, stamp_ns)
+        return super()._assemble(m, stamp_ns, withheld)
 
 
 def measure(scene_list: list, masks: list[str]) -> tuple[list[tuple], list[float]]:

@@ -7,6 +7,9 @@ kept; at a disparity 3 px off, or 12-15 px off (outside the
 search window: the wide search), it is withheld; a feature on bark without texture is kept (no verdict).
 """
 
+import re
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -289,3 +292,15 @@ def test_seed375_fork_whose_pieces_agree_is_withheld(scene_375, monkeypatch, agr
         assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
     else:
         assert row.result_id >= 0 and row.dz_mm <= -5.0
+
+
+def test_the_check_benchmark_runs_on_the_fixtures_and_withholds_no_correct_feature():
+    # benchmarks/feature_check.py as a user runs it (a real process): it subclasses the localizer, so a
+    # change of the localizer's internals breaks it (stop 18's withheld list did, unnoticed until now)
+    repo = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, str(repo / "benchmarks" / "feature_check.py"), "--extra", "0",
+                          "--masks", "true"], capture_output=True, text=True, timeout=300, cwd=repo)
+    assert out.returncode == 0, out.stderr
+    n, correct, gross = map(int, re.search(r"features (\d+): correct (\d+), gross (\d+)", out.stdout).groups())
+    assert n >= 20 and correct == n and gross == 0, out.stdout
+    assert re.search(r"withheld at 1\.6 px: correct 0,", out.stdout), out.stdout

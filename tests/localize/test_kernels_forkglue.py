@@ -1,9 +1,10 @@
-"""kernels_forkglue (speedfork): each kernel against the numpy / Python steps it replaces, bit for bit."""
+"""The fork and tip glue (kernels_forkglue; forkends' and tipends' one-point paths and the hidden forks' piece
+table): each kernel and step against the numpy / Python steps it replaced, bit for bit, and the piece table's cache."""
 
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels_forkglue, kernels_forks, kernels_walks
+from appliance.localize import forkends, kernels_forkglue, kernels_forks, kernels_walks
 from appliance.localize.curves import BranchCurve, Poly
 
 
@@ -275,3 +276,64 @@ def test_beyond_in_right_view_is_the_former_steps():
         assert TipPlacing._beyond_in_right_view(st, uv_edge, out, d) == ref
         seen.add(ref)
     assert seen == {True, False}
+
+
+def _curve(rng, segment: int = 0) -> BranchCurve:
+    """A random piece: steep or flat, degree 0-3, carried past its span along its end slopes or not."""
+    lo = float(rng.uniform(0, 300))
+    hi = lo + float(rng.uniform(0, 150))
+    deg = int(rng.integers(0, 4))
+    s_poly = Poly(rng.normal(0, 10, deg + 1) + np.r_[np.zeros(deg), rng.uniform(0, 300)],
+                  float(rng.uniform(0, 300)), float(rng.uniform(1, 80)))
+    d_poly = Poly(rng.normal(0, 2, 3) + np.r_[0.0, 0.0, rng.uniform(20, 250)], float(rng.uniform(0, 300)),
+                  float(rng.uniform(1, 80)))
+    slopes = None if rng.random() < 0.5 else (float(rng.normal(0, 0.2)), float(rng.normal(0, 0.2)))
+    return BranchCurve(segment, bool(rng.integers(2)), (lo, hi), s_poly, d_poly, float(rng.uniform(1, 10)), 10,
+                       slopes)
+
+
+def test_t_at_is_t_of_bit_for_bit():
+    """At points inside, at the ends of and far beyond the span (steep and flat pieces, with and without
+    end slopes): ``d_at`` and ``uv_at`` of ``_t_at`` equal those of ``t_of``'s one-element array exactly
+    (atol 0 px), and ``_t_at`` is a Python float."""
+    rng = np.random.default_rng(18)
+    for _ in range(300):
+        c = _curve(rng)
+        lo, hi = c.t_range
+        for t in (lo, hi, float(rng.uniform(lo, hi)), lo - float(rng.uniform(0, 90)), hi + float(rng.uniform(0, 90))):
+            xy = c.uv_at(t)[0] + rng.normal(0, 3, 2) * np.r_[not c.by_row, c.by_row]   # (off the line across it)
+            t_new = forkends._t_at(c, xy)
+            assert type(t_new) is float and t_new == c.t_of(xy)[0]
+            np.testing.assert_array_equal(c.d_at(t_new), c.d_at(c.t_of(xy)), strict=True)
+            np.testing.assert_array_equal(c.uv_at(t_new), c.uv_at(c.t_of(xy)), strict=True)
+            np.testing.assert_array_equal(c.s_at(t_new), c.s_at(c.t_of(xy)), strict=True)
+
+
+def _check(fp, curves):
+    row, pieces, table = fp._curve_table()
+    assert row == {s: j for j, s in enumerate(curves)}
+    assert [s for s, _ in pieces] == list(curves) and all(isinstance(p, tuple) and p[1] is curves[p[0]] for p in pieces)
+    for a, b in zip(table, _curve_table_ref(curves), strict=True):
+        np.testing.assert_array_equal(a, b, strict=True)
+
+
+def test_curve_table_cache_follows_the_curves():
+    """The piece table equals the former one, is reused while the curves stay (the same objects), and is
+    made again when a curve is added, replaced under its key (a refit) or removed."""
+    rng = np.random.default_rng(5)
+    fp = object.__new__(forkends.ForkPlacing)
+    fp.curves = {}
+    _check(fp, fp.curves)                               # (no pieces)
+    fp.curves = {int(s): _curve(rng, int(s)) for s in rng.choice(200, 12, replace=False)}
+    _check(fp, fp.curves)
+    first = fp._curve_table()
+    assert fp._curve_table() is first                   # (cached)
+    s = next(iter(fp.curves))
+    fp.curves[s] = _curve(rng, s)                       # (replaced: the same keys, a new curve)
+    assert fp._curve_table() is not first
+    _check(fp, fp.curves)
+    fp.curves[1000] = _curve(rng, 1000)
+    _check(fp, fp.curves)
+    del fp.curves[s]
+    _check(fp, fp.curves)
+    assert len(fp._curve_table()[1]) == len(fp.curves)

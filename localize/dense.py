@@ -423,27 +423,16 @@ FLAT_MAX_SHARE_DIFF = 0.15
 FLAT_SHARE_MIN_KEPT = 3                 # the patches dropped only where at least this many matched ones stay
 
 
-def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
-    ``d`` (N,) px (the median of the pairwise slopes, the median intercept: a few stray readings do not
-    move it; the median for one reading). The numpy reference of kernels_patchshare.flat_share_dropped."""
-    i, j = np.triu_indices(len(u), 1)
-    du = u[j] - u[i]
-    keep = du != 0
-    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
-    return float(np.median(d - k * u)) + k * u
-
-
 def _two_view_patches(sm: StereoMasks, uv: np.ndarray, d_surf: np.ndarray, radius: float) -> np.ndarray:
     """``d_surf`` (N,) px with the patches at ``uv`` (N, 2) whose two views' shares on the branch differ by
-    more than ``FLAT_MAX_SHARE_DIFF`` (:func:`patchmask.share_difference`, the right view at the piece's line
-    through the readings, :func:`_piece_line`) set to NaN; ``d_surf`` itself when the rule is off, no patch
+    more than ``FLAT_MAX_SHARE_DIFF`` (:func:`patchmask.share_difference`, the right view at the piece's
+    Theil-Sen line through the readings) set to NaN; ``d_surf`` itself when the rule is off, no patch
     differs, or fewer than ``FLAT_SHARE_MIN_KEPT`` matched patches would stay."""
     ok = np.isfinite(d_surf)
     left_mask = getattr(sm, "left_mask", None)          # (a stand-in with the right mask only: not checked)
     if FLAT_MAX_SHARE_DIFF is None or left_mask is None or not ok.any():
         return d_surf
-    # compiled: _piece_line and patchmask.share_difference's numbers, the drop and the FLAT_SHARE_MIN_KEPT guard
+    # compiled: the line, patchmask.share_difference's numbers, the drop and the FLAT_SHARE_MIN_KEPT guard
     bad = kernels_patchshare.flat_share_dropped(left_mask, sm.right_mask, np.ascontiguousarray(uv[ok, 0], float),
                                                 np.ascontiguousarray(uv[ok, 1], float), d_surf[ok],
                                                 _patch_half_h(radius), 12, float(FLAT_MAX_SHARE_DIFF),

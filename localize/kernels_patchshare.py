@@ -26,8 +26,8 @@ def _inside(mask, cx, cy, hh, hw):
 @numba.njit(**_JIT)
 def flat_share_dropped(left_mask, right_mask, u, v, d, hh, hw, max_diff, min_kept):
     """The patches (N,) bool to drop: ``u``, ``v``, ``d`` (N,) px the matched patches' centres and readings.
-    The piece's line through the readings (dense._piece_line: the median of the pairwise slopes, the median
-    intercept); each patch's share in the left mask at (u, v) and in the right mask at
+    The piece's Theil-Sen line through the readings (the median of the pairwise slopes, the median
+    intercept: a few stray readings do not move it); each patch's share in the left mask at (u, v) and in the right mask at
     (u - line, v) (centres rounded half to even, as patchmask.inside_fraction); dropped where they differ by
     more than ``max_diff``, none when fewer than ``min_kept`` would stay."""
     n = len(u)

@@ -21,12 +21,23 @@ UV = np.column_stack([U, np.full(len(U), 100.0)])
 RADIUS = 8.0                                            # patches 2 x 4 + 1 = 9 rows high, 25 columns wide
 
 
+def _piece_line(u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The piece's disparity (N,) px at the columns ``u`` (N,) px: the Theil-Sen line through the readings
+    ``d`` (N,) px (the median of the pairwise slopes, the median intercept: a few stray readings do not
+    move it; the median for one reading). (kernels_patchshare.flat_share_dropped's line, by numpy: the reference.)"""
+    i, j = np.triu_indices(len(u), 1)
+    du = u[j] - u[i]
+    keep = du != 0
+    k = float(np.median((d[j] - d[i])[keep] / du[keep])) if keep.any() else 0.0
+    return float(np.median(d - k * u)) + k * u
+
+
 def test_the_piece_line_is_not_moved_by_stray_readings():
     d = 20.0 + 0.01 * (U - 130.0)
     d_bad = d.copy()
     d_bad[[2, 3, 9]] += [6.0, -8.0, 15.0]
-    assert np.allclose(dense._piece_line(U, d_bad), d, atol=1e-9)
-    assert np.allclose(dense._piece_line(U[:1], d[:1]), d[:1])
+    assert np.allclose(_piece_line(U, d_bad), d, atol=1e-9)
+    assert np.allclose(_piece_line(U[:1], d[:1]), d[:1])
 
 
 def test_a_leaf_over_a_flat_piece_in_one_view_drops_the_patches_it_covers(monkeypatch):
@@ -65,7 +76,7 @@ def test_a_short_piece_keeps_its_few_patches():
 
 
 def test_the_compiled_drop_equals_the_numpy_shares():
-    # kernels_patchshare.flat_share_dropped against _piece_line + patchmask.share_difference on random masks
+    # kernels_patchshare.flat_share_dropped against _piece_line (above) + patchmask.share_difference on random masks
     from appliance.localize.kernels_patchshare import flat_share_dropped
     from appliance.localize.patchmask import share_difference
     rng = np.random.default_rng(5)
@@ -77,7 +88,7 @@ def test_the_compiled_drop_equals_the_numpy_shares():
         v = rng.uniform(-5, 65, n)
         d = rng.uniform(5, 15, n)
         hh = int(rng.integers(1, 5))
-        diff = share_difference(left, right, np.column_stack([u, v]), dense._piece_line(u, d), hh, 12)
+        diff = share_difference(left, right, np.column_stack([u, v]), _piece_line(u, d), hh, 12)
         want = diff > 0.15
         if not want.any() or n - want.sum() < 3:
             want[:] = False

@@ -58,8 +58,9 @@ def shallow_outline_agrees(off_px: np.ndarray, er: np.ndarray, e1: np.ndarray, e
     -------
     bool
         True if ``e1`` and ``e_sides`` lie within ``SHALLOW_MAX_TURN_DEG``, the gain ``|e2_y| / sin(a)``
-        (``a``: the child's angle to ``er``) exceeds ``SHALLOW_MIN_GAIN`` and is at most ``SHALLOW_MAX_GAIN``, the offset along ``er`` is at most
-        ``SHALLOW_D_PX`` times the gain and the offset across it at most ``tol_px``; False otherwise.
+        (``a``: the child's angle to ``er``) exceeds ``SHALLOW_MIN_GAIN`` and is at most ``SHALLOW_MAX_GAIN``,
+        the offset along ``er`` is at most ``SHALLOW_D_PX`` times the gain and the offset across it at most
+        ``tol_px``; False otherwise.
     """
     er, e1, e_sides, e2, off = (np.asarray(v, float) for v in (er, e1, e_sides, e2, off_px))
     if abs(float(e1 @ e_sides)) < math.cos(math.radians(SHALLOW_MAX_TURN_DEG)):

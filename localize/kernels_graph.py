@@ -916,8 +916,8 @@ def graph_core(flat, idx, w2, w, count):
 
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
-    box = np.zeros((1, 4), np.int64)
-    needed_tiles(np.zeros((8, 1), np.uint64), box, box, box.copy())
+    box = np.zeros((2, 4), np.int64)
+    needed_tiles(np.zeros((8, 1), np.uint64), box, np.zeros((2, 5), np.int64)[:, :4], box.copy())  # (a slice of the tiles)
     i2 = np.zeros((1, 2), np.int64)
     end_fit(i2, np.zeros(1, bool), np.zeros((1, 2)), i2, np.zeros(2, np.int64), 4.0, 20.0)
     line_pixels(np.zeros((1, 2)), np.ones((1, 2)), 4.0)

@@ -156,16 +156,14 @@ class Localizer:
             mr = as_mask(mask_right, right.shape[:2], "right mask")
         else:
             ml, mr = segment_mask(left, seg), segment_mask(right, seg)
-        occluded = None
-        if self.cfg.recover.method == "collinear":
+        def occluded(xy_rect: np.ndarray) -> np.ndarray:
             # whoever made the masks, the colour image tells a leaf or an apple in a gap from open
             # sky (only the few pixels asked about are converted)
-            def occluded(xy_rect: np.ndarray) -> np.ndarray:
-                return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg)
+            return occluder_at(left, self.rectifier.to_original(xy_rect, 0), seg)
         clock.lap("segment")
         r = self.rectifier
         ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries
-        return ml, mr, occluded
+        return ml, mr, occluded if self.cfg.recover.method == "collinear" else None
 
     def _graph(self, coverage: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
         """Skeleton, radius map, pruning and recovery of one rectified mask (coverage, uint8 0-255:

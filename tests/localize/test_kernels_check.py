@@ -244,22 +244,3 @@ def test_estimate_is_the_numpy_steps():
         none += np.isnan(got[0]).sum()
         agree += (got[0] == d_px).sum()
     assert verdicts > 300 and none > 300 and agree > 100 and verdicts - agree > 100
-
-
-def test_warm_up_compiles_the_signatures_the_check_uses():
-    """After a Localizer is built (kernels.warm_up), the feature check on fixture 00 compiles none of
-    kernels_check's kernels again (warm_up passes the callers' array layouts), and it ran."""
-    from pathlib import Path
-
-    import cv2
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer, kernels_check
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_check.place_patches, kernels_check.estimate_pieces]
-    before = [len(f.signatures) for f in mine]
-    result = loc.localize(*(cv2.imread(str(fixtures / "scenes" / f"{s}_00.png")) for s in ("left", "right")))
-    assert "check" in result.timings_ms
-    assert [len(f.signatures) for f in mine] == before and all(before)

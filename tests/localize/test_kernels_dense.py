@@ -316,28 +316,6 @@ def test_steep_fit_is_the_numpy_steps():
     assert seen >= 10
 
 
-def test_warm_up_compiles_the_signatures_these_kernels_get():
-    """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
-    from pathlib import Path
-
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer
-    from appliance.synth.truth import load_truth
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_dense.edge_track, kernels_dense.steep_candidates, kernels_dense.flat_finish, kernels_dense.flat_line,
-            kernels_dense.coarse_agree, kernels_dense.edge_consensus_piece, kernels_dense.disparity_refit,
-            kernels_dense.steep_fit]
-    before = [len(f.signatures) for f in mine]
-    left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
-    truth = load_truth(fixtures / "scenes" / "truth_03.json")
-    loc.localize(left, right)
-    loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
-    assert [len(f.signatures) for f in mine] == before and all(before)
-
-
 def _flat_texture_numpy(d_surf, score, u, uv, right_mask, v_poly, radius, lo, hi, f_px, offset_px):
     """``dense._flat_finish``'s texture branch as it was in numpy: (status, d_poly or None, inliers) with
     status 0 (fewer than 3 patches), 1 (a curve), 2 (withheld)."""

@@ -8,26 +8,6 @@ from appliance.localize import forkends, kernels_forkglue, kernels_forks, kernel
 from appliance.localize.curves import BranchCurve, Poly
 
 
-def test_warm_up_compiles_the_localizer_s_signatures():
-    """The fork and tip glue pass the signatures warm_up compiles: localizing a fixture adds none (first in this
-    file: the tests below compile other signatures)."""
-    from pathlib import Path
-
-    from appliance.commands.common import effective_config
-    from appliance.commands.localize import load_inputs
-    from appliance.localize import Localizer
-    kernels_forkglue.warm_up()
-    ks = (kernels_forkglue.near_piece, kernels_forks.tls_line_pair, kernels_forkglue.edge_frame,
-          kernels_forkglue.walk_uv)
-    before = [len(k.signatures) for k in ks]
-    root = Path(__file__).resolve().parents[2]
-    cal, (left, right), _ = load_inputs(root / "fixtures/rig.yaml", root / "fixtures/scenes/left_03.png",
-                                        root / "fixtures/scenes/right_03.png", None, None)
-    Localizer(cal, effective_config(None).localize, "improved").localize(left, right)
-    assert [len(k.signatures) for k in ks] == before
-    assert all(n >= 1 for n in before)
-
-
 def _near_piece_ref(pts, p, r):
     """ForkPlacing.fork's former steps: EndPlacer._near_points, then the direction from the junction."""
     sel, dist = kernels_walks.near_points(pts, float(p[0]), float(p[1]), float(1.6 * r), float(1.6 * r + max(40.0, 4 * r)))

@@ -629,27 +629,3 @@ def test_curve_points_are_uv_at_linspace():
         b = a + float(rng.choice([-12.0, 12.0]))
         got = kernels_forks.curve_points(p.coef, p._deriv.coef, p.t0, p.ts, lo, hi, c.by_row, a, b, 12)
         assert np.array_equal(got, c.uv_at(linspace(a, b, 12)))
-
-
-def test_warm_up_compiles_the_signatures_these_kernels_get():
-    """After a Localizer is built, localizing (colour and exact masks) compiles none of these kernels again."""
-    from pathlib import Path
-
-    import cv2
-
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer
-    from appliance.synth.truth import load_truth
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [f for f in vars(kernels_forks).values() if hasattr(f, "signatures") and not f.__name__.startswith("_")]
-    before = [len(f.signatures) for f in mine]
-    for n in ("01", "03"):
-        left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_{n}.png")) for s in ("left", "right"))
-        truth = load_truth(fixtures / "scenes" / f"truth_{n}.json")
-        loc.localize(left, right)
-        loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
-    assert len(mine) >= 11
-    assert [len(f.signatures) for f in mine] == before and all(before)

@@ -160,31 +160,6 @@ def test_wider_on_right_is_the_numpy_test():
     assert 30 < sum(answers) < 470
 
 
-def test_warm_up_compiles_the_signatures_the_localizer_passes():
-    """After a Localizer is built (kernels.warm_up), localizing fixture 03 (both mask sources) compiles
-    none of kernels_match's kernels again, and they ran."""
-    from pathlib import Path
-
-    import cv2
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer
-    from appliance.synth.truth import load_truth
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_match.piece_uvd, kernels_match.wider_on_right, kernels_match.runs_near,
-            kernels_match.flat_search_line]
-    before = [len(f.signatures) for f in mine]
-    assert all(before)
-    left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_03.png")) for s in ("left", "right"))
-    truth = load_truth(fixtures / "scenes" / "truth_03.json")
-    for masks in ((None, None), (truth.mask_left, truth.mask_right)):
-        result = loc.localize(left, right, mask_left=masks[0], mask_right=masks[1])
-        assert result.features
-    assert [len(f.signatures) for f in mine] == before
-
-
 def test_prewalk_right_walks_are_walk_outs(monkeypatch):
     """Walks.prewalk's right-view walks (all ends at once) are _walk_out(right=True)'s walk for walk, on
     fixtures 00 and 02 (both mask sources)."""

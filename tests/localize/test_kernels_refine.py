@@ -198,30 +198,6 @@ def test_gather_remap_tables_equal_numpy_bit_for_bit():
                 np.testing.assert_array_equal(got, want)
 
 
-def test_warm_up_compiles_the_signatures_the_localizer_passes():
-    """After a Localizer is built (kernels.warm_up), localizing fixture 00 (both mask sources) compiles
-    none of this pass's kernels again, and each ran once at least."""
-    from pathlib import Path
-
-    import cv2
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer, kernels_dense, kernels_refine
-    from appliance.synth.truth import load_truth
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_refine.remap_tables, kernels_refine.refine_todo, kernels_refine.refine_stats,
-            kernels_refine.refine_apply, kernels_dense.steep_radii]
-    before = [len(f.signatures) for f in mine]
-    assert all(before)
-    left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_00.png")) for s in ("left", "right"))
-    truth = load_truth(fixtures / "scenes" / "truth_00.json")
-    for masks in ((None, None), (truth.mask_left, truth.mask_right)):
-        assert loc.localize(left, right, mask_left=masks[0], mask_right=masks[1]).features
-    assert [len(f.signatures) for f in mine] == before
-
-
 def test_refine_steps_is_refine_boundaries_numpy_steps():
     from appliance.localize.subpixel import refine_boundaries
     rng = np.random.default_rng(8)

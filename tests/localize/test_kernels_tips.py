@@ -371,25 +371,3 @@ def test_kernels_take_tips_constants():
     assert kernels_tips.CAP_WIDTH_BACK == tips.CAP_WIDTH_BACK
     assert kernels_tips.ROUND_BACK == 1.0 - np.sqrt(0.51) == 1.0 - math.sqrt(0.51)
     assert END_RUN_CUT_PX == 2.0 and len(CAP_SPLIT_PX) == 2
-
-
-def test_warm_up_compiles_the_signatures_the_tips_kernels_get():
-    """After a Localizer is built, localizing (colour and exact masks) compiles none of the tips'
-    kernels again."""
-    from pathlib import Path
-
-    from appliance.calibrate.model import load_calibration
-    from appliance.config import load_config
-    from appliance.localize import Localizer
-    from appliance.synth.truth import load_truth
-
-    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
-    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_tips.cap_shapes_offsets, kernels_tips.cap_fit, kernels_tips.cap_disparity, kernels_tips.end_disparity,
-            kernels_tips.end_outline_agrees]
-    before = [len(f.signatures) for f in mine]
-    left, right = (cv2.imread(str(fixtures / "scenes" / f"{s}_00.png")) for s in ("left", "right"))
-    truth = load_truth(fixtures / "scenes" / "truth_00.json")
-    loc.localize(left, right)
-    loc.localize(left, right, mask_left=truth.mask_left, mask_right=truth.mask_right)
-    assert [len(f.signatures) for f in mine] == before and all(before)

@@ -1,7 +1,7 @@
 """Localization accuracy on rendered scenes with exact truth: improved vs the paper vs OpenCV SGBM.
 
     python benchmarks/localize_accuracy.py [--extra N] [--masks true|colour|both] [--soft-truth] [--json OUT]
-        [--pictures DIR] [--ss N]
+        [--plot PNG] [--pictures DIR] [--ss N]
 
 Scenes: fixtures/scenes (4) plus ``--extra`` more rendered with seeds 100.. (cached in
 out/localize_scenes). Rig f ~1450 px, b ~120 mm, 1280x960, branches 500-1500 mm away.
@@ -40,6 +40,7 @@ from appliance.localize import Feature, LocalizationResult, Localizer
 from appliance.localize.sgbm import sgbm_disparity
 from appliance.localize.triangulate import triangulate
 from appliance.synth.evaluate import format_table, pool, score_result
+from appliance.synth.errorplot import draw_error_plot, panels_from_scores
 from appliance.synth.show import draw_score
 from appliance.synth.truth import SceneTruth, load_truth
 
@@ -202,6 +203,8 @@ def main() -> int:
     ap.add_argument("--soft-truth", action="store_true",
                     help="exact masks as the renderer's soft coverage of each pixel, not whole pixels (half covered)")
     ap.add_argument("--json", type=Path, help="write pooled scores here")
+    ap.add_argument("--plot", type=Path, metavar="PNG",
+                    help="draw dZ against true Z of every matched feature, one panel per method (synth.errorplot)")
     ap.add_argument("--pictures", type=Path, metavar="DIR",
                     help="write how the improved variant scored on each scene here (synth.show.draw_score)")
     ap.add_argument("--ss", type=_supersamples, default=2, metavar="N",
@@ -283,6 +286,9 @@ def main() -> int:
     if a.json:
         a.json.parent.mkdir(parents=True, exist_ok=True)
         a.json.write_text(json.dumps({m: s.to_dict() for m, s in pooled.items()}, indent=1) + "\n")
+    if a.plot:
+        a.plot.parent.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(a.plot), draw_error_plot(panels_from_scores({m: s.to_dict() for m, s in pooled.items()})))
     return 0
 
 

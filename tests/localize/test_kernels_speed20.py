@@ -71,3 +71,34 @@ def test_find_runs_of_transposed_view_uses_columns_and_agrees():
     got = find_runs(part, soft=True)
     ref = find_runs(np.ascontiguousarray(part), soft=True)
     np.testing.assert_array_equal(got.left_px, ref.left_px)
+
+
+def test_ncc_search_each_equals_one_call_per_patch():
+    from appliance.localize import kernels_batch, kernels_ncc
+    rng = np.random.default_rng(22)
+    n_found = 0
+    for it in range(60):
+        h, w = 60, int(rng.integers(80, 200))
+        left = cv2.GaussianBlur(rng.integers(0, 256, (h, w), dtype=np.uint8), (3, 3), 0.7)
+        right = np.roll(left, -int(rng.integers(5, 40)), axis=1)
+        if it % 3 == 0:
+            right = rng.integers(0, 256, (h, w), dtype=np.uint8)          # no match
+        left[20:30, 10:30] = 90                                            # some flat patches
+        n = int(rng.integers(1, 12))
+        hw = int(rng.integers(1, 8))
+        uv = np.column_stack([rng.integers(-5, w + 5, n), rng.integers(-3, h + 3, n)]).astype(np.int64)
+        hh = rng.integers(1, 6, n).astype(np.int64)
+        lo = rng.integers(-5, 40, n).astype(np.int64)
+        hi = lo + rng.integers(0, 30, n)
+        y0, lx0, rx0 = int(rng.integers(0, 4)), int(rng.integers(0, 4)), int(rng.integers(0, 4))
+        lbox, rbox = np.ascontiguousarray(left[y0:, lx0:]), np.ascontiguousarray(right[y0:, rx0:])
+        d_ref, s_ref = np.full(n, np.nan), np.full(n, -1.0)
+        for i in range(n):
+            kernels_ncc.ncc_search(lbox, rbox, uv[i:i + 1], hh[:1] * 0 + hh[i], hw, int(lo[i]), int(hi[i]), h, w,
+                                   y0, lx0, rx0, d_ref[i:i + 1], s_ref[i:i + 1])
+        d, s = np.full(n, np.nan), np.full(n, -1.0)
+        kernels_batch.ncc_search_each(lbox, rbox, uv, hh, hw, lo, hi, h, w, y0, lx0, rx0, d, s)
+        np.testing.assert_array_equal(d, d_ref)                            # atol 0 px
+        np.testing.assert_array_equal(s, s_ref)
+        n_found += int(np.isfinite(d).sum())
+    assert n_found > 50

@@ -3,7 +3,8 @@
 A Python loop calling a kernel per patch pays numba's dispatch (typing ~14 arguments: ~8-10 us) each time,
 more than the patch's own work. :func:`ncc_search_each` runs :func:`kernels_ncc.ncc_search` for every patch
 with its own window in one call: each patch's search is the same code on the same inputs, so the same
-values.
+values. :func:`search_boxes` is ``texture._search``'s numpy steps before its reads (the patches' rounded
+centres and the boxes both images are read over) in one call instead of ~10 small numpy operations.
 """
 
 from __future__ import annotations
@@ -28,7 +29,34 @@ def ncc_search_each(lbox, rbox, uv, hh, hw, lo, hi, h, w, by0, lx0, rx0, d_out, 
                    d_out[i:i + 1], score[i:i + 1])
 
 
+@numba.njit(**_JIT)
+def search_boxes(uv_px, hh, hw, lo, hi, h, w):
+    """``texture._search``'s patch centres and read boxes: ``uv`` (N, 2) int64, ``np.rint(uv_px)`` of the
+    centres ``uv_px`` (N >= 1, 2) float64, and the boxes ``(by0, by1, lx0, lx1, rx0, rx1)`` (half-open, clipped
+    to the image of ``h`` rows and ``w`` columns) over which the left patches (half heights ``hh`` (N,) int64,
+    half width ``hw``) and the right strips (disparities ``lo``..``hi``) lie: the same integers as the numpy
+    steps (``(uv[:, 1] - hh).min()``, ``uv[:, 0].max()``, ...). ``uv`` None when a centre is not finite
+    (the caller's numpy steps then)."""
+    n = len(uv_px)
+    for i in range(n):
+        if not (np.isfinite(uv_px[i, 0]) and np.isfinite(uv_px[i, 1])):
+            return None, 0, 0, 0, 0, 0, 0
+    uv = np.empty((n, 2), np.int64)
+    top, bottom = np.int64(1) << 62, -(np.int64(1) << 62)
+    u_min, u_max = np.int64(1) << 62, -(np.int64(1) << 62)
+    for i in range(n):
+        u, v = np.int64(np.rint(uv_px[i, 0])), np.int64(np.rint(uv_px[i, 1]))
+        uv[i, 0], uv[i, 1] = u, v
+        top, bottom = min(top, v - hh[i]), max(bottom, v + hh[i])
+        u_min, u_max = min(u_min, u), max(u_max, u)
+    by0, by1 = max(top, 0), min(bottom + 1, h)
+    lx0, lx1 = max(u_min - hw, 0), min(u_max + hw + 1, w)
+    rx0, rx1 = max(u_min - hi - hw, 0), min(u_max - lo + hw + 1, w)
+    return uv, by0, by1, lx0, lx1, rx0, rx1
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_search_each(img, img, np.zeros((1, 2), np.int64), i, 1, 0 * i, 2 * i, 8, 16, 0, 0, 0, f.copy(), f.copy())
+    search_boxes(np.zeros((1, 2)), i, 1, 0, 2, 8, 16)

@@ -2,6 +2,7 @@
 
 import cv2
 import numpy as np
+import pytest
 
 from appliance.localize import kernels_colruns, kernels_runs
 from appliance.localize.edges import Runs, find_runs
@@ -102,3 +103,47 @@ def test_ncc_search_each_equals_one_call_per_patch():
         np.testing.assert_array_equal(s, s_ref)
         n_found += int(np.isfinite(d).sum())
     assert n_found > 50
+
+
+
+def _boxes_reference(uv_px, hhs, hw, lo, hi, h, w):
+    """texture._search's numpy steps as they were (main 41599e4)."""
+    uv = np.rint(np.asarray(uv_px, float).reshape(-1, 2)).astype(int)
+    by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
+    lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
+    rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
+    return uv, by0, by1, lx0, lx1, rx0, rx1
+
+
+def test_search_boxes_equals_numpy_steps():
+    from appliance.localize import kernels_batch
+    rng = np.random.default_rng(24)
+    for it in range(3000):
+        n = int(rng.integers(1, 30))
+        h, w = int(rng.integers(20, 1000)), int(rng.integers(20, 1300))
+        uv = np.column_stack([rng.uniform(-40, w + 40, n), rng.uniform(-20, h + 20, n)])
+        if it % 3 == 0:
+            uv = np.round(uv * 2) / 2                                       # halves: rint's ties to even
+        hh = rng.integers(0, 15, n).astype(np.int64)
+        hw = int(rng.integers(0, 15))
+        lo = int(rng.integers(-10, 300))
+        hi = lo + int(rng.integers(0, 300))
+        got = kernels_batch.search_boxes(uv, hh, hw, lo, hi, h, w)
+        ref = _boxes_reference(uv, hh, hw, lo, hi, h, w)
+        np.testing.assert_array_equal(got[0], ref[0])
+        assert got[0].dtype == ref[0].dtype
+        assert tuple(got[1:]) == tuple(ref[1:])
+    bad = np.array([[3.0, 4.0], [np.nan, 2.0]])
+    assert kernels_batch.search_boxes(bad, np.ones(2, np.int64), 1, 0, 5, 10, 10)[0] is None
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered in cast")     # (numpy's, on the NaN centre, as before)
+def test_surface_disparity_with_nan_centre_keeps_numpy_path():
+    from appliance.localize.texture import surface_disparity
+    rng = np.random.default_rng(25)
+    left = cv2.GaussianBlur(rng.integers(0, 256, (80, 200), dtype=np.uint8), (3, 3), 0.8)
+    right = np.roll(left, -17, axis=1)
+    uv = np.array([[100.0, 40.0], [120.4, 41.6], [np.nan, 40.0]])
+    d, s = surface_disparity(left, right, uv, np.array([4, 4, 4]), (5.0, 30.0), 6)
+    np.testing.assert_allclose(d[:2], 17.0, atol=0.05)                    # px
+    assert np.isnan(d[2])

@@ -4,7 +4,9 @@ A Python loop calling a kernel per patch pays numba's dispatch (typing ~14 argum
 more than the patch's own work. :func:`ncc_search_each` runs :func:`kernels_ncc.ncc_search` for every patch
 with its own window in one call: each patch's search is the same code on the same inputs, so the same
 values. :func:`search_boxes` is ``texture._search``'s numpy steps before its reads (the patches' rounded
-centres and the boxes both images are read over) in one call instead of ~10 small numpy operations.
+centres and the boxes both images are read over) in one call instead of ~10 small numpy operations;
+:func:`inside_fractions` is ``patchmask.inside_fraction``'s counts, patch by patch instead of a summed-area
+table of the patches' bounding box.
 """
 
 from __future__ import annotations
@@ -55,8 +57,32 @@ def search_boxes(uv_px, hh, hw, lo, hi, h, w):
     return uv, by0, by1, lx0, lx1, rx0, rx1
 
 
+@numba.njit(**_JIT)
+def inside_fractions(mask, uv, hh, hw):
+    """``patchmask.inside_fraction``: the fraction (N,) of each (2 ``hh`` + 1) x (2 ``hw`` + 1) patch centred
+    on ``uv`` (N, 2) float64 px (rounded half to even) that lies where ``mask`` (H, W) uint8 is >= 128, the
+    part outside the image counting as outside; 0 for a non-finite centre. The counts are exact integers,
+    each divided by the patch's area as numpy divides them (float64)."""
+    h, w = mask.shape
+    area = float((2 * hh + 1) * (2 * hw + 1))
+    out = np.zeros(len(uv))
+    for i in range(len(uv)):
+        if not (np.isfinite(uv[i, 0]) and np.isfinite(uv[i, 1])):
+            continue
+        cx, cy = np.int64(np.rint(uv[i, 0])), np.int64(np.rint(uv[i, 1]))
+        n = 0
+        for y in range(max(cy - hh, 0), min(cy + hh + 1, h)):
+            row = mask[y]
+            for x in range(max(cx - hw, 0), min(cx + hw + 1, w)):
+                if row[x] >= 128:
+                    n += 1
+        out[i] = float(n) / area
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_search_each(img, img, np.zeros((1, 2), np.int64), i, 1, 0 * i, 2 * i, 8, 16, 0, 0, 0, f.copy(), f.copy())
     search_boxes(np.zeros((1, 2)), i, 1, 0, 2, 8, 16)
+    inside_fractions(img, np.zeros((1, 2)), 1, 1)

@@ -147,3 +147,45 @@ def test_surface_disparity_with_nan_centre_keeps_numpy_path():
     d, s = surface_disparity(left, right, uv, np.array([4, 4, 4]), (5.0, 30.0), 6)
     np.testing.assert_allclose(d[:2], 17.0, atol=0.05)                    # px
     assert np.isnan(d[2])
+
+
+def _inside_reference(mask, uv, hh, hw):
+    """patchmask.inside_fraction as it was (main 41599e4): a summed-area table of the patches' box."""
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    out = np.zeros(len(uv))
+    ok = np.isfinite(uv).all(1)
+    if not ok.any():
+        return out
+    h, w = mask.shape[:2]
+    c = np.rint(uv[ok]).astype(np.int64)
+    x0, x1 = int(c[:, 0].min()) - hw, int(c[:, 0].max()) + hw + 1
+    y0, y1 = int(c[:, 1].min()) - hh, int(c[:, 1].max()) + hh + 1
+    box = np.zeros((y1 - y0, x1 - x0), np.int64)
+    sy0, sy1, sx0, sx1 = max(y0, 0), min(y1, h), max(x0, 0), min(x1, w)
+    if sy1 > sy0 and sx1 > sx0:
+        box[sy0 - y0:sy1 - y0, sx0 - x0:sx1 - x0] = mask[sy0:sy1, sx0:sx1] >= 128
+    sat = np.zeros((box.shape[0] + 1, box.shape[1] + 1), np.int64)
+    sat[1:, 1:] = box.cumsum(0).cumsum(1)
+    ty, tx = c[:, 1] - hh - y0, c[:, 0] - hw - x0
+    by, bx = ty + 2 * hh + 1, tx + 2 * hw + 1
+    n = sat[by, bx] - sat[ty, bx] - sat[by, tx] + sat[ty, tx]
+    out[ok] = n / float((2 * hh + 1) * (2 * hw + 1))
+    return out
+
+
+def test_inside_fraction_equals_summed_area_table():
+    from appliance.localize.patchmask import inside_fraction
+    rng = np.random.default_rng(26)
+    for it in range(400):
+        h, w = int(rng.integers(5, 120)), int(rng.integers(5, 160))
+        mask = cv2.GaussianBlur(((rng.random((h, w)) < rng.random()) * 255).astype(np.uint8), (5, 5), 1.2)
+        n = int(rng.integers(1, 25))
+        uv = np.column_stack([rng.uniform(-20, w + 20, n), rng.uniform(-20, h + 20, n)])
+        if it % 3 == 0:
+            uv = np.round(uv * 2) / 2                                       # halves: rint's ties to even
+        if it % 5 == 0:
+            uv[rng.integers(0, n)] = np.nan
+        if it % 17 == 0:
+            uv[:] = np.inf                                                  # no finite centre
+        hh, hw = int(rng.integers(0, 10)), int(rng.integers(0, 14))
+        np.testing.assert_array_equal(inside_fraction(mask, uv, hh, hw), _inside_reference(mask, uv, hh, hw))

@@ -189,3 +189,16 @@ def test_inside_fraction_equals_summed_area_table():
             uv[:] = np.inf                                                  # no finite centre
         hh, hw = int(rng.integers(0, 10)), int(rng.integers(0, 14))
         np.testing.assert_array_equal(inside_fraction(mask, uv, hh, hw), _inside_reference(mask, uv, hh, hw))
+
+
+def test_spliced_deriv_made_once_with_the_same_values():
+    from appliance.localize.curves import Poly, Spliced
+    rng = np.random.default_rng(27)
+    base, below = Poly(rng.normal(size=4), 3.0, 20.0), Poly(rng.normal(size=3), -30.0, 10.0)
+    sp = Spliced(base, -10.0, 25.0, below, None)
+    d = sp.deriv()
+    assert d is sp.deriv()                                            # made once
+    fresh = Spliced(base.deriv(), -10.0, 25.0, below.deriv(), None)
+    t = np.linspace(-60, 60, 241)
+    np.testing.assert_array_equal(d(t), fresh(t))                     # atol 0
+    assert [d.at(float(x)) for x in t] == [fresh.at(float(x)) for x in t]

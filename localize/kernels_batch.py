@@ -6,7 +6,8 @@ with its own window in one call: each patch's search is the same code on the sam
 values. :func:`search_boxes` is ``texture._search``'s numpy steps before its reads (the patches' rounded
 centres and the boxes both images are read over) in one call instead of ~10 small numpy operations;
 :func:`inside_fractions` is ``patchmask.inside_fraction``'s counts, patch by patch instead of a summed-area
-table of the patches' bounding box.
+table of the patches' bounding box; :func:`skeleton_to_full` is ``SkeletonGraph.to_full`` in one pass (no
+temporary arrays).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from appliance.localize.kernels import _JIT
+from appliance.localize.kernels import _JIT, _readonly
 from appliance.localize.kernels_ncc import ncc_search
 
 
@@ -80,9 +81,25 @@ def inside_fractions(mask, uv, hh, hw):
     return out
 
 
+@numba.njit(**_JIT)
+def skeleton_to_full(yx, scale):
+    """``SkeletonGraph.to_full``: skeleton (row, col) ``yx`` (N, 2) int64 or float64 -> full-resolution (x, y)
+    (N, 2) float64, ``(col + 0.5) * scale - 0.5`` and ``(row + 0.5) * scale - 0.5``: numpy's operations in its
+    order (the integers converted to float64 first), so the same values."""
+    out = np.empty((len(yx), 2))
+    s = float(scale)
+    for i in range(len(yx)):
+        out[i, 0] = (float(yx[i, 1]) + 0.5) * s - 0.5
+        out[i, 1] = (float(yx[i, 0]) + 0.5) * s - 0.5
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_search_each(img, img, np.zeros((1, 2), np.int64), i, 1, 0 * i, 2 * i, 8, 16, 0, 0, 0, f.copy(), f.copy())
     search_boxes(np.zeros((1, 2)), i, 1, 0, 2, 8, 16)
     inside_fractions(img, np.zeros((1, 2)), 1, 1)
+    for dtype in (np.int64, np.float64):            # (the graph's arrays, some read-only)
+        skeleton_to_full(np.zeros((1, 2), dtype), 4.0)
+        skeleton_to_full(_readonly(np.zeros((1, 2), dtype)), 4.0)

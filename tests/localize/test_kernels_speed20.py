@@ -202,3 +202,40 @@ def test_spliced_deriv_made_once_with_the_same_values():
     t = np.linspace(-60, 60, 241)
     np.testing.assert_array_equal(d(t), fresh(t))                     # atol 0
     assert [d.at(float(x)) for x in t] == [fresh.at(float(x)) for x in t]
+
+
+def test_to_full_equals_numpy_steps():
+    from appliance.localize.graph import SkeletonGraph
+    rng = np.random.default_rng(28)
+    for scale in (1, 2, 4, 3):
+        g = SkeletonGraph.__new__(SkeletonGraph)
+        object.__setattr__(g, "scale", scale)
+        for yx in (rng.integers(0, 2000, (50, 2)), rng.uniform(-5, 2000, (7, 2)), rng.integers(0, 300, (1, 2)),
+                   rng.integers(0, 300, 2), np.zeros((0, 2), np.int64), rng.integers(0, 300, (9, 2)).astype(np.int32),
+                   rng.integers(0, 300, (6, 4))[:, ::2], [[3, 4], [5, 6]]):
+            ref = (np.asarray(yx, np.float64).reshape(-1, 2)[:, ::-1] + 0.5) * scale - 0.5
+            got = g.to_full(yx)
+            assert got.dtype == np.float64 and got.shape == ref.shape
+            np.testing.assert_array_equal(got, ref)                   # atol 0 px
+
+
+def test_warm_up_compiles_every_signature_of_these_kernels():
+    """After a Localizer is built, localizing fixtures 02 and 03 (both grass, flat pieces, a hidden patch test)
+    compiles no new signature of this pass's kernels."""
+    from pathlib import Path
+
+    import numba
+    from appliance.calibrate.model import load_calibration
+    from appliance.config import load_config
+    from appliance.localize import Localizer, kernels_batch
+
+    fixtures = Path(__file__).resolve().parents[2] / "fixtures"
+    loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
+    mine = [kernels_colruns.mask_col_runs, kernels_batch.ncc_search_each, kernels_batch.search_boxes,
+            kernels_batch.inside_fractions, kernels_batch.skeleton_to_full]
+    assert all(isinstance(f, numba.core.registry.CPUDispatcher) for f in mine)
+    before = [len(f.signatures) for f in mine]
+    for fx in ("02", "03"):
+        loc.localize(cv2.imread(str(fixtures / "scenes" / f"left_{fx}.png")),
+                     cv2.imread(str(fixtures / "scenes" / f"right_{fx}.png")))
+    assert [len(f.signatures) for f in mine] == before and all(before)

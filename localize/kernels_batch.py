@@ -7,7 +7,7 @@ values. :func:`search_boxes` is ``texture._search``'s numpy steps before its rea
 centres and the boxes both images are read over) in one call instead of ~10 small numpy operations;
 :func:`inside_fractions` is ``patchmask.inside_fraction``'s counts, patch by patch instead of a summed-area
 table of the patches' bounding box; :func:`skeleton_to_full` is ``SkeletonGraph.to_full`` in one pass (no
-temporary arrays).
+temporary arrays); :func:`radius_lookup` is ``radius.radius_at``'s rounding, clamping and read.
 """
 
 from __future__ import annotations
@@ -94,12 +94,31 @@ def skeleton_to_full(yx, scale):
     return out
 
 
+@numba.njit(**_JIT)
+def radius_lookup(img, scale, xy):
+    """``radius.radius_at``: the map ``img`` (H, W) float32 (``scale`` full-resolution px per map pixel) at
+    the nearest map pixel of each full-resolution point ``xy`` (N, 2) float64 (x, y), clamped into the map:
+    (N,) float64, ``np.rint((xy + 0.5) / scale - 0.5)``'s pixel as numpy rounds it. None when a point is
+    not finite (the caller's numpy steps then: numpy's conversion of NaN to an integer is its own)."""
+    h, w = img.shape
+    s = float(scale)
+    out = np.empty(len(xy))
+    for i in range(len(xy)):
+        if not (np.isfinite(xy[i, 0]) and np.isfinite(xy[i, 1])):
+            return None
+        x = np.int64(np.rint((xy[i, 0] + 0.5) / s - 0.5))
+        y = np.int64(np.rint((xy[i, 1] + 0.5) / s - 0.5))
+        out[i] = img[min(max(y, 0), h - 1), min(max(x, 0), w - 1)]
+    return out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
     ncc_search_each(img, img, np.zeros((1, 2), np.int64), i, 1, 0 * i, 2 * i, 8, 16, 0, 0, 0, f.copy(), f.copy())
     search_boxes(np.zeros((1, 2)), i, 1, 0, 2, 8, 16)
     inside_fractions(img, np.zeros((1, 2)), 1, 1)
+    radius_lookup(np.zeros((2, 2), np.float32), 2.0, np.zeros((1, 2)))
     for dtype in (np.int64, np.float64):            # (the graph's arrays, some read-only)
         skeleton_to_full(np.zeros((1, 2), dtype), 4.0)
         skeleton_to_full(_readonly(np.zeros((1, 2), dtype)), 4.0)

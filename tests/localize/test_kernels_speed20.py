@@ -232,10 +232,34 @@ def test_warm_up_compiles_every_signature_of_these_kernels():
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
     mine = [kernels_colruns.mask_col_runs, kernels_batch.ncc_search_each, kernels_batch.search_boxes,
-            kernels_batch.inside_fractions, kernels_batch.skeleton_to_full]
+            kernels_batch.inside_fractions, kernels_batch.skeleton_to_full, kernels_batch.radius_lookup]
     assert all(isinstance(f, numba.core.registry.CPUDispatcher) for f in mine)
     before = [len(f.signatures) for f in mine]
     for fx in ("02", "03"):
         loc.localize(cv2.imread(str(fixtures / "scenes" / f"left_{fx}.png")),
                      cv2.imread(str(fixtures / "scenes" / f"right_{fx}.png")))
     assert [len(f.signatures) for f in mine] == before and all(before)
+
+
+def test_radius_at_equals_numpy_steps():
+    from appliance.localize.radius import RadiusMap, radius_at
+    rng = np.random.default_rng(29)
+    for it in range(500):
+        scale = int(rng.integers(1, 5))
+        img = rng.uniform(0, 30, (int(rng.integers(1, 60)), int(rng.integers(1, 80)))).astype(np.float32)
+        h, w = img.shape
+        xy = np.column_stack([rng.uniform(-30, w * scale + 30, 20), rng.uniform(-30, h * scale + 30, 20)])
+        if it % 2:
+            xy = np.round(xy * 2 * scale) / (2 * scale)                       # on the rounding's halves
+        ref_xy = np.rint((xy + 0.5) / scale - 0.5).astype(int)
+        ref = img[np.clip(ref_xy[:, 1], 0, h - 1), np.clip(ref_xy[:, 0], 0, w - 1)].astype(float)
+        got = radius_at(RadiusMap(img, scale), xy)
+        assert got.dtype == np.float64
+        np.testing.assert_array_equal(got, ref)                             # atol 0 px
+    img = np.ones((4, 4), np.float32)
+    with np.errstate(invalid="ignore"):
+        import warnings
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            got = radius_at(RadiusMap(img, 2), np.array([[np.nan, 1.0], [2.0, 2.0]]))   # numpy's path
+    assert got.shape == (2,) and got[1] == 1.0

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from appliance.localize import kernels_batch, kernels_graph
+from appliance.localize import kernels_points, kernels_graph
 from appliance.localize.skeleton import (
     Skeleton,
     binary,
@@ -74,7 +74,7 @@ class SkeletonGraph:
         """Skeleton (row, col) -> full-resolution (x, y), shape (N, 2) float."""
         a = np.asarray(yx)
         if a.dtype == np.int64 or a.dtype == np.float64:     # (compiled: the same values, no temporaries)
-            return kernels_batch.skeleton_to_full(np.ascontiguousarray(a.reshape(-1, 2)), float(self.scale))
+            return kernels_points.skeleton_to_full(np.ascontiguousarray(a.reshape(-1, 2)), float(self.scale))
         yx = np.asarray(yx, np.float64).reshape(-1, 2)
         return (yx[:, ::-1] + 0.5) * self.scale - 0.5
 

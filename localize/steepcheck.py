@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from appliance.localize import kernels_batch, kernels_ncc
+from appliance.localize import kernels_ncc
 from appliance.localize.curves import BranchCurve
 from appliance.localize.matching import StereoMasks
 
@@ -113,9 +113,9 @@ def _scores(left, right, us: list, vs: list, los: list, his: list, hw: int) -> n
     if max(los) - lo0 <= 1 and hi0 - min(his) <= 1:     # (nearly) one window for all: one call, over their union
         kernels_ncc.ncc_search(lbox, rbox, uv, hhs, hw, lo0, hi0, h, w, y0, lx0, rx0, d_out, score)
         return score
-    # (a few patches, each with its own window: one call, each patch searched alone)
-    kernels_batch.ncc_search_each(lbox, rbox, uv, hhs, hw, np.array(los, np.int64), np.array(his, np.int64), h, w,
-                                  y0, lx0, rx0, d_out, score)
+    for i in range(n):                       # (a few patches, each with its own window)
+        kernels_ncc.ncc_search(lbox, rbox, uv[i:i + 1], hhs[:1], hw, los[i], his[i], h, w, y0, lx0, rx0,
+                           d_out[i:i + 1], score[i:i + 1])
     return score
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize import kernels_batch, kernels_ncc
+from appliance.localize import kernels_points, kernels_ncc
 
 
 def _flat(patch: np.ndarray, min_std: float) -> bool:
@@ -84,7 +84,7 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     # read each image once, over the box its patches (left) or strips (right) need (lazy images rectify it then)
     uv = None
     if hhs.shape == (len(uv_f),):       # (compiled: the same integers; None for a centre not finite)
-        uv, by0, by1, lx0, lx1, rx0, rx1 = kernels_batch.search_boxes(np.ascontiguousarray(uv_f),
+        uv, by0, by1, lx0, lx1, rx0, rx1 = kernels_points.search_boxes(np.ascontiguousarray(uv_f),
                                                                       np.ascontiguousarray(hhs, np.int64),
                                                                       hw, lo, hi, h, w)
     if uv is None:

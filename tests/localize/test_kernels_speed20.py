@@ -74,38 +74,6 @@ def test_find_runs_of_transposed_view_uses_columns_and_agrees():
     np.testing.assert_array_equal(got.left_px, ref.left_px)
 
 
-def test_ncc_search_each_equals_one_call_per_patch():
-    from appliance.localize import kernels_batch, kernels_ncc
-    rng = np.random.default_rng(22)
-    n_found = 0
-    for it in range(60):
-        h, w = 60, int(rng.integers(80, 200))
-        left = cv2.GaussianBlur(rng.integers(0, 256, (h, w), dtype=np.uint8), (3, 3), 0.7)
-        right = np.roll(left, -int(rng.integers(5, 40)), axis=1)
-        if it % 3 == 0:
-            right = rng.integers(0, 256, (h, w), dtype=np.uint8)          # no match
-        left[20:30, 10:30] = 90                                            # some flat patches
-        n = int(rng.integers(1, 12))
-        hw = int(rng.integers(1, 8))
-        uv = np.column_stack([rng.integers(-5, w + 5, n), rng.integers(-3, h + 3, n)]).astype(np.int64)
-        hh = rng.integers(1, 6, n).astype(np.int64)
-        lo = rng.integers(-5, 40, n).astype(np.int64)
-        hi = lo + rng.integers(0, 30, n)
-        y0, lx0, rx0 = int(rng.integers(0, 4)), int(rng.integers(0, 4)), int(rng.integers(0, 4))
-        lbox, rbox = np.ascontiguousarray(left[y0:, lx0:]), np.ascontiguousarray(right[y0:, rx0:])
-        d_ref, s_ref = np.full(n, np.nan), np.full(n, -1.0)
-        for i in range(n):
-            kernels_ncc.ncc_search(lbox, rbox, uv[i:i + 1], hh[:1] * 0 + hh[i], hw, int(lo[i]), int(hi[i]), h, w,
-                                   y0, lx0, rx0, d_ref[i:i + 1], s_ref[i:i + 1])
-        d, s = np.full(n, np.nan), np.full(n, -1.0)
-        kernels_batch.ncc_search_each(lbox, rbox, uv, hh, hw, lo, hi, h, w, y0, lx0, rx0, d, s)
-        np.testing.assert_array_equal(d, d_ref)                            # atol 0 px
-        np.testing.assert_array_equal(s, s_ref)
-        n_found += int(np.isfinite(d).sum())
-    assert n_found > 50
-
-
-
 def _boxes_reference(uv_px, hhs, hw, lo, hi, h, w):
     """texture._search's numpy steps as they were (main 41599e4)."""
     uv = np.rint(np.asarray(uv_px, float).reshape(-1, 2)).astype(int)
@@ -116,7 +84,7 @@ def _boxes_reference(uv_px, hhs, hw, lo, hi, h, w):
 
 
 def test_search_boxes_equals_numpy_steps():
-    from appliance.localize import kernels_batch
+    from appliance.localize import kernels_points
     rng = np.random.default_rng(24)
     for it in range(3000):
         n = int(rng.integers(1, 30))
@@ -128,13 +96,13 @@ def test_search_boxes_equals_numpy_steps():
         hw = int(rng.integers(0, 15))
         lo = int(rng.integers(-10, 300))
         hi = lo + int(rng.integers(0, 300))
-        got = kernels_batch.search_boxes(uv, hh, hw, lo, hi, h, w)
+        got = kernels_points.search_boxes(uv, hh, hw, lo, hi, h, w)
         ref = _boxes_reference(uv, hh, hw, lo, hi, h, w)
         np.testing.assert_array_equal(got[0], ref[0])
         assert got[0].dtype == ref[0].dtype
         assert tuple(got[1:]) == tuple(ref[1:])
     bad = np.array([[3.0, 4.0], [np.nan, 2.0]])
-    assert kernels_batch.search_boxes(bad, np.ones(2, np.int64), 1, 0, 5, 10, 10)[0] is None
+    assert kernels_points.search_boxes(bad, np.ones(2, np.int64), 1, 0, 5, 10, 10)[0] is None
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered in cast")     # (numpy's, on the NaN centre, as before)
@@ -227,12 +195,12 @@ def test_warm_up_compiles_every_signature_of_these_kernels():
     import numba
     from appliance.calibrate.model import load_calibration
     from appliance.config import load_config
-    from appliance.localize import Localizer, kernels_batch
+    from appliance.localize import Localizer, kernels_points
 
     fixtures = Path(__file__).resolve().parents[2] / "fixtures"
     loc = Localizer(load_calibration(fixtures / "rig.yaml"), load_config().localize)
-    mine = [kernels_colruns.mask_col_runs, kernels_batch.ncc_search_each, kernels_batch.search_boxes,
-            kernels_batch.inside_fractions, kernels_batch.skeleton_to_full, kernels_batch.radius_lookup]
+    mine = [kernels_colruns.mask_col_runs, kernels_points.search_boxes,
+            kernels_points.inside_fractions, kernels_points.skeleton_to_full, kernels_points.radius_lookup]
     assert all(isinstance(f, numba.core.registry.CPUDispatcher) for f in mine)
     before = [len(f.signatures) for f in mine]
     for fx in ("02", "03"):

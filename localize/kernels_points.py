@@ -1,9 +1,8 @@
-"""Compiled loops over many small searches in one call (fourteenth pass, speed20; docs/localize-numba.md).
+"""Compiled per-point steps that were a handful of small numpy operations each: rounding points, the boxes
+they read, counts and look-ups at them (fourteenth pass, speed20; docs/localize-numba.md). Each gives the
+values of the numpy steps it replaces (integers, or numpy's floating-point operations in numpy's order).
 
-A Python loop calling a kernel per patch pays numba's dispatch (typing ~14 arguments: ~8-10 us) each time,
-more than the patch's own work. :func:`ncc_search_each` runs :func:`kernels_ncc.ncc_search` for every patch
-with its own window in one call: each patch's search is the same code on the same inputs, so the same
-values. :func:`search_boxes` is ``texture._search``'s numpy steps before its reads (the patches' rounded
+:func:`search_boxes` is ``texture._search``'s numpy steps before its reads (the patches' rounded
 centres and the boxes both images are read over) in one call instead of ~10 small numpy operations;
 :func:`inside_fractions` is ``patchmask.inside_fraction``'s counts, patch by patch instead of a summed-area
 table of the patches' bounding box; :func:`skeleton_to_full` is ``SkeletonGraph.to_full`` in one pass (no
@@ -16,20 +15,6 @@ import numba
 import numpy as np
 
 from appliance.localize.kernels import _JIT, _readonly
-from appliance.localize.kernels_ncc import ncc_search
-
-
-@numba.njit(**_JIT)
-def ncc_search_each(lbox, rbox, uv, hh, hw, lo, hi, h, w, by0, lx0, rx0, d_out, score):
-    """:func:`kernels_ncc.ncc_search` of each patch ``i`` alone over its own disparities ``lo[i]``..``hi[i]``
-    (int64 (N,)): ``uv`` (N, 2) int64 centres, ``hh`` (N,) int64 half heights, the boxes ``lbox`` / ``rbox``
-    (uint8, read at rows from ``by0``, columns from ``lx0`` / ``rx0``) and the image size ``h`` x ``w`` as
-    there; patch ``i``'s disparity and score written into ``d_out[i]`` and ``score[i]`` (N,) float64 where
-    it finds one (as the calls one by one: ``ncc_search(..., uv[i:i + 1], hh[i:i + 1], hw, lo[i], hi[i],
-    ..., d_out[i:i + 1], score[i:i + 1])``)."""
-    for i in range(len(uv)):
-        ncc_search(lbox, rbox, uv[i:i + 1], hh[i:i + 1], hw, lo[i], hi[i], h, w, by0, lx0, rx0,
-                   d_out[i:i + 1], score[i:i + 1])
 
 
 @numba.njit(**_JIT)
@@ -114,8 +99,7 @@ def radius_lookup(img, scale, xy):
 
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
-    img, i, f = np.zeros((8, 16), np.uint8), np.ones(1, np.int64), np.zeros(1)
-    ncc_search_each(img, img, np.zeros((1, 2), np.int64), i, 1, 0 * i, 2 * i, 8, 16, 0, 0, 0, f.copy(), f.copy())
+    img, i = np.zeros((8, 16), np.uint8), np.ones(1, np.int64)
     search_boxes(np.zeros((1, 2)), i, 1, 0, 2, 8, 16)
     inside_fractions(img, np.zeros((1, 2)), 1, 1)
     radius_lookup(np.zeros((2, 2), np.float32), 2.0, np.zeros((1, 2)))

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from appliance.localize import kernels_points, kernels_graph
+from appliance.localize import kernels_graph, kernels_points
 from appliance.localize.skeleton import (
     Skeleton,
     binary,

@@ -56,7 +56,7 @@ def test_mask_col_runs_equals_transposed_runs():
     assert n_runs > 50_000                                           # (the cases hold many runs)
 
 
-def test_find_runs_of_transposed_view_uses_columns_and_agrees():
+def test_find_runs_of_transposed_view_agrees_with_transposing():
     rng = np.random.default_rng(21)
     m = cv2.GaussianBlur(((rng.random((240, 320)) < 0.05) * 255).astype(np.uint8), (9, 9), 3)
     m = cv2.threshold(m, 20, 255, cv2.THRESH_BINARY)[1]

@@ -134,6 +134,10 @@ class Spliced:
         return (part or self.base).at(t)
 
     def deriv(self) -> Spliced:
+        return self._deriv
+
+    @cached
+    def _deriv(self) -> Spliced:            # (made once: read at every extrapolation)
         return Spliced(self.base.deriv(), self.lo, self.hi, self.below and self.below.deriv(),
                        self.above and self.above.deriv())
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from appliance.localize import kernels_graph
+from appliance.localize import kernels_graph, kernels_points
 from appliance.localize.skeleton import (
     Skeleton,
     binary,
@@ -72,6 +72,9 @@ class SkeletonGraph:
 
     def to_full(self, yx: np.ndarray) -> np.ndarray:
         """Skeleton (row, col) -> full-resolution (x, y), shape (N, 2) float."""
+        a = np.asarray(yx)
+        if a.dtype == np.int64 or a.dtype == np.float64:     # (compiled: the same values, no temporaries)
+            return kernels_points.skeleton_to_full(np.ascontiguousarray(a.reshape(-1, 2)), float(self.scale))
         yx = np.asarray(yx, np.float64).reshape(-1, 2)
         return (yx[:, ::-1] + 0.5) * self.scale - 0.5
 

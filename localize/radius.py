@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from appliance.localize import kernels_front
+from appliance.localize import kernels_points, kernels_front
 from appliance.localize.skeleton import binary
 
 # masks with at most this share of non-zero pixels get :func:`kernels_front.distance_near` (~0.06
@@ -59,7 +59,12 @@ def radius_at(radius_map: RadiusMap | np.ndarray, xy_px: np.ndarray) -> np.ndarr
     if not isinstance(radius_map, RadiusMap):
         radius_map = RadiusMap(np.asarray(radius_map))
     img, s = radius_map.image, radius_map.scale
-    xy = np.rint((np.asarray(xy_px, float).reshape(-1, 2) + 0.5) / s - 0.5).astype(int)
+    xy_f = np.asarray(xy_px, float).reshape(-1, 2)
+    if img.dtype == np.float32 and img.ndim == 2 and img.flags.c_contiguous:      # (compiled: the same values)
+        r = kernels_points.radius_lookup(img, float(s), np.ascontiguousarray(xy_f))
+        if r is not None:
+            return r
+    xy = np.rint((xy_f + 0.5) / s - 0.5).astype(int)
     h, w = img.shape
     x = np.minimum(np.maximum(xy[:, 0], 0), w - 1)        # (np.clip of ints: the same, fewer checks)
     y = np.minimum(np.maximum(xy[:, 1], 0), h - 1)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from appliance.localize import kernels_ncc
+from appliance.localize import kernels_points, kernels_ncc
 
 
 def _flat(patch: np.ndarray, min_std: float) -> bool:
@@ -76,15 +76,22 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     lo, hi = int(np.floor(d_range_px[0])), int(np.ceil(d_range_px[1]))
     d_out = np.full(len(uv_px), np.nan)
     score = np.full(len(uv_px), -1.0)
-    uv = np.rint(np.asarray(uv_px, float).reshape(-1, 2)).astype(int)
+    uv_f = np.asarray(uv_px, float).reshape(-1, 2)
     hhs = np.asarray(half_h_px, int)
-    if len(uv) == 0:
+    if len(uv_f) == 0:
         return d_out, score, None
     hw = half_w_px
     # read each image once, over the box its patches (left) or strips (right) need (lazy images rectify it then)
-    by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
-    lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
-    rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
+    uv = None
+    if hhs.shape == (len(uv_f),):       # (compiled: the same integers; None for a centre not finite)
+        uv, by0, by1, lx0, lx1, rx0, rx1 = kernels_points.search_boxes(np.ascontiguousarray(uv_f),
+                                                                      np.ascontiguousarray(hhs, np.int64),
+                                                                      hw, lo, hi, h, w)
+    if uv is None:
+        uv = np.rint(uv_f).astype(int)
+        by0, by1 = max(int((uv[:, 1] - hhs).min()), 0), min(int((uv[:, 1] + hhs).max()) + 1, h)
+        lx0, lx1 = max(int(uv[:, 0].min()) - hw, 0), min(int(uv[:, 0].max()) + hw + 1, w)
+        rx0, rx1 = max(int(uv[:, 0].min()) - hi - hw, 0), min(int(uv[:, 0].max()) - lo + hw + 1, w)
     if by1 <= by0 or lx1 <= lx0 or rx1 <= rx0:
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]

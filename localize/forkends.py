@@ -153,6 +153,8 @@ SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two a
 # predicted by radius); after every decision (which forks are reported is unchanged), where each side is known
 # there from its own crossings (_steep_known: a side carried further is off by its carry, 0.3-1.5 px, not by this)
 CENTRE_TO_AXIS = True
+CENTRE_MAX_RADIUS_PX = 30.0         # ... for a parent up to this radius (px; thicker ones, the scenes' trunks, read
+                                    # 0.07 px where 0.10 is predicted: over-corrected, their cause not traced)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -422,9 +424,10 @@ class ForkPlacing:
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
             agree = False
-        if CENTRE_TO_AXIS and final and parents and all(self._steep_known(s, xy, side_near) for s in parents):
-            self.uvd[node][2] -= centre_bias_px(float(self.uvd[node][2]), float(xy[0]),
-                                                sum(self.curves[s].radius_px for s in parents) / len(parents),
+        r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
+        if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
+                and all(self._steep_known(s, xy, side_near) for s in parents):
+            self.uvd[node][2] -= centre_bias_px(float(self.uvd[node][2]), float(xy[0]), r_mean,
                                                 self.sm.f_px, self.sm.cx_px, self.sm.offset_px)
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the

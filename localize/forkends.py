@@ -440,13 +440,10 @@ class ForkPlacing:
         """Whether a fork's two steep parent sides, both known at ``xy`` (2,) from their own rows there,
         give disparities ``d_par`` (two, px) that are not of one branch (:func:`_agree`): no carry to
         blame, one side's rows next to the fork are another shape's in one view, and nothing tells
-        which. A side is known there when read from its crossings within ``SIDE_KNOWN_PX`` of the fork
-        (``side_near``: {piece: :class:`forkdisp.SideNear`}) or, not read, when its fitted span reaches
-        it (:meth:`_reach` <= 0)."""
+        which (each side known there: :meth:`_steep_known`)."""
         if len(parents) != 2 or len(d_par) != 2 or _agree(d_par[0], d_par[1]):
             return False
-        return all(self.curves[s].by_row and (side_near[s].nearest_px <= SIDE_KNOWN_PX if s in side_near
-                                              else self._reach(s, xy) <= 0) for s in parents)
+        return all(self._steep_known(s, xy, side_near) for s in parents)
 
     def _steep_known(self, s: int, xy: np.ndarray, side_near: dict) -> bool:
         """Whether parent side ``s`` is steep and known at the fork ``xy`` (2,) from its own row crossings:

@@ -12,6 +12,7 @@ import math
 import numpy as np
 from appliance.localize import kernels_forkglue, kernels_match, kernels_tips
 from appliance.localize.curves import BranchCurve, Poly
+from appliance.localize.capslope import MIN_SLOPE, curve_slope, slope_corrected
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
@@ -365,7 +366,24 @@ class TipPlacing:
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
                                                h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE)
-        return None if status == 0 else float(d)
+        if status != 1:
+            return None if status == 0 else float(d)
+        return self._cap_slope_corrected(c, float(d), t_edge, uv_edge, out, sign, r)
+
+    def _cap_slope_corrected(self, c: BranchCurve, d: float, t_edge: float, uv_edge: np.ndarray, out: np.ndarray,
+                             sign: float, r: float) -> float:
+        """:meth:`_cap_disparity`'s reading ``d`` taken back to the cap's own centre on a piece inclined
+        in depth (:func:`capslope.slope_corrected`: the rows between the piece radius' ``P`` and the
+        cap's centre, read from its own width by :func:`tips.cap_centre`, cross the body)."""
+        px_per_t = 1.0 / max(abs(float(out[1])), 1e-6)          # (a steep piece: t is the row)
+        slope = curve_slope(c.d_at, t_edge, c.t_range, sign, r, px_per_t)
+        if slope is None or abs(slope) < MIN_SLOPE:
+            return d
+        shapes, offsets = cap_shapes_offsets(self.sm.left_mask, [(uv_edge, out, r)])
+        centre = cap_centre(shapes[0], float(offsets[0]), r)
+        if centre is None:
+            return d
+        return slope_corrected(d, slope, r, WALK_EDGE_BIAS * px_per_t + centre[0])
 
     def _tip_tables(self) -> tuple:
         """The mask runs' and the valid areas' tables the tips' kernels take (:func:`kernels_tips.runs_tables`),

@@ -5,7 +5,7 @@ from dataclasses import replace
 
 import pytest
 from appliance.config import load_config
-from appliance.localize import Localizer, dense, tipends, tips
+from appliance.localize import Localizer, capslope, dense, tipends, tips
 from appliance.synth.evaluate import score_result
 
 
@@ -67,3 +67,18 @@ def test_a_stray_patch_off_the_branch_in_one_view_does_not_cost_a_flat_tip(rende
         assert row.result_id >= 0 and abs(row.dz_mm) <= 1.5
     else:
         assert row.result_id < 0
+
+
+@pytest.mark.parametrize("share", [0.0, capslope.SLOPE_SHARE])
+def test_a_steep_tip_on_a_piece_inclined_in_depth_is_read_at_its_caps_centre(rendered_scene, monkeypatch, share):
+    # seed 374's tip 18 (Z 1023 mm, exact masks): a thick steep piece (radius 14.7 px, the tip's own ~12)
+    # receding 0.2 px of disparity per px towards its tip; its cap rows about the piece radius' centre,
+    # behind the cap's own, crossed the body: +0.62 px, -3.7 mm. Taken back along the piece's gradient
+    # to the cap's centre (capslope.py): -1.4 mm. (Pure helpers: test_capslope.py.)
+    monkeypatch.setattr(capslope, "SLOPE_SHARE", share)
+    row = tip_row(rendered_scene(374), 18, exact=True)
+    assert row.result_id >= 0
+    if share:
+        assert abs(row.dz_mm) <= 2.0
+    else:
+        assert row.dz_mm <= -3.0

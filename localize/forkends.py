@@ -18,6 +18,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
+from appliance.localize.forkvouch import known_side_stands
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -122,6 +123,11 @@ SIDE_OUTLINE_PX = 0.5
 # a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
+
+# a parent side carried past half its fitted span, known at the fork only by _reach's 12 px floor (a fit on a
+# few rows), does not replace the fork's disparity in _known_disparity (forkvouch.py: seed 512's fork 9, exact
+# masks, a 13-row side carried 9.5 rows, 4.15 px off, over the median of three, 0.7 px)
+SHORT_SIDE_NOT_KNOWN = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -375,6 +381,9 @@ class ForkPlacing:
         # disparity would differ (the same results, the work skipped otherwise)
         d_known = self._known_disparity(parents, child, child_ok, xy, d, at, side_near) \
             if parents and not from_outline else None
+        if d_known is not None and SHORT_SIDE_NOT_KNOWN and not known_side_stands(d_known, {
+                s: (at(s), self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in parents if s not in side_near}):
+            d_known = None          # (a side known only by the 12 px floor: forkvouch.py)
         out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)

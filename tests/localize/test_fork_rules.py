@@ -276,3 +276,21 @@ def test_a_fork_a_few_px_past_the_right_view_is_still_reported(rendered_scene):
     assert scene[2].features.right_px[14][0] < 0
     row = score_row(scene, 14, exact=True)
     assert row.result_id >= 0 and abs(row.dz_mm) <= 1.5
+
+
+# --- a short side known only by the 12 px floor (docs/localize-gross20.md)
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_short_side_carried_past_half_its_span_does_not_replace_the_median(rendered_scene, monkeypatch, rule):
+    # seed 512's fork 9, exact masks: a steep-ish parent whose side below the fork is fitted on 13 rows and carried
+    # 9.5 rows to it (178.8 px), the side above on 3 rows (189.5), the child 183.6 (truth 182.9). The sides
+    # disagree, so the median of three (183.6) was taken, then _known_disparity replaced it with the 13-row side,
+    # "known" by _reach's 12 px floor: 4.15 px off, +22.3 mm. With the rule the median stands: -3.7 mm.
+    monkeypatch.setattr(forkends, "SHORT_SIDE_NOT_KNOWN", rule)
+    row = score_row(rendered_scene(512), 9, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 4.0 and abs(row.disparity_err_px) < 0.8
+    else:
+        assert row.dz_mm > 20.0

@@ -1,0 +1,33 @@
+"""Whether a parent side's fitted span vouches for its disparity at a fork by its own length.
+
+:meth:`forkends.ForkPlacing._known_disparity` counts a piece's curve as known at the fork when it is carried no
+further past its fitted span than half that span, or 12 px (px of its parameter: rows or columns) whichever is
+more. The 12 px floor lets a fit on a few rows vouch for more than its own half span: a side fitted on 13 rows
+and carried 9.5 rows to the fork (seed 512's fork 9, exact masks: its end slope carried, 4.15 px off, +22 mm)
+or on 9 rows carried 9.9 (seed 458's fork 4, colour masks: 3.1 px off) then replaced the median of three
+readings (the two sides and the child) that was right within 0.7 px. Such a side is not known there by its
+own span: it does not override the others (:func:`known_side_stands`).
+"""
+
+from __future__ import annotations
+
+
+def vouched_by_span(t_range: tuple[float, float], t_fork: float) -> bool:
+    """Whether a curve fitted on ``t_range`` (lo, hi; px of its parameter) is carried to ``t_fork`` (px) no
+    further than half its span past it (inside the span: True)."""
+    lo, hi = t_range
+    return max(lo - t_fork, t_fork - hi, 0.0) <= 0.5 * (hi - lo)
+
+
+def known_side_stands(d_known: float, sides: dict) -> bool:
+    """Whether the disparity ``d_known`` (px) that :meth:`_known_disparity` chose may stand.
+
+    ``sides``: {piece: (disparity at the fork px, (lo, hi) fitted span, the fork's parameter px)} of the
+    parent sides not read from their own crossings or texture next to the fork. False when ``d_known`` is
+    one of those sides' disparity and that side is carried past half its span (known only by the 12 px
+    floor): the fork then keeps the disparity it had (the sides' mean or the median of three).
+    """
+    for d_s, t_range, t_fork in sides.values():
+        if d_s == d_known and not vouched_by_span(t_range, t_fork):
+            return False
+    return True

@@ -18,7 +18,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import known_side_stands
+from appliance.localize.forkvouch import known_side_stands, none_vouched
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -128,6 +128,10 @@ CHILD_DEPTH_PX = 6.0
 # few rows), does not replace the fork's disparity in _known_disparity (forkvouch.py: seed 512's fork 9, exact
 # masks, a 13-row side carried 9.5 rows, 4.15 px off, over the median of three, 0.7 px)
 SHORT_SIDE_NOT_KNOWN = True
+# ... and a fork whose two steep sides clearly disagree (the median of three taken) is withheld where none of the
+# three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
+# fork 9, both mask sources, -3.7 mm after the rule above)
+NONE_KNOWN_WITHHELD = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -422,6 +426,9 @@ class ForkPlacing:
             agree = False
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
+            agree = False
+        if agree and NONE_KNOWN_WITHHELD and final and sides is not None and none_vouched(
+                {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
             agree = False
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the

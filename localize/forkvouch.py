@@ -31,3 +31,14 @@ def known_side_stands(d_known: float, sides: dict) -> bool:
         if d_s == d_known and not vouched_by_span(t_range, t_fork):
             return False
     return True
+
+
+def none_vouched(pieces: dict, read_near: bool) -> bool:
+    """Whether none of a fork's pieces is known at it: ``pieces`` {piece: ((lo, hi) fitted span, the fork's
+    parameter px)} (the parent sides and the child with curves), none vouched for by its span
+    (:func:`vouched_by_span`), and no side read from its own crossings or texture next to the fork
+    (``read_near`` False). Where the two parent sides also clearly disagree (the fork took the median of the
+    three readings) nothing tells its disparity: seed 512's fork 9, sides fitted on 3-14 rows and carried
+    9-13 rows, 6.6 and 4.2 px off on either side of the truth, the child carried 24-26 rows past its
+    43-row span (0.7 px off, -3.7 mm with either mask source)."""
+    return not read_near and not any(vouched_by_span(t_range, t_fork) for t_range, t_fork in pieces.values())

@@ -288,9 +288,24 @@ def test_a_short_side_carried_past_half_its_span_does_not_replace_the_median(ren
     # disagree, so the median of three (183.6) was taken, then _known_disparity replaced it with the 13-row side,
     # "known" by _reach's 12 px floor: 4.15 px off, +22.3 mm. With the rule the median stands: -3.7 mm.
     monkeypatch.setattr(forkends, "SHORT_SIDE_NOT_KNOWN", rule)
+    monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", False)
     row = score_row(rendered_scene(512), 9, exact=True)
     assert row.result_id >= 0
     if rule:
         assert abs(row.dz_mm) < 4.0 and abs(row.disparity_err_px) < 0.8
     else:
         assert row.dz_mm > 20.0
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_sides_disagree_with_no_piece_known_there_is_withheld(rendered_scene, monkeypatch, masks, rule):
+    # seed 512's fork 9: its two sides (fitted on 3-14 rows, carried 9-13) 4-7 px apart on either side of the
+    # truth, the child carried 24-26 rows past its 43-45 row span: the median of three, the child, 0.7 px off
+    # (-3.7 mm); no piece is known at the fork. With the rule it is withheld.
+    monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", rule)
+    row = score_row(rendered_scene(512), 9, exact=masks == "true")
+    if rule:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and 3.0 < abs(row.dz_mm) < 4.5

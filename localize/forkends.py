@@ -18,7 +18,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import known_side_stands, none_vouched
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -132,6 +132,10 @@ SHORT_SIDE_NOT_KNOWN = True
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
 NONE_KNOWN_WITHHELD = True
+# a lone flat parent side's disparity at a fork that the child's curve and the child's right outline both contradict
+# (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
+# the side's texture fit 0.78 px low along its whole length, +6.9 mm)
+LONE_FLAT_OUTVOTED = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -368,6 +372,10 @@ class ForkPlacing:
                 # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
                 # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
                 seen_right = abs(d_out - d) <= 3.0
+            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out):
+                # the child's curve and its right outline agree with each other, not with the lone flat side:
+                # the three readings' mean (forkvouch.outvoted: seed 378's fork 11)
+                d, agree = float((d + at(child) + d_out) / 3.0), True
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \

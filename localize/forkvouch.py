@@ -42,3 +42,23 @@ def none_vouched(pieces: dict, read_near: bool) -> bool:
     9-13 rows, 6.6 and 4.2 px off on either side of the truth, the child carried 24-26 rows past its
     43-row span (0.7 px off, -3.7 mm with either mask source)."""
     return not read_near and not any(vouched_by_span(t_range, t_fork) for t_range, t_fork in pieces.values())
+
+
+# a lone flat parent side's disparity at a fork is out-voted by the child's curve and the child's right outline
+# when those two agree within OUTVOTE_AGREE_PX and both lie more than OUTVOTE_MIN_PX from it on the same side
+OUTVOTE_AGREE_PX = 0.5
+OUTVOTE_MIN_PX = 0.5
+# ... and no further than this (px; forkends.OUTLINE_MAX_SHIFT_PX's 2 px): further, the child is another branch
+# crossing the parent at another depth, not a fork (seed 298: 27 px)
+OUTVOTE_MAX_PX = 2.0
+
+
+def outvoted(d_side: float, d_child: float, d_outline: float) -> bool:
+    """Whether a lone flat parent side's disparity ``d_side`` at a fork (px; its curve or its texture read next
+    to the fork) is out-voted by two independent readings there: the child's curve ``d_child`` and the child's
+    outline in the right view ``d_outline`` agree within ``OUTVOTE_AGREE_PX`` and both lie more than
+    ``OUTVOTE_MIN_PX`` (and at most ``OUTVOTE_MAX_PX``) from ``d_side`` on the same side. Seed 378's fork 11 (exact masks): a flat parent's
+    texture fit 0.78 px low along its whole 200 columns (+6.9 mm), the child +0.97, the outline +0.86."""
+    a, b = d_child - d_side, d_outline - d_side
+    return a * b > 0 and OUTVOTE_MIN_PX < min(abs(a), abs(b)) and max(abs(a), abs(b)) <= OUTVOTE_MAX_PX \
+        and abs(d_child - d_outline) <= OUTVOTE_AGREE_PX

@@ -1,6 +1,6 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import known_side_stands, none_vouched, vouched_by_span
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, vouched_by_span
 
 
 def test_a_span_vouches_for_half_its_length_past_either_end():
@@ -24,3 +24,12 @@ def test_none_vouched_unless_one_piece_is_known_by_its_span_or_read_next_to_the_
     assert none_vouched(pieces, read_near=False)           # seed 512's fork 9: 12.5, 9.5, 25.5 rows carried
     assert not none_vouched(pieces, read_near=True)
     assert not none_vouched({**pieces, 25: ((740.0, 791.0), 722.5)}, read_near=False)   # 17.5 of 51 rows
+
+
+def test_a_lone_flat_side_is_outvoted_only_by_a_child_and_outline_that_agree_on_the_same_side():
+    assert outvoted(139.88, 140.84, 140.74)                # seed 378's fork 11
+    assert outvoted(231.13, 230.39, 230.16)                # seed 144's fork 8: the other way
+    assert not outvoted(139.88, 140.84, 140.20)            # the outline within 0.5 px of the side
+    assert not outvoted(139.88, 141.10, 140.55)            # the two 0.55 px apart
+    assert not outvoted(139.88, 140.84, 138.90)            # on either side
+    assert not outvoted(186.54, 213.26, 212.89)            # seed 298: another branch crossing 27 px nearer

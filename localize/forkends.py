@@ -19,6 +19,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -123,6 +124,19 @@ SIDE_OUTLINE_PX = 0.5
 # a stub's curve (caps.py) gained after its fork was placed from its right outline, further than this
 # from the flat parent's disparity at its end next to the fork (px), discredits that outline
 CHILD_DEPTH_PX = 6.0
+
+# a parent side carried past half its fitted span, known at the fork only by _reach's 12 px floor (a fit on a
+# few rows), does not replace the fork's disparity in _known_disparity (forkvouch.py: seed 512's fork 9, exact
+# masks, a 13-row side carried 9.5 rows, 4.15 px off, over the median of three, 0.7 px)
+SHORT_SIDE_NOT_KNOWN = True
+# ... and a fork whose two steep sides clearly disagree (the median of three taken) is withheld where none of the
+# three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
+# fork 9, both mask sources, -3.7 mm after the rule above)
+NONE_KNOWN_WITHHELD = True
+# a lone flat parent side's disparity at a fork that the child's curve and the child's right outline both contradict
+# (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
+# the side's texture fit 0.78 px low along its whole length, +6.9 mm)
+LONE_FLAT_OUTVOTED = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -368,6 +382,10 @@ class ForkPlacing:
                 # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
                 # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
                 seen_right = abs(d_out - d) <= 3.0
+            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out):
+                # the child's curve and its right outline agree with each other, not with the lone flat side:
+                # the three readings' mean (forkvouch.outvoted: seed 378's fork 11)
+                d, agree = float((d + at(child) + d_out) / 3.0), True
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
@@ -385,6 +403,9 @@ class ForkPlacing:
         # disparity would differ (the same results, the work skipped otherwise)
         d_known = self._known_disparity(parents, child, child_ok, xy, d, at, side_near) \
             if parents and not from_outline else None
+        if d_known is not None and SHORT_SIDE_NOT_KNOWN and not known_side_stands(d_known, {
+                s: (at(s), self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in parents if s not in side_near}):
+            d_known = None          # (a side known only by the 12 px floor: forkvouch.py)
         out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)
@@ -423,6 +444,9 @@ class ForkPlacing:
             agree = False
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
+            agree = False
+        if agree and NONE_KNOWN_WITHHELD and final and sides is not None and none_vouched(
+                {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
             agree = False
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \

@@ -276,3 +276,50 @@ def test_a_fork_a_few_px_past_the_right_view_is_still_reported(rendered_scene):
     assert scene[2].features.right_px[14][0] < 0
     row = score_row(scene, 14, exact=True)
     assert row.result_id >= 0 and abs(row.dz_mm) <= 1.5
+
+
+# --- a short side known only by the 12 px floor (docs/localize-gross20.md)
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_short_side_carried_past_half_its_span_does_not_replace_the_median(rendered_scene, monkeypatch, rule):
+    # seed 512's fork 9, exact masks: a steep-ish parent whose side below the fork is fitted on 13 rows and carried
+    # 9.5 rows to it (178.8 px), the side above on 3 rows (189.5), the child 183.6 (truth 182.9). The sides
+    # disagree, so the median of three (183.6) was taken, then _known_disparity replaced it with the 13-row side,
+    # "known" by _reach's 12 px floor: 4.15 px off, +22.3 mm. With the rule the median stands: -3.7 mm.
+    monkeypatch.setattr(forkends, "SHORT_SIDE_NOT_KNOWN", rule)
+    monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", False)
+    row = score_row(rendered_scene(512), 9, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 4.0 and abs(row.disparity_err_px) < 0.8
+    else:
+        assert row.dz_mm > 20.0
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_sides_disagree_with_no_piece_known_there_is_withheld(rendered_scene, monkeypatch, masks, rule):
+    # seed 512's fork 9: its two sides (fitted on 3-14 rows, carried 9-13) 4-7 px apart on either side of the
+    # truth, the child carried 24-26 rows past its 43-45 row span: the median of three, the child, 0.7 px off
+    # (-3.7 mm); no piece is known at the fork. With the rule it is withheld.
+    monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", rule)
+    row = score_row(rendered_scene(512), 9, exact=masks == "true")
+    if rule:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and 3.0 < abs(row.dz_mm) < 4.5
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_side_outvoted_by_the_child_and_its_outline_gives_way_to_the_mean(rendered_scene, monkeypatch, rule):
+    # seed 378's fork 11, exact masks: a flat parent fitted on one side (200 columns, its bark texture 0.78 px
+    # low along all of them), the child's curve +0.97 px and its right outline +0.86 px from it: +6.9 mm; the
+    # mean of the three +1.5 mm.
+    monkeypatch.setattr(forkends, "LONE_FLAT_OUTVOTED", rule)
+    row = score_row(rendered_scene(378), 11, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.5
+    else:
+        assert row.dz_mm > 6.0

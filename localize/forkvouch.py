@@ -1,0 +1,64 @@
+"""Whether a parent side's fitted span vouches for its disparity at a fork by its own length.
+
+:meth:`forkends.ForkPlacing._known_disparity` counts a piece's curve as known at the fork when it is carried no
+further past its fitted span than half that span, or 12 px (px of its parameter: rows or columns) whichever is
+more. The 12 px floor lets a fit on a few rows vouch for more than its own half span: a side fitted on 13 rows
+and carried 9.5 rows to the fork (seed 512's fork 9, exact masks: its end slope carried, 4.15 px off, +22 mm)
+or on 9 rows carried 9.9 (seed 458's fork 4, colour masks: 3.1 px off) then replaced the median of three
+readings (the two sides and the child) that was right within 0.7 px. Such a side is not known there by its
+own span: it does not override the others (:func:`known_side_stands`).
+"""
+
+from __future__ import annotations
+
+
+def vouched_by_span(t_range: tuple[float, float], t_fork: float) -> bool:
+    """Whether a curve fitted on ``t_range`` (lo, hi; px of its parameter) is carried to ``t_fork`` (px) no
+    further than half its span past it (inside the span: True)."""
+    lo, hi = t_range
+    return max(lo - t_fork, t_fork - hi, 0.0) <= 0.5 * (hi - lo)
+
+
+def known_side_stands(d_known: float, sides: dict) -> bool:
+    """Whether the disparity ``d_known`` (px) that :meth:`_known_disparity` chose may stand.
+
+    ``sides``: {piece: (disparity at the fork px, (lo, hi) fitted span, the fork's parameter px)} of the
+    parent sides not read from their own crossings or texture next to the fork. False when ``d_known`` is
+    one of those sides' disparity and that side is carried past half its span (known only by the 12 px
+    floor): the fork then keeps the disparity it had (the sides' mean or the median of three).
+    """
+    for d_s, t_range, t_fork in sides.values():
+        if d_s == d_known and not vouched_by_span(t_range, t_fork):
+            return False
+    return True
+
+
+def none_vouched(pieces: dict, read_near: bool) -> bool:
+    """Whether none of a fork's pieces is known at it: ``pieces`` {piece: ((lo, hi) fitted span, the fork's
+    parameter px)} (the parent sides and the child with curves), none vouched for by its span
+    (:func:`vouched_by_span`), and no side read from its own crossings or texture next to the fork
+    (``read_near`` False). Where the two parent sides also clearly disagree (the fork took the median of the
+    three readings) nothing tells its disparity: seed 512's fork 9, sides fitted on 3-14 rows and carried
+    9-13 rows, 6.6 and 4.2 px off on either side of the truth, the child carried 24-26 rows past its
+    43-row span (0.7 px off, -3.7 mm with either mask source)."""
+    return not read_near and not any(vouched_by_span(t_range, t_fork) for t_range, t_fork in pieces.values())
+
+
+# a lone flat parent side's disparity at a fork is out-voted by the child's curve and the child's right outline
+# when those two agree within OUTVOTE_AGREE_PX and both lie more than OUTVOTE_MIN_PX from it on the same side
+OUTVOTE_AGREE_PX = 0.5
+OUTVOTE_MIN_PX = 0.5
+# ... and no further than this (px; forkends.OUTLINE_MAX_SHIFT_PX's 2 px): further, the child is another branch
+# crossing the parent at another depth, not a fork (seed 298: 27 px)
+OUTVOTE_MAX_PX = 2.0
+
+
+def outvoted(d_side: float, d_child: float, d_outline: float) -> bool:
+    """Whether a lone flat parent side's disparity ``d_side`` at a fork (px; its curve or its texture read next
+    to the fork) is out-voted by two independent readings there: the child's curve ``d_child`` and the child's
+    outline in the right view ``d_outline`` agree within ``OUTVOTE_AGREE_PX`` and both lie more than
+    ``OUTVOTE_MIN_PX`` (and at most ``OUTVOTE_MAX_PX``) from ``d_side`` on the same side. Seed 378's fork 11 (exact masks): a flat parent's
+    texture fit 0.78 px low along its whole 200 columns (+6.9 mm), the child +0.97, the outline +0.86."""
+    a, b = d_child - d_side, d_outline - d_side
+    return a * b > 0 and OUTVOTE_MIN_PX < min(abs(a), abs(b)) and max(abs(a), abs(b)) <= OUTVOTE_MAX_PX \
+        and abs(d_child - d_outline) <= OUTVOTE_AGREE_PX

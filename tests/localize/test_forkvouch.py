@@ -1,0 +1,35 @@
+"""forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
+
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, vouched_by_span
+
+
+def test_a_span_vouches_for_half_its_length_past_either_end():
+    assert vouched_by_span((732.0, 745.0), 740.0)          # inside
+    assert vouched_by_span((732.0, 745.0), 725.5)          # 6.5 rows past a 13-row span
+    assert not vouched_by_span((732.0, 745.0), 722.5)      # 9.5 rows past (seed 512's fork 9)
+    assert not vouched_by_span((100.0, 120.0), 131.0)      # past the far end
+    assert vouched_by_span((100.0, 300.0), 10.0)
+
+
+def test_the_short_sides_disparity_does_not_stand_the_others_do():
+    sides = {24: (178.78, (732.0, 745.0), 722.5), 23: (189.48, (707.0, 710.0), 722.5)}
+    assert not known_side_stands(178.78, sides)            # the short side carried 9.5 rows
+    assert known_side_stands(183.63, sides)                # the median of three: not one of these sides
+    long_side = {9: (148.87, (400.0, 497.0), 357.8)}       # 42 rows past a 97-row span
+    assert known_side_stands(148.87, long_side)
+
+
+def test_none_vouched_unless_one_piece_is_known_by_its_span_or_read_next_to_the_fork():
+    pieces = {23: ((707.0, 710.0), 722.5), 24: ((732.0, 745.0), 722.5), 25: ((748.0, 791.0), 722.5)}
+    assert none_vouched(pieces, read_near=False)           # seed 512's fork 9: 12.5, 9.5, 25.5 rows carried
+    assert not none_vouched(pieces, read_near=True)
+    assert not none_vouched({**pieces, 25: ((740.0, 791.0), 722.5)}, read_near=False)   # 17.5 of 51 rows
+
+
+def test_a_lone_flat_side_is_outvoted_only_by_a_child_and_outline_that_agree_on_the_same_side():
+    assert outvoted(139.88, 140.84, 140.74)                # seed 378's fork 11
+    assert outvoted(231.13, 230.39, 230.16)                # seed 144's fork 8: the other way
+    assert not outvoted(139.88, 140.84, 140.20)            # the outline within 0.5 px of the side
+    assert not outvoted(139.88, 141.10, 140.55)            # the two 0.55 px apart
+    assert not outvoted(139.88, 140.84, 138.90)            # on either side
+    assert not outvoted(186.54, 213.26, 212.89)            # seed 298: another branch crossing 27 px nearer

@@ -12,7 +12,7 @@ import math
 
 import cv2
 import numpy as np
-from appliance.localize import kernels_forkglue, kernels_forks, kernels_walks
+from appliance.localize import kernels_forkglue, kernels_forknear, kernels_forks, kernels_walks
 from appliance.localize.centreaxis import centre_bias_px
 from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkchild import child_texture_agrees, passes_through
@@ -228,10 +228,11 @@ class ForkPlacing:
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
                 # (self._near_points and the piece's direction from the junction, compiled in one call:
-                # kernels_forkglue.near_piece, the same values; fewer than 3 points: the 15 nearest)
+                # kernels_forknear.near_or_nearest, the same values; fewer than 3 points: the 15 nearest,
+                # by numpy's sort where tied distances leave their order to it)
                 seg_pts = self.seg_points(s)
-                pts, dist, u = kernels_forkglue.near_piece(seg_pts, float(p[0]), float(p[1]), float(r))
-                if len(pts) < 3:
+                pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
+                if not ok:
                     pts = seg_pts[np.argsort(dist)[:15]]
                     v = pts.sum(0) / len(pts) - p
                     u = v / max(np.hypot(*v), 1e-9)

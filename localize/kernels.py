@@ -54,11 +54,12 @@ def warm_up() -> None:
     for a compile (a live stream, a worker process). Each module's ``warm_up`` (imported here, not
     at import time: they import this module for :data:`_JIT`)."""
     from appliance.localize import (kernels_check, kernels_colruns, kernels_dense, kernels_endreads, kernels_fit,
-                                    kernels_forkglue, kernels_forks, kernels_front, kernels_graph, kernels_match,
+                                    kernels_forkglue, kernels_forknear, kernels_forks, kernels_front, kernels_graph,
+                                    kernels_match,
                                     kernels_ncc, kernels_patchshare, kernels_points, kernels_refine, kernels_runs,
                                     kernels_segclean, kernels_segment, kernels_tips, kernels_walks)
     for module in (kernels_fit, kernels_runs, kernels_walks, kernels_graph, kernels_segment, kernels_ncc,
                    kernels_dense, kernels_refine, kernels_tips, kernels_forks, kernels_front, kernels_check,
                    kernels_match, kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare,
-                   kernels_colruns, kernels_points):
+                   kernels_colruns, kernels_points, kernels_forknear):
         module.warm_up()

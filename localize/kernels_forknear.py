@@ -1,0 +1,85 @@
+"""Compiled steps of a fork's pieces next to its junction (forkends.ForkPlacing.fork; speedfork20).
+
+``fork`` reads, for each piece at a junction, the piece's centre-line points near it and the piece's
+direction from it. :func:`kernels_forkglue.near_piece` keeps the points 1.6 r to 1.6 r + max(40, 4 r)
+from the junction; where fewer than 3 lie there, ``fork`` took the 15 nearest (``np.argsort`` of the
+distances) and their mean's direction in numpy. :func:`near_or_nearest` does both in one call, with the
+same operations in the same order, so the values are the same bit for bit. numpy's sort orders tied
+distances its own way: where a tie could change the 15 points or their order (two equal distances among
+the 16 nearest) the kernel says so and the caller keeps numpy's steps.
+Registered in :func:`kernels.warm_up` (:func:`warm_up`).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from appliance.localize.kernels import _JIT
+from appliance.localize.kernels_forkglue import near_piece
+
+# the nearest points a piece keeps where fewer than 3 lie in the ring around the junction
+NEAREST_K = 15
+
+
+@numba.njit(**_JIT)
+def near_or_nearest(pts, px, py, r):
+    """A piece's points near a junction and its unit direction from it, with the 15-nearest fallback.
+
+    Parameters
+    ----------
+    pts : (N, 2) float64
+        The piece's centre line (x, y; px), :meth:`ends.EndPlacer.seg_points` (N >= 1).
+    px, py : float
+        The junction (px).
+    r : float
+        The junction's radius (px).
+
+    Returns
+    -------
+    sel : (K, 2) float64
+        :func:`kernels_forkglue.near_piece`'s points where K >= 3; else the ``NEAREST_K`` nearest (all
+        N if fewer) by distance, nearest first (``pts[np.argsort(dist)[:15]]``).
+    dist : (N,) float64
+        Every point's distance from the junction (``np.hypot``).
+    u : (2,) float64
+        The unit direction from the junction to the mean of ``sel`` (the rows added in order, divided
+        by K, the junction subtracted, over ``max(np.hypot(v), 1e-9)``).
+    ok : bool
+        False where the fallback's points or their order are numpy's sort's to tell (a NaN distance,
+        or two equal distances among the K + 1 nearest: the points' order matters to the sums of
+        their lines, ``kernels_forks.tls_line``): ``sel`` and ``u`` are then undefined and the caller
+        takes numpy's steps.
+    """
+    sel, dist, u = near_piece(pts, px, py, r)
+    if len(sel) >= 3:
+        return sel, dist, u, True
+    n = len(dist)
+    for i in range(n):
+        if np.isnan(dist[i]):
+            return sel, dist, u, False
+    order = np.argsort(dist, kind="mergesort")
+    k = min(NEAREST_K, n)
+    for i in range(min(k + 1, n) - 1):         # (a tie among the k + 1 nearest: numpy's sort orders them)
+        if dist[order[i]] == dist[order[i + 1]]:
+            return sel, dist, u, False
+    near = np.empty((k, 2))
+    for i in range(k):
+        near[i, 0], near[i, 1] = pts[order[i], 0], pts[order[i], 1]
+    sx, sy = near[0, 0], near[0, 1]            # (ndarray.sum(0) of (K, 2): the rows added in order)
+    for i in range(1, k):
+        sx += near[i, 0]
+        sy += near[i, 1]
+    vx, vy = sx / k - px, sy / k - py
+    h = np.hypot(vx, vy)
+    h = 1e-9 if 1e-9 > h else h                # (Python's max(h, 1e-9): NaN stays NaN)
+    u = np.empty(2)
+    u[0], u[1] = vx / h, vy / h
+    return near, dist, u, True
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
+    pts = np.zeros((3, 2))
+    pts.setflags(write=False)                  # (EndPlacer.seg_points' read-only points)
+    near_or_nearest(pts, 0.0, 0.0, 1.0)

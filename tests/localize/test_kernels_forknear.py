@@ -1,0 +1,97 @@
+"""A fork's pieces next to its junction (kernels_forknear.near_or_nearest) against the steps it replaced in
+ForkPlacing.fork (kernels_forkglue.near_piece, then numpy's 15 nearest by np.argsort), bit for bit (atol 0 px)."""
+
+from __future__ import annotations
+
+import numpy as np
+from appliance.localize import kernels_forkglue, kernels_forknear
+
+
+def _former(pts, p, r):
+    """ForkPlacing.fork's former steps: near_piece, and fewer than 3 points: the 15 nearest in numpy."""
+    near, dist, u = kernels_forkglue.near_piece(pts, float(p[0]), float(p[1]), float(r))
+    if len(near) < 3:
+        near = pts[np.argsort(dist)[:15]]
+        v = near.sum(0) / len(near) - p
+        u = v / max(np.hypot(*v), 1e-9)
+    return near, u
+
+
+def _now(pts, p, r):
+    """fork's steps now: the kernel, numpy's steps where it leaves the order to numpy's sort."""
+    near, dist, u, ok = kernels_forknear.near_or_nearest(pts, float(p[0]), float(p[1]), float(r))
+    if not ok:
+        near = pts[np.argsort(dist)[:15]]
+        v = near.sum(0) / len(near) - p
+        u = v / max(np.hypot(*v), 1e-9)
+    return near, u, ok
+
+
+def _grid(rng, n, scale):
+    """Skeleton pixels' centres (SkeletonGraph.to_full: half-px multiples)."""
+    return np.ascontiguousarray((rng.integers(0, 300, (n, 2)) + 0.5) * scale - 0.5, float)
+
+
+def test_near_or_nearest_is_the_former_steps_bit_for_bit():
+    rng = np.random.default_rng(20)
+    n_fallback = n_kernel_fallback = 0
+    for trial in range(1500):
+        few = trial % 2 == 0            # (a short piece inside the junction's blob: the 15-nearest fallback)
+        n = int(rng.integers(1, 40)) if few else int(rng.integers(2, 400))
+        if trial % 3 == 0:
+            pts = _grid(rng, n, float(rng.choice([1, 2, 3])))
+        elif trial % 3 == 1:            # a fitted curve's points
+            t = np.linspace(0, rng.uniform(5, 300), n)
+            pts = np.column_stack([rng.uniform(0, 600) + rng.normal(0, 30) * np.sin(t / 50), rng.uniform(0, 400) + t])
+        else:                           # a short run of pixels along a line from near the junction
+            pts = np.cumsum(rng.integers(-1, 2, (n, 2)), 0) + rng.integers(0, 300, 2) + 0.5
+        pts = np.ascontiguousarray(pts, float)
+        if trial % 4 < 2:
+            pts.setflags(write=False)
+        p = pts[int(rng.integers(n))] + (np.round(rng.normal(0, 3, 2)) if trial % 5 == 0 else rng.normal(0, 5, 2))
+        r = float(rng.uniform(20, 80)) if few else float(rng.uniform(0.5, 20))
+        a, ua = _former(pts, p, r)
+        b, ub, ok = _now(pts, p, r)
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(ua, ub)
+        if len(kernels_forkglue.near_piece(pts, float(p[0]), float(p[1]), float(r))[0]) < 3:
+            n_fallback += 1
+            n_kernel_fallback += ok
+    assert n_fallback > 500 and n_kernel_fallback > 0.3 * n_fallback     # (both paths)
+    assert n_kernel_fallback < n_fallback
+
+
+def test_ties_leave_the_order_to_numpy_where_it_matters():
+    p = np.array([100.0, 100.0])
+    # a tie at the cut (the 15th and 16th nearest at one distance): numpy's sort picks the points
+    ring = np.array([[100.0 + k, 100.0] for k in range(1, 15)] + [[100.0, 115.0], [115.0, 100.0]])
+    sel, dist, u, ok = kernels_forknear.near_or_nearest(ring, float(p[0]), float(p[1]), 80.0)
+    assert not ok
+    # ties inside the 15, even on the half-pixel grid: the points' order (their lines' sums) is numpy's sort's
+    grid = np.array([[100.0 + k, 100.0] for k in range(1, 8)] + [[100.0, 100.0 + k] for k in range(1, 8)] + [[90.5, 90.5]])
+    assert kernels_forknear.near_or_nearest(grid, float(p[0]), float(p[1]), 80.0)[3] is False
+    # no tie: compiled, numpy's points in numpy's order
+    line = np.array([[100.0 + k, 100.0 + 0.5 * k] for k in range(1, 25)])[::-1].copy()
+    near, u_ref = _former(line, p, 80.0)
+    sel, dist, u, ok = kernels_forknear.near_or_nearest(line, float(p[0]), float(p[1]), 80.0)
+    assert ok and len(sel) == 15
+    np.testing.assert_array_equal(sel, near)
+    np.testing.assert_array_equal(u, u_ref)
+    # a NaN point: numpy's
+    nan = grid.copy()
+    nan[3] = np.nan
+    assert kernels_forknear.near_or_nearest(nan, float(p[0]), float(p[1]), 80.0)[3] is False
+
+
+def test_the_ring_keeps_near_piece():
+    rng = np.random.default_rng(21)
+    for _ in range(200):
+        pts = np.ascontiguousarray(rng.uniform(0, 200, (int(rng.integers(3, 200)), 2)))
+        p, r = rng.uniform(50, 150, 2), float(rng.uniform(1, 15))
+        a, da, ua = kernels_forkglue.near_piece(pts, float(p[0]), float(p[1]), r)
+        b, db, ub, ok = kernels_forknear.near_or_nearest(pts, float(p[0]), float(p[1]), r)
+        assert ok or len(a) < 3
+        np.testing.assert_array_equal(da, db)
+        if len(a) >= 3:
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(ua, ub)

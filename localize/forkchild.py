@@ -55,8 +55,10 @@ def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray,
     s = s0_px + np.arange(0.0, REACH_PX + 1e-9, STEP_PX)
     pts = np.asarray(c_px, float) + s[:, None] * np.asarray(e, float)
     hh = max(1, int(0.6 * r_child_px))
-    # the axis' disparity on the surface the patches see (surface_to_axis inverted)
-    d_s = (d_px - offset_px) * (1.0 + patch_depth_fraction(r_child_px, hh) * r_child_px / f_px) + offset_px
+    # the axis' disparity on the surface the patches see (surface_to_axis inverted; its depth fraction,
+    # surface_to_axis' own default, reused below)
+    frac = patch_depth_fraction(r_child_px, hh)
+    d_s = (d_px - offset_px) * (1.0 + frac * r_child_px / f_px) + offset_px
     d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
                                  (d_s - SEARCH_PX, d_s + SEARCH_PX))
     # (a best match at the search's end is no peak: the texture matches further out, or nowhere)
@@ -64,7 +66,7 @@ def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray,
     n_good = int(np.count_nonzero(ok))
     if n_good < MIN_PATCHES:
         return False
-    d_ax = surface_to_axis(d[ok], r_child_px, f_px, offset_px)
+    d_ax = surface_to_axis(d[ok], r_child_px, f_px, offset_px, depth_fraction=frac)
     n_ok = int(np.count_nonzero(np.abs(d_ax - d_px) <= max(1.0, 0.006 * abs(d_px))))
     return n_ok >= MIN_PATCHES and n_ok >= MIN_SHARE * n_good
 

@@ -192,6 +192,12 @@ def _t_at(c: BranchCurve, xy: np.ndarray) -> float:
     return float(xy[1] if c.by_row else xy[0])
 
 
+def _d_at(c: BranchCurve, xu: float, xv: float) -> np.float64:
+    """``c.d_at(_t_at(c, xy))[0]`` at the point (``xu``, ``xv``) px: the curve's one-point path
+    (:meth:`BranchCurve._at` with its end slopes), without the one-element array."""
+    return np.float64(c._at(c.d_poly, xv if c.by_row else xu, c.d_end_slopes))
+
+
 def _agree(d1: float, d2: float) -> bool:
     """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
     return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
@@ -291,10 +297,9 @@ class ForkPlacing:
                 shift = min(max(ahead * np.dot(xy - p0, e1), -(3.0 * r_par + 2 * self.g.scale)),
                             0.5 * r_par + 2 * self.g.scale)          # (np.clip of one value, without its overhead)
                 xy = p0 + ahead * shift * e1
-        # (a curve's parameter at xy as a Python float: its one-point path, the values of t_of's array)
-        at = lambda s: self.curves[s].d_at(_t_at(self.curves[s], xy))[0]
-
         xu, xv = xy.tolist()
+        # (a curve's disparity at xy: d_at's one-point path, BranchCurve._at, as d_at(t)[0]'s float64)
+        at = lambda s: _d_at(self.curves[s], xu, xv)
 
         def passes(s):              # a curve's disparity at the fork's row/column is its own there
             c = self.curves[s]

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from appliance.localize import kernels_forks, kernels_ncc
+from appliance.localize import kernels_forknear, kernels_forks, kernels_ncc
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.patchmask import share_difference
@@ -238,6 +238,11 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
         return d_out, score
     lbox = np.asarray(left[y0:y1, x0:x1])
     rbox = np.asarray(right[y0:y1, x0 - hi:x1 - lo])
+    if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:     # (compiled: the loop below, the same values)
+        kernels_forknear.patch_peaks(np.ascontiguousarray(lbox), np.ascontiguousarray(rbox),
+                                     np.ascontiguousarray(ui, np.int64), int(hh), int(hw), int(lo), int(hi),
+                                     y0, x0, d_out, score)
+        return d_out, score
     for i, (u, v) in enumerate(ui.tolist()):
         tmpl = lbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0]
         lo_v, hi_v = cv2.minMaxLoc(tmpl)[:2]

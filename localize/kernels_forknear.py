@@ -1,4 +1,4 @@
-"""Compiled steps of a fork's pieces next to its junction (forkends.ForkPlacing.fork; speedfork20).
+"""Compiled steps of a fork's reads next to its junction (forkends.ForkPlacing.fork and its callees; speedfork20).
 
 ``fork`` reads, for each piece at a junction, the piece's centre-line points near it and the piece's
 direction from it. :func:`kernels_forkglue.near_piece` keeps the points 1.6 r to 1.6 r + max(40, 4 r)
@@ -7,6 +7,11 @@ distances) and their mean's direction in numpy. :func:`near_or_nearest` does bot
 same operations in the same order, so the values are the same bit for bit. numpy's sort orders tied
 distances its own way: where a tie could change the 15 points or their order (two equal distances among
 the 16 nearest) the kernel says so and the caller keeps numpy's steps.
+
+A flat parent side's texture next to the fork (:func:`forkdisp.flat_side_near`) searches a few patches along
+the rows, each its template's range, correlation scores and sub-pixel peak in Python; :func:`patch_peaks`
+does all of a side's patches in one call, with the same exact sums (:func:`kernels_ncc._ncc_row`) and the
+same float steps.
 Registered in :func:`kernels.warm_up` (:func:`warm_up`).
 """
 
@@ -17,6 +22,7 @@ import numpy as np
 
 from appliance.localize.kernels import _JIT
 from appliance.localize.kernels_forkglue import near_piece
+from appliance.localize.kernels_ncc import _ncc_row, _patch_sums
 
 # the nearest points a piece keeps where fewer than 3 lie in the ring around the junction
 NEAREST_K = 15
@@ -78,8 +84,59 @@ def near_or_nearest(pts, px, py, r):
     return near, dist, u, True
 
 
+@numba.njit(**_JIT)
+def patch_peaks(lbox, rbox, ui, hh, hw, lo, hi, y0, x0, d_out, score):
+    """Each patch's sub-pixel disparity and correlation (``forkdisp._patch_disparity``'s loop, uint8 images).
+
+    Parameters
+    ----------
+    lbox, rbox : (BH, BW) and (BH, BW + hi - lo) uint8
+        The left view's box ``[y0:y1, x0:x1]`` over the patches and the right view's ``[y0:y1, x0 - hi:x1 - lo]``.
+    ui : (N, 2) int64
+        The patches' centres (u, v), rounded, px, inside the box.
+    hh, hw : int
+        The patches' half height and half width, px.
+    lo, hi : int
+        The disparities searched, px.
+    y0, x0 : int
+        The left box's origin, px.
+    d_out, score : (N,) float64
+        Filled in: ``hi - (k + off)`` (the best of the TM_CCOEFF_NORMED scores, exact sums as
+        :func:`kernels_ncc.ncc_scores`, at position ``k``, the first maximum, ``off`` its parabola's vertex
+        where the curvature is negative) and the score there; left as given for a patch whose range (max -
+        min) is below 2 (no texture: ``cv2.minMaxLoc``'s test).
+    """
+    nh, nw = 2 * hh + 1, 2 * hw + 1
+    n_pos = hi - lo + 1
+    big = n_pos + nw
+    acc, buf = np.empty(big, np.int32), np.empty(big, np.int32)
+    cs, cs2 = np.empty(big), np.empty(big)
+    cc = np.empty(n_pos)
+    for i in range(len(ui)):
+        ty, tx = ui[i, 1] - hh - y0, ui[i, 0] - hw - x0
+        st, st2, v_lo, v_hi = _patch_sums(lbox, ty, nh, tx, nw)
+        if v_hi - v_lo < 2.0:                   # (no texture: texture._flat's bound)
+            continue
+        _ncc_row(lbox, rbox, ty, nh, tx, nw, tx, n_pos, st, st2, acc, buf, cs, cs2, cc)
+        k = 0                                   # (np.argmax: the first maximum, a NaN first of all)
+        for j in range(n_pos):
+            if np.isnan(cc[j]):
+                k = j
+                break
+            if cc[j] > cc[k]:
+                k = j
+        off = 0.0
+        if 0 < k < n_pos - 1:
+            den = cc[k - 1] - 2 * cc[k] + cc[k + 1]
+            off = 0.5 * (cc[k - 1] - cc[k + 1]) / den if den < 0 else 0.0
+        d_out[i] = hi - (k + off)
+        score[i] = cc[k]
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     pts = np.zeros((3, 2))
     pts.setflags(write=False)                  # (EndPlacer.seg_points' read-only points)
     near_or_nearest(pts, 0.0, 0.0, 1.0)
+    box = np.zeros((3, 3), np.uint8)
+    patch_peaks(box, np.zeros((3, 4), np.uint8), np.ones((1, 2), np.int64), 1, 1, 0, 1, 0, 0, np.zeros(1), np.zeros(1))

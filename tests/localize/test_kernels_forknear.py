@@ -95,3 +95,70 @@ def test_the_ring_keeps_near_piece():
         if len(a) >= 3:
             np.testing.assert_array_equal(a, b)
             np.testing.assert_array_equal(ua, ub)
+
+
+def _patch_loop_ref(left, right, uv, hh, hw, lo, hi):
+    """forkdisp._patch_disparity's former loop (d8a16ad): per patch minMaxLoc, ncc_scores, the parabola."""
+    import cv2
+    from appliance.localize import kernels_ncc
+    h, w = left.shape
+    n = len(uv)
+    d_out, score = np.full(n, np.nan), np.full(n, -1.0)
+    ui = np.rint(uv).astype(int)
+    y0, y1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1
+    x0, x1 = int(ui[:, 0].min()) - hw, int(ui[:, 0].max()) + hw + 1
+    if y0 < 0 or y1 > h or x0 - hi < 0 or x1 - lo > w or x0 < 0 or x1 > w:
+        return d_out, score
+    lbox = np.asarray(left[y0:y1, x0:x1])
+    rbox = np.asarray(right[y0:y1, x0 - hi:x1 - lo])
+    for i, (u, v) in enumerate(ui.tolist()):
+        tmpl = lbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0]
+        lo_v, hi_v = cv2.minMaxLoc(tmpl)[:2]
+        if hi_v - lo_v < 2.0:
+            continue
+        strip = rbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0 + hi - lo]
+        cc = kernels_ncc.ncc_scores(np.ascontiguousarray(strip), np.ascontiguousarray(tmpl))
+        k = int(cc.argmax())
+        off = 0.0
+        if 0 < k < len(cc) - 1:
+            den = float(cc[k - 1] - 2 * cc[k] + cc[k + 1])
+            off = 0.5 * float(cc[k - 1] - cc[k + 1]) / den if den < 0 else 0.0
+        d_out[i] = hi - (k + off)
+        score[i] = float(cc[k])
+    return d_out, score
+
+
+def test_patch_disparity_is_the_former_loop_bit_for_bit():
+    from appliance.localize.forkdisp import _patch_disparity
+    rng = np.random.default_rng(22)
+    n_found = n_flat = 0
+    for trial in range(150):
+        h, w = 120, 200
+        base = rng.integers(0, 256, (h, w + 40)).astype(float)
+        base = cv2_blur(base, int(rng.integers(1, 4)))
+        if trial % 5 == 0:                  # flat stretches (no texture: patches skipped)
+            base[:, : int(rng.integers(20, 200))] = float(rng.integers(0, 256))
+        left = np.clip(base[:, 20:20 + w] + rng.normal(0, 2, (h, w)), 0, 255).astype(np.uint8)
+        shift = int(rng.integers(5, 18))
+        right = np.clip(base[:, 20 + shift:20 + shift + w] + rng.normal(0, 2, (h, w)), 0, 255).astype(np.uint8) \
+            if trial % 3 else np.clip(np.roll(base, shift, 1)[:, 20:20 + w], 0, 255).astype(np.uint8)
+        n = int(rng.integers(1, 7))
+        uv = np.column_stack([rng.uniform(20, 190, n), rng.uniform(5, 115, n)])
+        if trial % 4 == 0:
+            uv = np.round(uv) + 0.5            # (halves: rint's ties to even)
+        hh, hw = int(rng.integers(1, 8)), int(rng.choice([5, 7, 12]))
+        lo = int(rng.integers(0, 12))
+        hi = lo + int(rng.integers(0, 12))
+        a = _patch_loop_ref(left, right, uv, hh, hw, lo, hi)
+        b = _patch_disparity(left, right, uv, hh, hw, lo, hi)
+        np.testing.assert_array_equal(a[0], b[0])           # (atol 0 px)
+        np.testing.assert_array_equal(a[1], b[1])
+        n_found += int(np.isfinite(a[0]).sum())
+        n_flat += int((~np.isfinite(a[0])).sum())
+    assert n_found > 100 and n_flat > 10
+
+
+def cv2_blur(img, k):
+    """A box blur of ``k`` px (1: none)."""
+    import cv2
+    return img if k <= 1 else cv2.blur(img, (k, k))

@@ -12,8 +12,8 @@ next to the fork, clear of the parent, must match at the fork's disparity.
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize import kernels_forks
-from appliance.localize.texture import patch_depth_fraction, surface_disparity, surface_to_axis
+from appliance.localize import kernels_forknear, kernels_forks
+from appliance.localize.texture import surface_disparity, surface_to_axis
 
 # disparities searched either side of the fork's (px): a crossing branch at another depth finds its
 # own match there, or none that correlates
@@ -56,8 +56,8 @@ def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray,
     pts = np.asarray(c_px, float) + s[:, None] * np.asarray(e, float)
     hh = max(1, int(0.6 * r_child_px))
     # the axis' disparity on the surface the patches see (surface_to_axis inverted; its depth fraction,
-    # surface_to_axis' own default, reused below)
-    frac = patch_depth_fraction(r_child_px, hh)
+    # surface_to_axis' own default, reused below; compiled: kernels_forknear.depth_fraction)
+    frac = np.float64(kernels_forknear.depth_fraction(float(r_child_px), hh))    # (patch_depth_fraction's value)
     d_s = (d_px - offset_px) * (1.0 + frac * r_child_px / f_px) + offset_px
     d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
                                  (d_s - SEARCH_PX, d_s + SEARCH_PX))

@@ -20,7 +20,7 @@ from appliance.localize import kernels_forknear, kernels_forks, kernels_ncc
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.patchmask import share_difference
-from appliance.localize.texture import patch_depth_fraction, surface_to_axis
+from appliance.localize.texture import surface_to_axis
 
 
 # a parent side's fit carried at least this far (px of its parameter) to the fork is read again from its
@@ -203,7 +203,8 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
         ok &= share_difference(left_mask, right_mask, uv, c.d_at(t), hh, 12) <= FLAT_NEAR_MAX_SHARE_DIFF
     if np.count_nonzero(ok) < min_patches:
         return None
-    d_ax = surface_to_axis(d_surf[ok], r, f_px, offset_px, patch_depth_fraction(r, hh))
+    d_ax = surface_to_axis(d_surf[ok], r, f_px, offset_px,     # (compiled: patch_depth_fraction(r, hh)'s value)
+                           np.float64(kernels_forknear.depth_fraction(float(r), hh)))
     if FLAT_ALONG:      # each patch's value carried to the fork along the curve's own slope
         d_ax = d_ax - (c.d_at(t[ok]) - d_c)
     keep = np.abs(d_ax - d_c) <= tol_d_px

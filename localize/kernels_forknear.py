@@ -11,7 +11,8 @@ the 16 nearest) the kernel says so and the caller keeps numpy's steps.
 A flat parent side's texture next to the fork (:func:`forkdisp.flat_side_near`) searches a few patches along
 the rows, each its template's range, correlation scores and sub-pixel peak in Python; :func:`patch_peaks`
 does all of a side's patches in one call, with the same exact sums (:func:`kernels_ncc._ncc_row`) and the
-same float steps.
+same float steps. Both texture reads take a patch's depth fraction (:func:`texture.patch_depth_fraction` of one
+patch along the rows): :func:`depth_fraction` is its value without numpy's dozen small calls.
 Registered in :func:`kernels.warm_up` (:func:`warm_up`).
 """
 
@@ -23,6 +24,7 @@ import numpy as np
 from appliance.localize.kernels import _JIT
 from appliance.localize.kernels_forkglue import near_piece
 from appliance.localize.kernels_ncc import _ncc_row, _patch_sums
+from appliance.localize.kernels_stats import _pairwise
 
 # the nearest points a piece keeps where fewer than 3 lie in the ring around the junction
 NEAREST_K = 15
@@ -133,10 +135,39 @@ def patch_peaks(lbox, rbox, ui, hh, hw, lo, hi, y0, x0, d_out, score):
         score[i] = cc[k]
 
 
+@numba.njit(**_JIT)
+def depth_fraction(radius_px, half_h_px):
+    """:func:`texture.patch_depth_fraction` of one patch along the rows (``slope`` 0): the mean of
+    ``sqrt(max(1 - (y / r)^2, 0))`` over the rows ``y = -half_h_px .. half_h_px``.
+
+    Parameters
+    ----------
+    radius_px : float
+        The branch's radius, px (at least 1e-9 as a divisor, as ``max(radius_px, 1e-9)``).
+    half_h_px : int
+        The patch's half height, rows.
+
+    Returns
+    -------
+    float
+        The fraction of a radius (0..1): numpy's mean (the pairwise sum of the values, :func:`kernels_stats._pairwise`,
+        divided by the count), the same value bit for bit.
+    """
+    n = 2 * half_h_px + 1
+    r = 1e-9 if 1e-9 > radius_px else radius_px        # (Python's max(radius_px, 1e-9))
+    val = np.empty(n)
+    for i in range(n):
+        t = (1.0 * float(i - half_h_px)) / r            # (cos(a) = 1 / sqrt(1 + 0^2) = 1 times the row)
+        v = 1.0 - t * t
+        val[i] = np.sqrt(0.0 if v < 0.0 else v)        # (np.clip(v, 0, None): NaN stays NaN)
+    return _pairwise(val, 0, n) / n
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types the callers pass."""
     pts = np.zeros((3, 2))
     pts.setflags(write=False)                  # (EndPlacer.seg_points' read-only points)
     near_or_nearest(pts, 0.0, 0.0, 1.0)
+    depth_fraction(1.0, 1)
     box = np.zeros((3, 3), np.uint8)
     patch_peaks(box, np.zeros((3, 4), np.uint8), np.ones((1, 2), np.int64), 1, 1, 0, 1, 0, 0, np.zeros(1), np.zeros(1))

@@ -162,3 +162,13 @@ def cv2_blur(img, k):
     """A box blur of ``k`` px (1: none)."""
     import cv2
     return img if k <= 1 else cv2.blur(img, (k, k))
+
+
+def test_depth_fraction_is_patch_depth_fraction_bit_for_bit():
+    from appliance.localize.texture import patch_depth_fraction
+    rng = np.random.default_rng(23)
+    radii = np.concatenate([rng.uniform(0.5, 60, 2000), np.arange(1, 40) * 0.5, [1e-12, 0.0]])
+    for r in radii:
+        r = float(r)
+        for hh in {max(1, int(0.6 * r)), int(rng.integers(1, 80))}:      # (the callers' half height; up to 161 rows)
+            assert kernels_forknear.depth_fraction(r, hh) == float(patch_depth_fraction(r, hh)), (r, hh)   # atol 0

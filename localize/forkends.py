@@ -19,7 +19,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, scattered_read_contradicted
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -137,6 +137,9 @@ NONE_KNOWN_WITHHELD = True
 # (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
 # the side's texture fit 0.78 px low along its whole length, +6.9 mm)
 LONE_FLAT_OUTVOTED = True
+# a fork whose lone flat side's texture read next to it is scattered and 2+ px from the child's right outline is
+# withheld (forkvouch.scattered_read_contradicted: seed 528's fork 14, colour masks, -12 mm)
+SCATTERED_READ_WITHHELD = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -447,6 +450,10 @@ class ForkPlacing:
             agree = False
         if agree and NONE_KNOWN_WITHHELD and final and sides is not None and none_vouched(
                 {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
+            agree = False
+        if agree and SCATTERED_READ_WITHHELD and final and len(parents) == 1 and parents[0] in flat_read \
+                and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
+                    float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \

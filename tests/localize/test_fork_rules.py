@@ -338,3 +338,16 @@ def test_a_fork_one_of_whose_pieces_reads_its_texture_13_px_off_is_withheld(rend
         assert row is None or row.result_id < 0          # (None: hidden in the left view and not reported)
     else:
         assert row.result_id >= 0 and row.dz_mm < -60.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_sides_scattered_read_far_from_the_childs_outline_is_withheld(rendered_scene, monkeypatch, rule):
+    # seed 528's fork 14, colour masks: a lone flat parent side read next to the fork from 4 patches at 201.62
+    # +- 0.50 px (they hold the child's bark, the child leaving towards the camera), the child's right outline
+    # 199.04, truth 198.85: -12 mm. With the rule it is withheld.
+    monkeypatch.setattr(forkends, "SCATTERED_READ_WITHHELD", rule)
+    row = score_row(rendered_scene(528), 14, exact=False)
+    if rule:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm < -10.0

@@ -351,3 +351,17 @@ def test_a_lone_flat_sides_scattered_read_far_from_the_childs_outline_is_withhel
         assert row is None or row.result_id < 0          # (None: not seen in both views and not reported)
     else:
         assert row.result_id >= 0 and row.dz_mm < -10.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_side_fitted_up_to_the_fork_is_not_outvoted(rendered_scene, monkeypatch, rule):
+    # seed 540's fork 14, exact masks: a lone flat side fitted on 144 columns up to the fork, 0.17 px off; the
+    # child's curve (carried 27 rows) and its right outline 1.1 / 1.6 px off, agreeing with each other: their
+    # mean with the side (LONE_FLAT_OUTVOTED) +9.1 mm. With the rule the side stands and, nothing confirming
+    # it, the fork is withheld.
+    monkeypatch.setattr(forkends, "REACHED_STANDS", rule)
+    row = score_row(rendered_scene(540), 14, exact=True)
+    if rule:
+        assert row is None or row.result_id < 0 or abs(row.dz_mm) < 3.0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 8.0

@@ -392,7 +392,8 @@ class ForkPlacing:
                 # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
                 # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
                 seen_right = abs(d_out - d) <= 3.0
-            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out) and not reached:
+            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out) \
+                    and not reached:
                 # the child's curve and its right outline agree with each other, not with the lone flat side:
                 # the three readings' mean (forkvouch.outvoted: seed 378's fork 11)
                 d, agree = float((d + at(child) + d_out) / 3.0), True

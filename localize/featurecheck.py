@@ -13,7 +13,8 @@ and carries it to the feature along the branch (:func:`estimate`: the least alar
 and the matched piece's slopes). Where that differs from the feature's disparity by more than
 ``max_diff_px`` the feature is withheld; so is a fork two of whose pieces' own texture estimates lie
 beyond ``AGREE_PX`` on one side of its disparity with none beyond ``OPPOSE_PX`` on the other (the
-pieces' agreement: :func:`estimate`). Patches without texture, off the branch or matched weakly,
+pieces' agreement: :func:`estimate`), and a feature one of whose pieces' own patches read more than
+``FAR_PX`` from it (:func:`far_piece`: a piece not at the fork's depth, whatever the others read). Patches without texture, off the branch or matched weakly,
 and pieces turning steeply in depth give no verdict: the feature is kept.
 Measured on 60 scenes and seeds 260-387: docs/localize-featurecheck.md.
 """
@@ -54,6 +55,9 @@ FIT_MIN_SPAN_PX = 10.0       # ... spanning this many px ...
 FIT_MAX_RES_PX = 0.3         # ... none off it by more than this
 AGREE_PX = 0.9               # a feature two of whose pieces' own texture estimates lie beyond this on one side ...
 OPPOSE_PX = 0.3              # ... and none beyond this on the other is withheld (issue 5, seeds 356-387's forks)
+FAR_PX = 3.0                 # a feature one of whose pieces' own texture reads further off is withheld ...
+FAR_MIN_PATCHES = 3          # ... by at least this many confident patches ...
+FAR_SPREAD_PX = 1.0          # ... carried along its slope within this of each other (seed 534 T11: 13 px)
 
 
 @dataclass(frozen=True)
@@ -67,13 +71,15 @@ class FeatureCheck:
     d_px : float
         The feature's (matched) disparity.
     d_check_px : float
-        The texture's disparity carried to the feature (:func:`estimate`; NaN: no verdict).
+        The texture's disparity carried to the feature (:func:`estimate`; NaN: no verdict); where a
+        piece reads it more than ``FAR_PX`` off (:func:`far_piece`), that piece's.
     n_patches : int
         Confident patches of the pieces that gave an estimate.
     spread_px : float
         The largest spread (max - min, px) of a piece's patches carried along its slope.
     withheld : bool
-        ``|d_check_px - d_px| > max_diff_px`` or ``|agree_px| > agree_px`` (:func:`check_features`).
+        ``|d_check_px - d_px| > max_diff_px`` (incl. a far piece) or ``|agree_px| > agree_px``
+        (:func:`check_features`).
     agree_px : float
         The pieces' agreement (:func:`estimate`: the second largest of the pieces' own texture estimates
         minus the feature's disparity when none reads under -``OPPOSE_PX``, or the mirror; 0: they do not
@@ -127,10 +133,43 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
     t = patch_table(features, pieces, left, right, left_mask, d_range_px, f_px, offset_px)
     d_px = np.array([ft.d for ft in features], float)
     d_check, n, spread, agree = estimate(t, d_px)
+    far = far_piece(t, d_px)
+    d_check = np.where(np.abs(far) > FAR_PX, d_px + far, d_check)     # (a far piece's reading: "texture")
     limit = AGREE_PX if agree_px is None else agree_px
     withheld = (np.abs(d_check - d_px) > max_diff_px) | (np.abs(agree) > limit)     # (NaN: False)
     return [FeatureCheck(int(ft.node), float(d_px[i]), float(d_check[i]), int(n[i]), float(spread[i]),
                          bool(withheld[i]), float(agree[i])) for i, ft in enumerate(features)]
+
+
+def far_piece(t: dict, d_px: np.ndarray) -> np.ndarray:
+    """Each feature's piece reading furthest from its disparity: the median of a piece's confident patches
+    (``score >= MIN_SCORE``) carried to the feature along the piece's slope, where there are at least
+    ``FAR_MIN_PATCHES`` and all lie within ``FAR_SPREAD_PX`` (max - min) of each other, minus the feature's
+    disparity ``d_px`` (F,); the one largest in magnitude per feature (0: no piece gives one), px (F,).
+
+    :func:`estimate` takes the least alarming reading: pieces on both sides of a fork's disparity are
+    its agreement. A piece whose own bark reads several px away is not at the fork's depth in space,
+    whatever the others read: a branch behind another seen leaving it at its outline (an occlusion taken
+    for a fork, seed 534 T11: the child's four patches at 163.0 +- 0.1 px, the fork and its parent at
+    176.3, 81 mm off), or a fork placed on the wrong branch. ``check_features`` withholds a feature
+    whose far piece is beyond ``FAR_PX`` (the texture's noise at a fork is ~1 px)."""
+    nf = len(d_px)
+    far = np.zeros(nf)
+    ok = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
+    if not ok.any():
+        return far
+    f, p = t["feature"][ok], t["piece"][ok]
+    e = t["d_axis"][ok] - t["slope"][ok] * t["s"][ok]             # (carried to the feature)
+    key = f.astype(np.int64) * (int(p.max()) + 1) + p
+    order = np.argsort(key, kind="stable")
+    key, e, f = key[order], e[order], f[order]
+    gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
+    for a, b in zip(gs.tolist(), np.r_[gs[1:], len(key)].tolist()):
+        if b - a >= FAR_MIN_PATCHES and e[a:b].max() - e[a:b].min() <= FAR_SPREAD_PX:
+            x = float(np.median(e[a:b])) - float(d_px[f[a]])
+            if abs(x) > abs(far[f[a]]):
+                far[f[a]] = x
+    return far
 
 
 def patch_table(features: list, pieces: list, left, right, left_mask: np.ndarray, d_range_px, f_px: float,

@@ -19,7 +19,7 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted
+from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, scattered_read_contradicted
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -137,6 +137,14 @@ NONE_KNOWN_WITHHELD = True
 # (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
 # the side's texture fit 0.78 px low along its whole length, +6.9 mm)
 LONE_FLAT_OUTVOTED = True
+# a fork whose lone flat side's texture read next to it is scattered and 2+ px from the child's right outline is
+# withheld (forkvouch.scattered_read_contradicted: seed 528's fork 14, colour masks, -12 mm)
+SCATTERED_READ_WITHHELD = True
+# a lone flat side whose own fit reaches the fork (carried at most 1 px past its span: measured there, not read
+# again) is neither out-voted nor moved by the child's right outline (seed 540's fork 14, exact masks: a side fitted
+# on 144 columns up to the fork, 0.17 px off; the child carried 27 rows and its outline, 1.3 / 1.8 px off, agreeing
+# with each other: their mean with it +9.1 mm)
+REACHED_STANDS = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -362,6 +370,8 @@ class ForkPlacing:
             d_out = self._flat_fork_disparity(xy, outline[1], c2, e2, d, r_par, rad[child])
             # (unless the child's own disparity agrees with the parent's: the two views' outline
             # places may be a px or two apart, as with noisy masks)
+            reached = REACHED_STANDS and len(parents) == 1 and parents[0] not in side_near \
+                and self._carried_px(parents[0], xy) <= 1.0
             if d_out is None:
                 pass
             elif sides is not None and self._carried_px(child, xy) > CHILD_CARRY_PX \
@@ -388,7 +398,8 @@ class ForkPlacing:
                 # which the outline (its place ~1 px off in each view) confirms, as within the 3 px the
                 # rule below would take it, but does not replace (seed 146's fork: -1.8 px)
                 seen_right = abs(d_out - d) <= 3.0
-            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out):
+            elif LONE_FLAT_OUTVOTED and len(parents) == 1 and child_ok and outvoted(d, at(child), d_out) \
+                    and not reached:
                 # the child's curve and its right outline agree with each other, not with the lone flat side:
                 # the three readings' mean (forkvouch.outvoted: seed 378's fork 11)
                 d, agree = float((d + at(child) + d_out) / 3.0), True
@@ -396,7 +407,7 @@ class ForkPlacing:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
                     and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))) \
-                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)):
+                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)) and not reached:
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
@@ -453,6 +464,10 @@ class ForkPlacing:
             agree = False
         if agree and NONE_KNOWN_WITHHELD and final and sides is not None and none_vouched(
                 {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
+            agree = False
+        if agree and SCATTERED_READ_WITHHELD and final and len(parents) == 1 and parents[0] in flat_read \
+                and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
+                    float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \

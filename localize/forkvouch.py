@@ -62,3 +62,24 @@ def outvoted(d_side: float, d_child: float, d_outline: float) -> bool:
     a, b = d_child - d_side, d_outline - d_side
     return a * b > 0 and OUTVOTE_MIN_PX < min(abs(a), abs(b)) and max(abs(a), abs(b)) <= OUTVOTE_MAX_PX \
         and abs(d_child - d_outline) <= OUTVOTE_AGREE_PX
+
+
+# a lone flat parent side's texture read next to a fork, scattered (its patches' scaled MAD over READ_SCATTER_PX),
+# that the child's right outline contradicts by more than READ_OUTLINE_PX, the child's curve not confirming it
+READ_SCATTER_PX = 0.3
+READ_OUTLINE_PX = 2.0
+
+
+def scattered_read_contradicted(d_fork: float, read_mad_px: float, d_outline: float | None,
+                                child_confirms: bool) -> bool:
+    """Whether a fork whose disparity ``d_fork`` (px) is a lone flat parent side's texture read next to it,
+    its patches scattered (scaled MAD ``read_mad_px`` over ``READ_SCATTER_PX``), is contradicted by the
+    child's outline in the right view (``d_outline`` more than ``READ_OUTLINE_PX`` away; None: no outline)
+    with the child's curve not confirming the read (``child_confirms`` False): two independent readings
+    of the fork's depth apart beyond the outline's noise (correct forks: up to 2.4 px), the one taken not
+    consistent in itself, nothing third to tell. Seed 528's fork 14 (colour masks): 4 patches next to the
+    fork at 201.62 +- 0.50 px hold the child's bark (the child leaves towards the camera, 0.25 px of
+    disparity per px), the outline 199.04, truth 198.85: -12 mm. (Reads of 5 patches within 0.06 px,
+    seed 478's fork 10, 2.1 px from their outline, are right.)"""
+    return d_outline is not None and not child_confirms and read_mad_px > READ_SCATTER_PX \
+        and abs(d_outline - d_fork) > READ_OUTLINE_PX

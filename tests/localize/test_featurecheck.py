@@ -304,3 +304,29 @@ def test_the_check_benchmark_runs_on_the_fixtures_and_withholds_no_correct_featu
     n, correct, gross = map(int, re.search(r"features (\d+): correct (\d+), gross (\d+)", out.stdout).groups())
     assert n >= 20 and correct == n and gross == 0, out.stdout
     assert re.search(r"withheld at 1\.6 px: correct 0,", out.stdout), out.stdout
+
+
+def test_far_piece_reads_the_piece_furthest_off_when_its_patches_agree():
+    # a fork (feature 0) with two pieces: piece 0's patches at the fork's disparity, piece 1's three patches
+    # 13 px under it (flat, agreeing): far -13. Feature 1 (a tip): its piece's patches scattered over 4 px
+    # (no reading) or only two (too few): 0.
+    t = {"feature": np.array([0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1]),
+         "piece": np.array([0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3]),
+         "s": np.array([20.0, 25, 30, 20, 25, 30, 10, 15, 20, 10, 15]),
+         "d_axis": np.array([176.5, 176.6, 176.7, 163.0, 163.2, 163.4, 60.0, 62.0, 64.0, 70.0, 70.0]),
+         "slope": np.array([0.0, 0, 0, 0.02, 0.02, 0.02, 0, 0, 0, 0, 0]),
+         "score": np.full(11, 0.95)}
+    far = FC.far_piece(t, np.array([176.3, 62.0]))
+    assert far[0] == pytest.approx(163.2 - 0.02 * 25 - 176.3) and far[1] == 0.0
+    t["score"][3] = 0.5                                                  # (two confident patches: too few)
+    assert FC.far_piece(t, np.array([176.3, 62.0]))[0] == pytest.approx(0.3, abs=1e-9)
+
+
+def test_a_fork_whose_pieces_read_far_off_is_withheld_at_the_far_pieces_reading():
+    # the constructed fork at D_PX: at its disparity no piece reads far and it is kept; 4 px off, every
+    # piece does, and the check's reading is the furthest piece's (at D_PX).
+    left, right, mask = _pair()
+    ok = check_features(_features(D_PX, D_PX), _pieces(), left, right, mask, D_RANGE, F_PX)
+    assert not ok[1].withheld
+    off = check_features(_features(D_PX, D_PX + 4.0), _pieces(), left, right, mask, D_RANGE, F_PX)
+    assert off[1].withheld and abs(off[1].d_check_px - D_PX) < 0.5

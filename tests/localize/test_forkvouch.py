@@ -1,6 +1,7 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, vouched_by_span
+from appliance.localize.forkvouch import (known_side_stands, none_vouched, outvoted, scattered_read_contradicted,
+                                          vouched_by_span)
 
 
 def test_a_span_vouches_for_half_its_length_past_either_end():
@@ -33,3 +34,11 @@ def test_a_lone_flat_side_is_outvoted_only_by_a_child_and_outline_that_agree_on_
     assert not outvoted(139.88, 141.10, 140.55)            # the two 0.55 px apart
     assert not outvoted(139.88, 140.84, 138.90)            # on either side
     assert not outvoted(186.54, 213.26, 212.89)            # seed 298: another branch crossing 27 px nearer
+
+
+def test_a_scattered_read_far_from_the_outline_is_contradicted_a_tight_one_is_not():
+    assert scattered_read_contradicted(201.62, 0.50, 199.04, False)      # seed 528's fork 14 (colour)
+    assert not scattered_read_contradicted(137.17, 0.06, 139.23, False)  # seed 478's fork 10: 5 patches within 0.06
+    assert not scattered_read_contradicted(201.62, 0.50, 199.04, True)   # the child's curve confirms the read
+    assert not scattered_read_contradicted(201.62, 0.50, 200.00, False)  # the outline within 2 px
+    assert not scattered_read_contradicted(201.62, 0.50, None, False)    # no outline

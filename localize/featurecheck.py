@@ -145,7 +145,8 @@ def far_piece(t: dict, d_px: np.ndarray) -> np.ndarray:
     """Each feature's piece reading furthest from its disparity: the median of a piece's confident patches
     (``score >= MIN_SCORE``) carried to the feature along the piece's slope, where there are at least
     ``FAR_MIN_PATCHES`` and all lie within ``FAR_SPREAD_PX`` (max - min) of each other, minus the feature's
-    disparity ``d_px`` (F,); the one largest in magnitude per feature (0: no piece gives one), px (F,).
+    disparity ``d_px`` (F,); the one largest in magnitude per feature, px (F,). Only pieces some of whose
+    patches lie beyond ``FAR_PX`` are read (0: no piece can read beyond it).
 
     :func:`estimate` takes the least alarming reading: pieces on both sides of a fork's disparity are
     its agreement. A piece whose own bark reads several px away is not at the fork's depth in space,
@@ -164,11 +165,14 @@ def far_piece(t: dict, d_px: np.ndarray) -> np.ndarray:
     order = np.argsort(key, kind="stable")
     key, e, f = key[order], e[order], f[order]
     gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
-    for a, b in zip(gs.tolist(), np.r_[gs[1:], len(key)].tolist()):
-        if b - a >= FAR_MIN_PATCHES and e[a:b].max() - e[a:b].min() <= FAR_SPREAD_PX:
-            x = float(np.median(e[a:b])) - float(d_px[f[a]])
-            if abs(x) > abs(far[f[a]]):
-                far[f[a]] = x
+    ge = np.r_[gs[1:], len(key)]
+    hi, lo, d = np.maximum.reduceat(e, gs), np.minimum.reduceat(e, gs), d_px[f[gs]]
+    # (only pieces whose patches reach beyond FAR_PX can read beyond it: the rest are not read)
+    read = (ge - gs >= FAR_MIN_PATCHES) & (hi - lo <= FAR_SPREAD_PX) & ((hi - d > FAR_PX) | (d - lo > FAR_PX))
+    for a, b in zip(gs[read].tolist(), ge[read].tolist()):
+        x = float(np.median(e[a:b])) - float(d_px[f[a]])
+        if abs(x) > abs(far[f[a]]):
+            far[f[a]] = x
     return far
 
 

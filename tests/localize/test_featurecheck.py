@@ -319,7 +319,8 @@ def test_far_piece_reads_the_piece_furthest_off_when_its_patches_agree():
     far = FC.far_piece(t, np.array([176.3, 62.0]))
     assert far[0] == pytest.approx(163.2 - 0.02 * 25 - 176.3) and far[1] == 0.0
     t["score"][3] = 0.5                                                  # (two confident patches: too few)
-    assert FC.far_piece(t, np.array([176.3, 62.0]))[0] == pytest.approx(0.3, abs=1e-9)
+    assert FC.far_piece(t, np.array([176.3, 62.0]))[0] == 0.0       # (piece 0, 0.3 px off, is not read)
+    assert FC.far_piece(t, np.array([179.6, 62.0]))[0] == pytest.approx(176.6 - 179.6)   # ... unless beyond 3 px
 
 
 def test_a_fork_whose_pieces_read_far_off_is_withheld_at_the_far_pieces_reading():

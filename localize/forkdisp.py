@@ -13,10 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from appliance.localize import kernels_forknear, kernels_forks, kernels_ncc
+from appliance.localize import kernels_forknear, kernels_forks
 from appliance.localize.curves import BranchCurve, median
 from appliance.localize.edges import Runs
 from appliance.localize.patchmask import share_difference
@@ -162,7 +161,7 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     ----------
     c : BranchCurve
         The side's curve (flat: parameter = column; a steep one gives None).
-    left_gray, right_gray : ndarray (H, W)
+    left_gray, right_gray : ndarray (H, W) uint8
         Rectified grey images.
     t_fork : float
         The fork's column on the side's curve.
@@ -239,28 +238,11 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
         return d_out, score
     lbox = np.asarray(left[y0:y1, x0:x1])
     rbox = np.asarray(right[y0:y1, x0 - hi:x1 - lo])
-    if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:     # (compiled: the loop below, the same values)
-        kernels_forknear.patch_peaks(np.ascontiguousarray(lbox), np.ascontiguousarray(rbox),
-                                     np.ascontiguousarray(ui, np.int64), int(hh), int(hw), int(lo), int(hi),
-                                     y0, x0, d_out, score)
-        return d_out, score
-    for i, (u, v) in enumerate(ui.tolist()):
-        tmpl = lbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0]
-        lo_v, hi_v = cv2.minMaxLoc(tmpl)[:2]
-        if hi_v - lo_v < 2.0:                    # no texture (texture._flat's bound)
-            continue
-        strip = rbox[v - hh - y0:v + hh + 1 - y0, u - hw - x0:u + hw + 1 - x0 + hi - lo]
-        if strip.dtype == np.uint8 and tmpl.dtype == np.uint8:     # exact sums (OpenCV's float32: up to ~5e-4)
-            cc = kernels_ncc.ncc_scores(np.ascontiguousarray(strip), np.ascontiguousarray(tmpl))
-        else:
-            cc = cv2.matchTemplate(strip, tmpl, cv2.TM_CCOEFF_NORMED)[0]
-        k = int(cc.argmax())
-        off = 0.0
-        if 0 < k < len(cc) - 1:
-            den = float(cc[k - 1] - 2 * cc[k] + cc[k + 1])
-            off = 0.5 * float(cc[k - 1] - cc[k + 1]) / den if den < 0 else 0.0
-        d_out[i] = hi - (k + off)
-        score[i] = float(cc[k])
+    # (compiled, patch by patch: minMaxLoc's flat test, the NCC scores and the parabola; d8a16ad's loop is the
+    # reference in test_kernels_forknear.py)
+    kernels_forknear.patch_peaks(np.ascontiguousarray(lbox), np.ascontiguousarray(rbox),
+                                 np.ascontiguousarray(ui, np.int64), int(hh), int(hw), int(lo), int(hi), y0, x0,
+                                 d_out, score)
     return d_out, score
 
 

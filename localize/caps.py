@@ -147,7 +147,7 @@ def cap_curves(graph: SkeletonGraph, sm: StereoMasks, runs_l: Runs, runs_r: Runs
         pts = graph.to_full(np.concatenate(yx))
         near = pts[np.hypot(*(pts - end_xy).T) <= 4 * r + graph.scale]
         angle = angle_deg(near)
-        if np.ptp(near[:, 1]) < 1 or angle < min_angle_deg:
+        if near[:, 1].max() - near[:, 1].min() < 1 or angle < min_angle_deg:     # (np.ptp's value, without its wrapper)
             continue
         out_dir = end_xy - near.mean(0)
         d = cap_disparity(sm, end_xy, max(4, int(round(2 * r))), out_dir / max(float(np.hypot(*out_dir)), 1e-9))

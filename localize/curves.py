@@ -312,7 +312,9 @@ class BranchCurve:
         t1 = _one(t)
         if t1 is not None:                  # one point: the same sums in Python floats
             return np.array([self._at(poly, t1, slopes)])
-        t = np.atleast_1d(np.asarray(t, float))
+        t = np.asarray(t, float)
+        if t.ndim == 0:                     # (np.atleast_1d's reshape, without its wrapper)
+            t = t.reshape(1)
         lo, hi = self.t_range
         if t.shape == (1,):
             return np.array([self._at(poly, float(t[0]), slopes)])

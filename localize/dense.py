@@ -562,34 +562,35 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     kinds = graph.node_kind
     flat_set = set(flat)
     needed = []
-    for node in np.flatnonzero(kinds == JUNCTION).tolist():      # anchors for flat pieces without texture
+    # (ndarray.nonzero()[0] of the 1-D tests below: np.flatnonzero's indices without its wrapper)
+    for node in (kinds == JUNCTION).nonzero()[0].tolist():      # anchors for flat pieces without texture
         if flat_set.isdisjoint(b.incident[node]):
             b.fork(node, needed=False)
         else:
             needed.append(node)
     b.defer_forks(needed)                 # (made when read: most are replaced whole by the final round)
-    for node in np.flatnonzero(kinds == JOINT):
+    for node in (kinds == JOINT).nonzero()[0]:
         b.joint(node)
     if flat:
         runs_lt = find_runs(sm.left_mask.T, soft=True)
         curves.update(_flat_curves(b, flat, runs_lt))      # (in the pieces' order, as one by one)
-    for node in np.flatnonzero(kinds == JUNCTION):
+    for node in (kinds == JUNCTION).nonzero()[0]:
         b.fork(node, final=True)
     curves.update(cap_curves(graph, sm, runs_l, runs_r, curves, cfg.max_horizontal_deg))
     b.recheck_outline_forks()           # (a child's new stub curve may discredit its right outline)
     if flat:            # short flat pieces without texture: their tips by the round cap (tips.py)
         curves.update(flat_cap_curves(b, [s for s in flat if s not in curves], runs_lt))
-    ends = np.flatnonzero(kinds == ENDPOINT).tolist()
+    ends = (kinds == ENDPOINT).nonzero()[0].tolist()
     b.prewalk(ends)                     # (the tips' walks out, all at once)
     b.tips(ends)
-    for node in np.flatnonzero(kinds == JOINT):
+    for node in (kinds == JOINT).nonzero()[0]:
         b.joint(node)
     kinds = kinds.copy()
-    for node in np.flatnonzero(kinds == ENDPOINT):
+    for node in (kinds == ENDPOINT).nonzero()[0]:
         if b.hidden_fork(node):
             kinds[node] = JUNCTION
     bridges = []
-    for s in np.flatnonzero(graph.seg_recovered):
+    for s in graph.seg_recovered.nonzero()[0]:
         if b.bridge_holds(s):
             bridges.append(s)
         else:                                   # not one branch: its ends are ends again

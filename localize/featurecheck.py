@@ -164,8 +164,8 @@ def far_piece(t: dict, d_px: np.ndarray) -> np.ndarray:
     key = f.astype(np.int64) * (int(p.max()) + 1) + p
     order = np.argsort(key, kind="stable")
     key, e, f = key[order], e[order], f[order]
-    gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
-    ge = np.r_[gs[1:], len(key)]
+    gs = np.concatenate(([0], np.flatnonzero(np.diff(key)) + 1))      # (np.r_'s arrays, without its parsing)
+    ge = np.concatenate((gs[1:], [len(key)]))
     hi, lo, d = np.maximum.reduceat(e, gs), np.minimum.reduceat(e, gs), d_px[f[gs]]
     # (only pieces whose patches reach beyond FAR_PX can read beyond it: the rest are not read)
     read = (ge - gs >= FAR_MIN_PATCHES) & (hi - lo <= FAR_SPREAD_PX) & ((hi - d > FAR_PX) | (d - lo > FAR_PX))
@@ -237,7 +237,7 @@ def _patches(features: list, pieces: list, left_mask: np.ndarray) -> dict:
         return {c: np.zeros(0, np.int64 if c in ("feature", "piece", "u", "v", "hh", "hw") else float) for c in cols}
     used = np.unique(pj)
     uvd = np.concatenate([pieces[j].uvd for j in used.tolist()]).astype(float)     # (the used pieces end to end)
-    starts = np.r_[0, np.cumsum([len(pieces[j].uvd) for j in used.tolist()])].astype(np.int64)
+    starts = np.concatenate(([0], np.cumsum([len(pieces[j].uvd) for j in used.tolist()]))).astype(np.int64)
     r = np.maximum(np.array([pieces[j].radius_px for j in pj.tolist()], float), 1.0)
     s0 = np.maximum(np.where(fa[fi, 5] > 0, FORK_CLEAR * r_other, TIP_BACK * r), MIN_REACH_PX)
     reach = np.clip(REACH_RADII * r, MIN_SPAN_PX, MAX_SPAN_PX)
@@ -306,14 +306,14 @@ def _search(left, right, t: dict, rows: np.ndarray, sx0: np.ndarray, sx1: np.nda
     scalars. Returns the kernel's arrays (K,) in the order of ``rows``."""
     u, v, hh, hw, f = (t[c][rows] for c in ("u", "v", "hh", "hw", "feature"))
     n = len(rows)
-    fs = np.r_[0, np.flatnonzero(np.diff(f)) + 1]
+    fs = np.concatenate(([0], np.flatnonzero(np.diff(f)) + 1))        # (np.r_'s arrays, without its parsing)
     boxes = np.column_stack([np.minimum.reduceat(v - hh, fs), np.maximum.reduceat(v + hh, fs) + 1,
                              np.minimum.reduceat(u - hw, fs), np.maximum.reduceat(u + hw, fs) + 1,
                              np.minimum.reduceat(sx0, fs), np.maximum.reduceat(sx1, fs)])
     order = np.lexsort((hw, f))                                      # (by feature, then patch width)
     key = f[order] * 64 + hw[order]
-    gs = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
-    ge = np.r_[gs[1:], n]
+    gs = np.concatenate(([0], np.flatnonzero(np.diff(key)) + 1))
+    ge = np.concatenate((gs[1:], [n]))
     box_of = np.searchsorted(fs, order[gs], side="right") - 1       # each group's feature's box
     out = None
     last = -1

@@ -230,7 +230,9 @@ def _patch_disparity(left: np.ndarray, right: np.ndarray, uv: np.ndarray, hh: in
     NaN / -1 where a patch or its strip leaves the image or the patch is flat)."""
     h, w = left.shape
     n = len(uv)
-    d_out, score = np.full(n, np.nan), np.full(n, -1.0)
+    d_out, score = np.empty(n), np.empty(n)        # (np.full's values, without its wrapper)
+    d_out.fill(np.nan)
+    score.fill(-1.0)
     ui = np.rint(uv).astype(int)
     y0, y1 = int(ui[:, 1].min()) - hh, int(ui[:, 1].max()) + hh + 1
     x0, x1 = int(ui[:, 0].min()) - hw, int(ui[:, 0].max()) + hw + 1

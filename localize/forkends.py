@@ -808,7 +808,7 @@ class ForkPlacing:
         row, pieces, table = self._curve_table()
         cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)
         best = None
-        for j in np.flatnonzero(cross != -1).tolist():
+        for j in (cross != -1).nonzero()[0].tolist():      # (np.flatnonzero's indices, without its wrapper)
             k = int(cross[j]) if cross[j] >= 0 else self._hidden_crossing(uv, *pieces[j])
             if k >= 0 and (best is None or k < best[0]):
                 best = (k, pieces[j][1])
@@ -887,6 +887,6 @@ class ForkPlacing:
         if inside.sum() < 2:
             return -1
         f = tb - c2.s_at(ta)
-        cross = np.flatnonzero(inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:])))
+        cross = (inside[:-1] & inside[1:] & (np.sign(f[:-1]) != np.sign(f[1:]))).nonzero()[0]     # (np.flatnonzero's)
         return int(cross[0]) if len(cross) else -1
 

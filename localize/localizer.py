@@ -111,7 +111,7 @@ def _whole_pieces(pieces: list, d_lo: float, d_hi: float, max_gradient: float) -
         return [False] * len(pieces)
     uvd = np.concatenate([p.uvd for p in pieces])
     ends = np.cumsum([len(p.uvd) for p in pieces])
-    starts = np.r_[0, ends[:-1]]
+    starts = np.concatenate(([0], ends[:-1]))         # (np.r_'s array, without its parsing)
     d = uvd[:, 2]
     fail = ~((d >= d_lo) & (d <= d_hi) & (d > 0))
     if max_gradient > 0:

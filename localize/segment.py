@@ -321,7 +321,7 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     n, labels = cv2.connectedComponents(cover, connectivity=8, ltype=cv2.CV_32S)
     if n <= 1:
         return mask
-    idx = np.flatnonzero(cover != 0)                          # the few covered small pixels, row-major
+    idx = (cover != 0).ravel().nonzero()[0]                   # the few covered small pixels, row-major (np.flatnonzero's)
     cover, labels = cover.reshape(-1), labels.reshape(-1)
     area = kernels_segclean.component_areas(idx, labels, cover, _counts_of(factor), n)
     small = area < min_area_px
@@ -331,7 +331,7 @@ def drop_small(mask: np.ndarray, min_area_px: float, factor: int = 4, keep_radiu
     if keep_radius_px > 0:                                    # wide pieces (twigs) stay
         sel = small & (area >= np.pi * keep_radius_px ** 2)
         if sel.any():
-            ids = np.flatnonzero(sel)                         # (np.unique's numbering of their blocks)
+            ids = sel.nonzero()[0]                            # (np.unique's numbering of their blocks)
             comp_of = np.full(n, -1, np.int64)
             comp_of[ids] = np.arange(len(ids))
             gy, gx, comp = kernels_segclean.component_blocks(idx, labels, comp_of, ws)
@@ -447,7 +447,7 @@ def unmix_edges(bgr: np.ndarray, mask: np.ndarray, window_px: int, band_px: int 
     else:
         ring = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, np.ones((2 * band_px + 1,) * 2, np.uint8), dst=scratch)
     # the blocks holding outline pixels, row-major (y * ws + x)
-    bi = np.flatnonzero(block_mean(ring[:hs * factor, :ws * factor], factor) != 0) if hs and ws else np.zeros(0, np.intp)
+    bi = (block_mean(ring[:hs * factor, :ws * factor], factor) != 0).ravel().nonzero()[0] if hs and ws else np.zeros(0, np.intp)
     if out is None:
         out = mask.copy()
     elif out is not mask:

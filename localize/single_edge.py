@@ -209,8 +209,8 @@ def _refit(c: BranchCurve, new: list) -> BranchCurve:
         if not sel.any():
             continue
         tb = np.arange(max(lo, edge - 20), edge + 1.0) if k else np.arange(edge, min(hi, edge + 20) + 1.0)
-        t = np.r_[tb, tn[sel]]
-        u, d = np.r_[c.s_at(tb), cn[sel]], np.r_[c.d_at(tb), dn[sel]]
+        t = np.concatenate((tb, tn[sel]))             # (np.r_'s arrays, without its parsing)
+        u, d = np.concatenate((c.s_at(tb), cn[sel])), np.concatenate((c.d_at(tb), dn[sel]))
         degree = 1 if float(np.ptp(tn[sel])) < 60 else 2
         parts[k] = (Poly.fit(t, u, degree), Poly.fit(t, d, degree))
         slopes[k] = end_slopes(t, d)[k]
@@ -248,7 +248,7 @@ def carry_over(graph: SkeletonGraph, dead: list[int], curves: dict[int, BranchCu
         r0, r1 = float(rows[0]), float(rows[-1])
         gap = np.maximum(spans[:, 0] - r1, r0 - spans[:, 1])      # rows between the piece and each donor
         best = None
-        for k in np.flatnonzero((gap > 0) & (gap <= reach_px)).tolist():
+        for k in ((gap > 0) & (gap <= reach_px)).nonzero()[0].tolist():     # (np.flatnonzero's indices)
             c = donors[k]
             near = 0 if spans[k, 0] > r1 else -1                    # the piece's row nearest the donor
             if abs(c.s_at(rows[near:][:1])[0] - xc[near]) > c.radius_px + 10:

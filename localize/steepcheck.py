@@ -106,8 +106,10 @@ def _scores(left, right, us: list, vs: list, los: list, his: list, hw: int) -> n
     lbox = np.ascontiguousarray(left[y0:y1, lx0:lx1])
     rbox = np.ascontiguousarray(right[y0:y1, rx0:rx1])
     n = len(us)
-    hhs = np.full(n, hh, np.int64)
-    score, d_out = np.full(n, -1.0), np.full(n, np.nan)
+    hhs, score, d_out = np.empty(n, np.int64), np.empty(n), np.empty(n)     # (np.full's values, without its wrapper)
+    hhs.fill(hh)
+    score.fill(-1.0)
+    d_out.fill(np.nan)
     uv = np.array([us, vs], np.int64).T.copy()
     lo0, hi0 = min(los), max(his)
     if max(los) - lo0 <= 1 and hi0 - min(his) <= 1:     # (nearly) one window for all: one call, over their union

@@ -67,6 +67,14 @@ def surface_disparity_many(jobs: list) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
+def _c_writable(a: np.ndarray) -> np.ndarray:
+    """``np.require(a, None, ["C", "W"])``: ``a`` itself when it is a C-contiguous writable ndarray (the lazy
+    reads' and the boxes' usual case, checked by its flags: ~0.1 us against np.require's ~3 us), else that copy."""
+    if type(a) is np.ndarray and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.require(a, None, ["C", "W"])
+
+
 def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: np.ndarray,
             d_range_px: tuple[float, float], half_w_px: int = 7):
     """:func:`surface_disparity` of one search, but for its vectorised part: ``(d, score, batch)``,
@@ -74,8 +82,9 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
     :func:`_batch_ncc_many` to fill in."""
     h, w = left.shape
     lo, hi = int(np.floor(d_range_px[0])), int(np.ceil(d_range_px[1]))
-    d_out = np.full(len(uv_px), np.nan)
-    score = np.full(len(uv_px), -1.0)
+    d_out, score = np.empty(len(uv_px)), np.empty(len(uv_px))      # (np.full's values, without its wrapper)
+    d_out.fill(np.nan)
+    score.fill(-1.0)
     uv_f = np.asarray(uv_px, float).reshape(-1, 2)
     hhs = np.asarray(half_h_px, int)
     if len(uv_f) == 0:
@@ -96,7 +105,7 @@ def _search(left: np.ndarray, right: np.ndarray, uv_px: np.ndarray, half_h_px: n
         return d_out, score, None
     lbox, rbox = left[by0:by1, lx0:lx1], right[by0:by1, rx0:rx1]
     if lbox.dtype == np.uint8 and rbox.dtype == np.uint8:      # every patch in one compiled call (exact scores)
-        kernels_ncc.ncc_search(np.require(lbox, None, ["C", "W"]), np.require(rbox, None, ["C", "W"]), uv,
+        kernels_ncc.ncc_search(_c_writable(lbox), _c_writable(rbox), uv,
                            np.ascontiguousarray(hhs), hw, lo, hi, h, w, by0, lx0, rx0, d_out, score)
         return d_out, score, None
     inside = (uv[:, 1] - hhs >= 0) & (uv[:, 1] + hhs + 1 <= h) & (uv[:, 0] - hw >= 0) & (uv[:, 0] + hw + 1 <= w) \

@@ -63,7 +63,7 @@ class Walks:
         if not ks:
             return
         n = ts
-        start, sign, value, slope, by_row, d_value, d_slope = (np.repeat(np.array(a), n) for a in zip(*vals))
+        start, sign, value, slope, by_row, d_value, d_slope = (np.array(a).repeat(n) for a in zip(*vals))   # (np.repeat's)
         ends = np.cumsum(n)
         steps = np.arange(ends[-1]) - (ends - n).repeat(n)       # each walk's 0, 1, 2, ...
         t_all = start + sign * (steps * 0.25)              # (np.arange(0, reach, 0.25)'s values, each walk's t)
@@ -71,7 +71,7 @@ class Walks:
         uv_all = np.empty((len(t_all), 2))
         uv_all[:, 0] = np.where(by_row, s_all, t_all)
         uv_all[:, 1] = np.where(by_row, t_all, s_all)
-        bounds = np.r_[0, ends]
+        bounds = np.concatenate(([0], ends))                 # (np.r_'s array, without its parsing)
         idx, crosses = walk_edges(self.sm.left_mask, uv_all, bounds)
         # the right view's walks too (the line moved by the piece's disparity, carried beyond the same end:
         # _walk_out's c.d_at, the same sums); a walk is read only up to where it leaves the mask

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 from appliance.localize.texture import (
+    _c_writable,
     _flat,
     nearer_in_front,
     surface_disparity,
@@ -115,3 +116,19 @@ def test_searches_run_together_give_each_search_its_own_results():
         d1, s1 = surface_disparity(*job)
         assert np.array_equal(d, d1, equal_nan=True) and np.array_equal(s, s1)
     assert np.nanmax(np.abs(together[1][0] - 52.5)) < 0.15
+
+
+def test_c_writable_is_np_require():
+    """``_c_writable`` gives ``np.require(a, None, ["C", "W"])``: the array itself when C-contiguous and writable,
+    else a C-contiguous writable copy with the same values (a strided view, a read-only array, a Fortran one)."""
+    img = textured(40, 60, seed=3)
+    assert _c_writable(img) is img
+    ro = img.copy()
+    ro.setflags(write=False)
+    for a in (img[:, ::2], img[5:20, 3:40], ro, np.asfortranarray(img[:, :30]), img[::3, ::-1]):
+        got, ref = _c_writable(a), np.require(a, None, ["C", "W"])
+        assert (got is a) == (ref is a)
+        assert got.flags.c_contiguous and got.flags.writeable
+        assert got.dtype == ref.dtype and np.array_equal(got, ref)
+    box = img[5:20, 3:40]
+    assert _c_writable(box) is not box and np.shares_memory(np.require(box, None, ["C", "W"]), box) is False

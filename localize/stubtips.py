@@ -67,26 +67,36 @@ def stub_tips(b, taken: np.ndarray) -> list[tuple[float, float, float, float]]:
     sm = b.sm
     left = sm.left_mask
     h, w = left.shape
-    n, lab, stats, _ = cv2.connectedComponentsWithStats((left >= 128).astype(np.uint8), connectivity=8)
-    area = stats[:, cv2.CC_STAT_AREA]
-    cand = np.zeros(n, bool)
-    cand[1:] = (area[1:] >= MIN_AREA_PX) & (area[1:] <= MAX_AREA_PX)
-    x0, y0, bw, bh = (stats[:, k] for k in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH, cv2.CC_STAT_HEIGHT))
-    cand &= (x0 > 0) & (y0 > 0) & (x0 + bw < w) & (y0 + bh < h)           # cut by the view's edge: not alone
+    # (the plain labelling and a bincount: connectedComponentsWithStats took 20x as long here)
+    n, lab = cv2.connectedComponents((left >= 128).view(np.uint8), connectivity=8)
+    area = np.bincount(lab.ravel(), minlength=n)
+    cand = (area >= MIN_AREA_PX) & (area <= MAX_AREA_PX)
+    cand[0] = False
     if len(taken):
         q = np.rint(np.asarray(taken, float)).astype(int)
         ok = (q[:, 0] >= 0) & (q[:, 0] < w) & (q[:, 1] >= 0) & (q[:, 1] < h)
         cand[lab[q[ok, 1], q[ok, 0]]] = False
+    if not cand.any():
+        return []
+    ys, xs = np.nonzero(cand[lab])
+    kk = lab[ys, xs]
+    order = np.argsort(kk, kind="stable")
+    ys, xs, kk = ys[order], xs[order], kk[order]
+    cuts = np.flatnonzero(np.diff(kk)) + 1
     found = []
-    for k in np.flatnonzero(cand).tolist():
-        ys, xs = np.nonzero(lab[y0[k]:y0[k] + bh[k], x0[k]:x0[k] + bw[k]] == k)
-        if sm.valid_left is not None and not sm.valid_left[ys + y0[k], xs + x0[k]].all():
+    for ys, xs in zip(np.split(ys, cuts), np.split(xs, cuts)):
+        x0, y0 = int(xs.min()), int(ys.min())
+        x1, y1 = int(xs.max()), int(ys.max())
+        if x0 == 0 or y0 == 0 or x1 == w - 1 or y1 == h - 1:
+            continue                                # cut by the view's edge: not alone
+        if sm.valid_left is not None and not sm.valid_left[ys, xs].all():
             continue
-        crop = np.pad((lab[y0[k]:y0[k] + bh[k], x0[k]:x0[k] + bw[k]] == k).astype(np.uint8), 1)
+        crop = np.zeros((y1 - y0 + 3, x1 - x0 + 3), np.uint8)
+        crop[ys - y0 + 1, xs - x0 + 1] = 1
         r = float(cv2.distanceTransform(crop, cv2.DIST_L2, 5).max()) - 0.5
         if r < MIN_RADIUS_PX:
             continue
-        pts = np.column_stack([xs + x0[k], ys + y0[k]]).astype(float)
+        pts = np.column_stack([xs, ys]).astype(float)
         mean = pts.mean(axis=0)
         evals, evecs = np.linalg.eigh(np.cov((pts - mean).T))
         axis = evecs[:, 1]

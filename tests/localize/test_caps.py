@@ -107,11 +107,16 @@ def test_stub_tips_past_occluders_are_found_in_a_rendered_scene(monkeypatch):
         (row,) = [r for r in score.rows if r.truth_index == 2]
         return row
 
+    monkeypatch.setattr(dense, "STUB_TIPS", False)         # (the isolated stubs' own rule: below)
     with_caps = score_result(loc.localize(left, right, **kw), truth)
     monkeypatch.setattr(dense, "cap_curves", lambda *a, **k: {})
     without = score_result(loc.localize(left, right, **kw), truth)
     assert truth.features.kind[2] == "endpoint"
     assert tip_row(without).result_id < 0
+    # the stub is alone in the left mask (its base behind the apple): stubtips.py finds its tip too
+    monkeypatch.setattr(dense, "STUB_TIPS", True)
+    stub = tip_row(score_result(loc.localize(left, right, **kw), truth))
+    assert stub.result_id >= 0 and stub.disparity_err_px < 0.2
     assert tip_row(with_caps).result_id >= 0 and tip_row(with_caps).disparity_err_px < 0.2
     assert with_caps.n_found >= without.n_found + 1
     assert with_caps.n_result - with_caps.n_correct <= without.n_result - without.n_correct   # no false one more

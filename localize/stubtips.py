@@ -1,0 +1,155 @@
+"""Tips of short isolated stubs: a twig's last few radii seen alone in the left mask.
+
+A twig whose base lies behind a leaf or an apple shows only its end: a small piece of mask, a few
+radii long, with a round cap at one end and the occluder's edge at the other. The coarse skeleton
+(downscaled) of such a piece is a point or a piece shorter than ``match.min_segment_px``: it gets no
+curve and its tip is never placed (docs/localize-tiprec21.md). This module finds such pieces among
+the left mask's small connected components that hold no matched piece and no placed feature, and
+places the tip of those with exactly one round end (:func:`tips.cap_shapes_offsets`,
+:func:`tips.reads_round`): a disc (a branch seen end-on) is not long enough, and a piece cut at both
+ends has no round one. The disparity is the cap's (:func:`caps.cap_disparity`: the left mask's patch
+around the cap fitted along the right mask's rows), which must also end the piece in the right view
+(the same end along the piece's axis within :data:`END_SHIFT_PX`).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from appliance.localize.caps import MIN_FIT_MARGIN, cap_disparity
+from appliance.localize.curves import BranchCurve, Poly
+from appliance.localize.texture import nearer_in_front
+from appliance.localize.tips import cap_centre, cap_shapes_offsets, occluder_confirmed, reads_round
+
+MIN_AREA_PX = 60.0         # components smaller than this (px) are specks
+MAX_AREA_PX = 900.0        # ... larger than this have pieces of their own (the skeleton's)
+MIN_RADIUS_PX = 3.0        # the piece's half width (largest inscribed disc), px
+MIN_LENGTH_RADII = 3.2     # its length along its axis, in radii (a disc seen end-on: 2)
+MAX_OFF_AXIS_PX = 2.0      # every pixel within the half width plus this of the axis (a straight stub)
+END_SHIFT_PX = 1.5         # the cap ends this close (px, along the axis) in both views (tipends' steep shift)
+STEP_PX = 0.25             # walk step along the axis, px
+
+
+def _walk_end(mask: np.ndarray, start: np.ndarray, out: np.ndarray, reach_px: float) -> np.ndarray | None:
+    """Where the line from ``start`` along ``out`` leaves ``mask`` (>= 128), px (x, y): the last sample
+    inside plus half a step; None if it does not leave it within ``reach_px`` or leaves the image."""
+    h, w = mask.shape
+    t = np.arange(0.0, reach_px, STEP_PX)
+    pts = start[None, :] + t[:, None] * out[None, :]
+    ij = np.rint(pts).astype(int)
+    inside = (ij[:, 0] >= 0) & (ij[:, 0] < w) & (ij[:, 1] >= 0) & (ij[:, 1] < h)
+    on = np.zeros(len(t), bool)
+    on[inside] = mask[ij[inside, 1], ij[inside, 0]] >= 128
+    if not on[0]:
+        return None
+    off = np.flatnonzero(~on)
+    if len(off) == 0 or not inside[off[0]]:
+        return None
+    return start + (t[off[0] - 1] + 0.5 * STEP_PX) * out
+
+
+def stub_tips(b, taken: np.ndarray) -> list[tuple[float, float, float, float]]:
+    """Tips (u, v, d, radius) px of the left mask's small isolated stubs (module docstring).
+
+    Parameters
+    ----------
+    b : ends.EndPlacer
+        The placer of the graph (its masks ``sm``, mask runs and the tips' disparity readings).
+    taken : ndarray (N, 2)
+        Points (x, y) px of matched pieces and placed features: a component holding any is not a stub's.
+
+    Returns
+    -------
+    list of (u, v, d, radius_px)
+        The tip's place on its cap's centre in the rectified left image, its disparity and the cap's radius.
+    """
+    sm = b.sm
+    left = sm.left_mask
+    h, w = left.shape
+    # (the plain labelling and a bincount: connectedComponentsWithStats took 20x as long here)
+    n, lab = cv2.connectedComponents((left >= 128).view(np.uint8), connectivity=8)
+    area = np.bincount(lab.ravel(), minlength=n)
+    cand = (area >= MIN_AREA_PX) & (area <= MAX_AREA_PX)
+    cand[0] = False
+    if len(taken):
+        q = np.rint(np.asarray(taken, float)).astype(int)
+        ok = (q[:, 0] >= 0) & (q[:, 0] < w) & (q[:, 1] >= 0) & (q[:, 1] < h)
+        cand[lab[q[ok, 1], q[ok, 0]]] = False
+    if not cand.any():
+        return []
+    ys, xs = np.nonzero(cand[lab])
+    kk = lab[ys, xs]
+    order = np.argsort(kk, kind="stable")
+    ys, xs, kk = ys[order], xs[order], kk[order]
+    cuts = np.flatnonzero(np.diff(kk)) + 1
+    found = []
+    for ys, xs in zip(np.split(ys, cuts), np.split(xs, cuts)):
+        x0, y0 = int(xs.min()), int(ys.min())
+        x1, y1 = int(xs.max()), int(ys.max())
+        if x0 == 0 or y0 == 0 or x1 == w - 1 or y1 == h - 1:
+            continue                                # cut by the view's edge: not alone
+        if sm.valid_left is not None and not sm.valid_left[ys, xs].all():
+            continue
+        crop = np.zeros((y1 - y0 + 3, x1 - x0 + 3), np.uint8)
+        crop[ys - y0 + 1, xs - x0 + 1] = 1
+        r = float(cv2.distanceTransform(crop, cv2.DIST_L2, 5).max()) - 0.5
+        if r < MIN_RADIUS_PX:
+            continue
+        pts = np.column_stack([xs, ys]).astype(float)
+        mean = pts.mean(axis=0)
+        evals, evecs = np.linalg.eigh(np.cov((pts - mean).T))
+        axis = evecs[:, 1]
+        along = (pts - mean) @ axis
+        across = (pts - mean) @ np.array([-axis[1], axis[0]])
+        if np.ptp(along) + 1.0 < MIN_LENGTH_RADII * r or np.abs(across).max() > r + MAX_OFF_AXIS_PX:
+            continue
+        ends = []
+        for out in (axis, -axis):
+            e = _walk_end(left, mean, out, np.ptp(along) + 2 * r + 4)
+            if e is None:
+                break
+            ends.append((e, out, r))
+        if len(ends) < 2:
+            continue
+        shapes, offsets = cap_shapes_offsets(left, ends)
+        round_ = [reads_round(s) for s in shapes]          # (an end that cannot be read: round)
+        if sum(round_) != 1:
+            continue
+        i = round_.index(True)
+        uv_edge, out, _ = ends[i]
+        d = cap_disparity(sm, uv_edge - r * out, max(4, int(round(2 * r))), out, MIN_FIT_MARGIN)
+        if d is None:
+            continue
+        # the right view's piece ends there too (an occluder's edge, at another depth, would not)
+        e_r = _walk_end(sm.right_mask, mean - np.array([d, 0.0]), out, np.ptp(along) + 2 * r + 4)
+        if e_r is None or abs(float((e_r + np.array([d, 0.0]) - uv_edge) @ out)) > END_SHIFT_PX:
+            continue
+        # the cap's outline read as the pieces' tips are (tipends.TipPlacing): a steep stub's rows
+        # across its cap, a flat stub's row run ends; the mask fit's disparity stays where they read nothing
+        steep = np.degrees(np.arctan2(abs(out[1]), abs(out[0]))) >= b.cfg.max_horizontal_deg
+        if steep:
+            vv = pts[:, 1]
+            c = BranchCurve(-1, True, (float(vv.min()), float(vv.max())),
+                            Poly.fit(vv, mean[0] + (vv - mean[1]) * axis[0] / axis[1], 1), Poly.constant(d), r,
+                            len(pts), (0.0, 0.0))
+            d_read = b._cap_disparity(c, float(uv_edge[1]), uv_edge, out, float(np.sign(out[1])), d, r)
+        else:
+            d_read = b._end_disparity(uv_edge, out, d, r)
+        if d_read is not None and np.isfinite(d_read) and abs(d_read - d) <= 2.0:
+            d = float(d_read)
+        # something at the stub's depth or nearer just beyond the cap (a leaf's or an apple's edge
+        # ending it): not a tip (the probe of tipends.TipPlacing.tips)
+        half = max(4, int(round(r)))
+        probe = uv_edge + out * (half * (abs(out[0]) + abs(out[1])) + 2)
+        if nearer_in_front(sm.left_gray, sm.right_gray, probe[None], np.array([d]), np.array([half]),
+                           sm.d_range_px[1]) and occluder_confirmed(sm, uv_edge, out, d, half):
+            continue
+        centre = cap_centre(shapes[i], float(offsets[i]), r)
+        if centre is None:
+            continue
+        back, across_px, rho = centre
+        normal = np.array([-out[1], out[0]])
+        u, v = uv_edge - out * back + normal * across_px
+        found.append((float(u), float(v), float(d), float(rho)))
+    return found

@@ -1,9 +1,10 @@
 """Shared test helpers: paths of the repository and its fixtures, the compiled kernels, the rendered scenes.
 
-Under pytest-xdist (``pytest -n 2``: the suite on two processes; ``--dist loadgroup`` is in pyproject.toml's
-``addopts``) the work both processes would otherwise repeat is shared through the session's common temporary
-directory: each kernels module is compiled by whichever process comes to it first (the other loads it from
-numba's disk cache), each rendered scene is rendered once and read by the other process from a pickle."""
+Under pytest-xdist (``pytest -n 2``: the suite on two processes; ``--dist loadfile`` is in pyproject.toml's
+``addopts``: a file's tests, which mostly share their seeds, run on one process) the work both processes would
+otherwise repeat is shared through the session's common temporary directory: each kernels module is compiled by
+whichever process comes to it first (the other loads it from numba's disk cache), each rendered scene is
+rendered once and read by the other process from a pickle."""
 
 from __future__ import annotations
 
@@ -101,14 +102,3 @@ def rendered_scene(_shared_dir):
         left, right, truth = (rendered if _shared_dir is None else shared)(seed)
         return left, right, truth, rig.calibration()
     return scene
-
-
-def pytest_collection_modifyitems(config, items):
-    """Under xdist (``--dist loadgroup``): the cases of one test that localizes rendered scenes run on one
-    process, one after another (they mostly share a seed): split over two processes, one would wait for the
-    other's render of the seed instead of running something else."""
-    if not config.pluginmanager.hasplugin("xdist"):
-        return
-    for item in items:
-        if "rendered_scene" in getattr(item, "fixturenames", ()):
-            item.add_marker(pytest.mark.xdist_group(f"{item.path.name}::{item.originalname}"))

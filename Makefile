@@ -1,6 +1,6 @@
 # Two commands set everything up on a fresh machine (Python >= 3.11 with venv):
 #   make demo   runs the appliance on the bundled fixtures (no camera needed)
-#   make test   runs the test suite
+#   make test   runs the test suite (make test PYTEST_ARGS="-n 2": on two processes, README "Test time")
 # Each creates the virtual environment .venv on first use.
 # Optional, as root, before them: make system-packages (Debian packages some tests and the GigE
 # driver need: OpenCV's sample data, Aravis). Without them those tests skip and say why.
@@ -35,7 +35,7 @@ demo: $(BIN)/.installed
 	@echo "overlays: $(OUT)/overlay_*.png   log: $(OUT)/logs"
 
 test: $(BIN)/.installed
-	$(BIN)/pytest
+	$(BIN)/pytest $(PYTEST_ARGS)
 
 system-packages:
 	apt-get update -q

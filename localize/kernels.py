@@ -47,19 +47,25 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def warm_up() -> None:
-    """Compile (or load from the disk cache) every kernel for the argument types the localizer
-    passes, on tiny inputs: ~10 s the first time without a cache, ~0.1 s from the cache, then
-    nothing. :class:`~appliance.localize.Localizer` calls it when built, so that no frame waits
-    for a compile (a live stream, a worker process). Each module's ``warm_up`` (imported here, not
-    at import time: they import this module for :data:`_JIT`)."""
+def kernel_modules() -> tuple:
+    """The ``kernels_<topic>`` modules in the order :func:`warm_up` compiles them (imported here, not at import
+    time: they import this module for :data:`_JIT`)."""
     from appliance.localize import (kernels_check, kernels_colruns, kernels_dense, kernels_endreads, kernels_fit,
                                     kernels_forkglue, kernels_forknear, kernels_forks, kernels_front, kernels_graph,
                                     kernels_match,
                                     kernels_ncc, kernels_patchshare, kernels_points, kernels_refine, kernels_runs,
                                     kernels_segclean, kernels_segment, kernels_tips, kernels_walks)
-    for module in (kernels_fit, kernels_runs, kernels_walks, kernels_graph, kernels_segment, kernels_ncc,
-                   kernels_dense, kernels_refine, kernels_tips, kernels_forks, kernels_front, kernels_check,
-                   kernels_match, kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare,
-                   kernels_colruns, kernels_points, kernels_forknear):
+    return (kernels_fit, kernels_runs, kernels_walks, kernels_graph, kernels_segment, kernels_ncc,
+            kernels_dense, kernels_refine, kernels_tips, kernels_forks, kernels_front, kernels_check,
+            kernels_match, kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare,
+            kernels_colruns, kernels_points, kernels_forknear)
+
+
+def warm_up() -> None:
+    """Compile (or load from the disk cache) every kernel for the argument types the localizer
+    passes, on tiny inputs: ~10 s the first time without a cache, ~0.1 s from the cache, then
+    nothing. :class:`~appliance.localize.Localizer` calls it when built, so that no frame waits
+    for a compile (a live stream, a worker process). Each module's ``warm_up``, in the order of
+    :func:`kernel_modules`."""
+    for module in kernel_modules():
         module.warm_up()

@@ -50,3 +50,19 @@ def test_warm_up_compiles_every_signature_the_localizer_uses():
     assert probe["modules"] >= 18 and probe["kernels"] >= 150     # the scan found the kernels modules
     assert probe["warmed"] >= 80 and probe["features"] >= 100     # warm_up compiled them; the localizers ran
     assert probe["new"] == {}
+
+
+def test_warm_up_lists_every_kernels_module_with_a_warm_up():
+    """kernels.kernel_modules (what warm_up and the test session's shared warm-up compile) names every
+    ``kernels_<topic>`` module of the package that has a ``warm_up``, each once (kernels_stats has none: its
+    helpers are compiled into the kernels that call them)."""
+    import importlib
+    import pkgutil
+
+    import appliance.localize as L
+    from appliance.localize import kernels
+
+    names = [m.__name__.rsplit(".", 1)[1] for m in kernels.kernel_modules()]
+    found = [m.name for m in pkgutil.iter_modules(L.__path__) if m.name.startswith("kernels_")]
+    assert len(found) >= 19 and len(names) == len(set(names))
+    assert set(names) == {n for n in found if hasattr(importlib.import_module("appliance.localize." + n), "warm_up")}

@@ -354,31 +354,40 @@ def _turning_pair(k: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
 
 def test_turn_overshoot_signs_a_tips_distance_past_its_texture_along_the_turn():
     # features 0, 1: tips on pieces turning at -0.08 / +0.06 px per px away from them; 2: a tip on a piece
-    # turning slower than TURN_SLOPE; 3: a fork; 4: a tip without a verdict
-    t = {"feature": np.array([0, 0, 1, 1, 2, 3, 3, 4]), "slope": np.array([-0.08, -0.08, 0.06, 0.06, 0.03, -0.1, -0.1, 0.1])}
+    # turning slower than TURN_SLOPE; 3: a fork; 4: a tip without a verdict. Feature 0's second patch is not
+    # confident (its distance not in the carry).
+    t = {"feature": np.array([0, 0, 1, 1, 2, 3, 3, 4]), "slope": np.array([-0.08, -0.08, 0.06, 0.06, 0.03, -0.1, -0.1, 0.1]),
+         "s": np.array([10.0, 30.0, 10.0, 20.0, 10.0, 10.0, 20.0, 10.0]), "d_axis": np.full(8, 100.0),
+         "score": np.array([0.95, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])}
     d = np.array([167.5, 100.0, 50.0, 80.0, 60.0])
     check = np.array([166.6, 101.0, 49.0, 79.0, np.nan])
-    over = FC.turn_overshoot(t, d, check, np.array([True, True, True, False, True]))
+    tip = np.array([True, True, True, False, True])
+    over, carry = FC.turn_overshoot(t, d, check, tip)
     assert over[0] == pytest.approx(0.9) and over[1] == pytest.approx(1.0)
-    assert np.isnan(over[2:]).all()
+    assert carry[0] == pytest.approx(0.08 * 10.0) and carry[1] == pytest.approx(0.06 * 15.0)
+    assert np.isnan(over[2:]).all() and np.isnan(carry[2:]).all()
     t["slope"] = -t["slope"]                                         # (the tips short of their texture instead)
-    assert (FC.turn_overshoot(t, d, check, np.array([True, True, True, False, True]))[:2] < 0).all()
+    assert (FC.turn_overshoot(t, d, check, tip)[0][:2] < 0).all()
 
 
-@pytest.mark.parametrize("k", [0.08, -0.08])
-def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(k):
-    # the texture reads the tip at D_PX; a tip 1 px past it along the turn (the far side from the piece's
-    # body: + for a disparity falling away from the tip) is withheld, 1 px short of it is kept (under
-    # max_diff_px), and on a piece not turning in depth 1 px either way is kept
+@pytest.mark.parametrize("k", [0.06, -0.06])
+def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(k, monkeypatch):
+    # the texture reads the tip at D_PX (its patches 8-32 px back, carried ~1.2 px); a tip 1.2 px past it along
+    # the turn (the far side from the piece's body: + for a disparity falling away from the tip) is withheld,
+    # 1.2 px short of it is kept (under max_diff_px), and on a piece not turning in depth either is kept
     left, right, mask, pieces = _turning_pair(k)
-    past = np.sign(k)
+    past = 1.2 * np.sign(k)
     checks = [check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + dd, R_PX)], pieces, left, right,
                              mask, D_RANGE, F_PX)[0] for dd in (past, -past)]
     assert abs(checks[0].d_check_px - D_PX) < 0.4 and checks[0].n_patches >= 2, checks[0]
-    assert checks[0].overshoot_px > FC.TURN_PX and checks[0].withheld
+    assert checks[0].overshoot_px > FC.TURN_PX and checks[0].turned and checks[0].withheld
     assert checks[1].overshoot_px < 0 and not checks[1].withheld
+    monkeypatch.setattr(FC, "TURN_CARRY_SHARE", 1.0 / (abs(k) * 8.0))    # (the patches ~8+ px back: a carry of
+    c = check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + past, R_PX)], pieces, left, right, mask,
+                       D_RANGE, F_PX)[0]                                # 1+ px allows the overshoot)
+    assert not c.turned and not c.withheld
     left, right, mask, pieces = _turning_pair(0.0)
-    for dd in (1.0, -1.0):
+    for dd in (1.2, -1.2):
         c = check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + dd, R_PX)], pieces, left, right, mask,
                            D_RANGE, F_PX)[0]
         assert np.isnan(c.overshoot_px) and not c.withheld and abs(c.diff_px + dd) < 0.4

@@ -62,9 +62,9 @@ TURN_SLOPE = 0.05            # a tip whose piece turns in depth at least this fa
 TURN_PX = 0.7                # ... and whose texture reads it more than this short of its own disparity, on the
                              # side the piece comes from (its end carried too far along the turn), is withheld
                              # (:func:`turn_overshoot`; seed 516 T17: 0.9 px, -6.6 mm) ...
-TURN_CARRY_SHARE = 0.5       # ... and more than this share of the disparity its patches were carried across to the
-                             # tip (|slope| x their mean distance: the carry's own uncertainty; seed 548 T15, right,
-                             # 0.76 px short after a 2.1 px carry)
+TURN_CARRY_SHARE = 0.6       # ... and more than this share of the disparity its patches were carried across to the
+                             # tip (|slope| x their mean distance: the carry's own uncertainty; right tips: seed 548
+                             # T15 0.76 px after a 2.1 px carry, 385 T8 0.84 after 1.6; 516 T17 0.76 after 1.14)
 
 
 @dataclass(frozen=True)

@@ -168,7 +168,7 @@ def turn_overshoot(t: dict, d_px: np.ndarray, d_check: np.ndarray, tip: np.ndarr
     that are tips. For a tip whose piece's ``|slope| >= TURN_SLOPE``: the overshoot ``(d_check - d) *
     sign(slope)``, positive where the tip's disparity lies beyond the texture's on the far side from the
     piece's body (its end extrapolated too far along the turn), and the carry ``|slope|`` x the mean ``s`` of
-    its confident patches (``score >= MIN_SCORE``); NaN for every other feature. A tip's end on such a piece
+    its confident patches (``score >= MIN_SCORE``, at least ``FIT_MIN_PATCHES``: two cannot tell their own line; seed 467 T4, right, read 1.5 px off by two); NaN for every other feature. A tip's end on such a piece
     is read from the last few px of a curve bending in depth (seed 516 T17: 165.7, 166.4, 167.5 px over its
     last 13 px, 1.05 px past the truth; its three patches 7-18 px back read it within 0.15 px): the check's
     ``max_diff_px`` (1.6, set by the noise of every feature) lets such an overshoot pass. The texture's
@@ -184,7 +184,7 @@ def turn_overshoot(t: dict, d_px: np.ndarray, d_check: np.ndarray, tip: np.ndarr
     ok = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
     n_ok = np.bincount(t["feature"][ok], minlength=nf)
     s_mean = np.bincount(t["feature"][ok], weights=t["s"][ok], minlength=nf) / np.maximum(n_ok, 1)
-    turns = tip & (np.abs(np.nan_to_num(slope)) >= TURN_SLOPE) & np.isfinite(d_check) & (n_ok > 0)
+    turns = tip & (np.abs(np.nan_to_num(slope)) >= TURN_SLOPE) & np.isfinite(d_check) & (n_ok >= FIT_MIN_PATCHES)
     over[turns] = ((d_check - d_px) * np.sign(slope))[turns]
     carry[turns] = (np.abs(slope) * s_mean)[turns]
     return over, carry

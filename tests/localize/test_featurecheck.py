@@ -354,11 +354,12 @@ def _turning_pair(k: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
 
 def test_turn_overshoot_signs_a_tips_distance_past_its_texture_along_the_turn():
     # features 0, 1: tips on pieces turning at -0.08 / +0.06 px per px away from them; 2: a tip on a piece
-    # turning slower than TURN_SLOPE; 3: a fork; 4: a tip without a verdict. Feature 0's second patch is not
+    # turning slower than TURN_SLOPE; 3: a fork; 4: a tip without a verdict. Feature 0's fourth patch is not
     # confident (its distance not in the carry).
-    t = {"feature": np.array([0, 0, 1, 1, 2, 3, 3, 4]), "slope": np.array([-0.08, -0.08, 0.06, 0.06, 0.03, -0.1, -0.1, 0.1]),
-         "s": np.array([10.0, 30.0, 10.0, 20.0, 10.0, 10.0, 20.0, 10.0]), "d_axis": np.full(8, 100.0),
-         "score": np.array([0.95, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])}
+    t = {"feature": np.array([0, 0, 0, 0, 1, 1, 1, 2, 3, 3, 4]),
+         "slope": np.array([-0.08] * 4 + [0.06] * 3 + [0.03, -0.1, -0.1, 0.1]),
+         "s": np.array([10.0, 10.0, 10.0, 30.0, 10.0, 15.0, 20.0, 10.0, 10.0, 20.0, 10.0]), "d_axis": np.full(11, 100.0),
+         "score": np.array([0.95, 0.95, 0.95, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])}
     d = np.array([167.5, 100.0, 50.0, 80.0, 60.0])
     check = np.array([166.6, 101.0, 49.0, 79.0, np.nan])
     tip = np.array([True, True, True, False, True])
@@ -368,6 +369,8 @@ def test_turn_overshoot_signs_a_tips_distance_past_its_texture_along_the_turn():
     assert np.isnan(over[2:]).all() and np.isnan(carry[2:]).all()
     t["slope"] = -t["slope"]                                         # (the tips short of their texture instead)
     assert (FC.turn_overshoot(t, d, check, tip)[0][:2] < 0).all()
+    t["score"][1] = 0.5                                              # (two confident patches: no line, no value)
+    assert np.isnan(FC.turn_overshoot(t, d, check, tip)[0][0])
 
 
 @pytest.mark.parametrize("k", [0.06, -0.06])

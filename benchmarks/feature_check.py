@@ -49,10 +49,11 @@ class _Measuring(Localizer):
 def measure(scene_list: list, masks: list[str]) -> tuple[list[tuple], list[float]]:
     """(scene, masks, kind, truth index (-1: false), dZ mm, texture - feature px (NaN: no verdict),
     patches, the pieces' agreement px (NaN: fewer than two pieces)) of every reported feature, and the
-    check's time (ms) of every pair. Nothing is withheld (both thresholds infinite)."""
+    check's time (ms) of every pair. Nothing is withheld (every threshold infinite)."""
     cfg = load_config().localize
     cfg = replace(cfg, feature_check=replace(cfg.feature_check, enabled=True, max_diff_px=float("inf")))
     featurecheck.AGREE_PX = float("inf")            # (read by check_features at each call)
+    featurecheck.TURN_PX = float("inf")
     loc = _Measuring(load_calibration(REPO / "fixtures" / "rig.yaml"), cfg, "improved")
     rows, times = [], []
     for name, lp, rp, tp in scene_list:

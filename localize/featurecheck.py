@@ -58,6 +58,13 @@ OPPOSE_PX = 0.3              # ... and none beyond this on the other is withheld
 FAR_PX = 3.0                 # a feature one of whose pieces' own texture reads further off is withheld ...
 FAR_MIN_PATCHES = 3          # ... by at least this many confident patches ...
 FAR_SPREAD_PX = 1.0          # ... carried along its slope within this of each other (seed 534 T11: 13 px)
+TURN_SLOPE = 0.05            # a tip whose piece turns in depth at least this fast (px of disparity per px) ...
+TURN_PX = 0.7                # ... and whose texture reads it more than this short of its own disparity, on the
+                             # side the piece comes from (its end carried too far along the turn), is withheld
+                             # (:func:`turn_overshoot`; seed 516 T17: 0.9 px, -6.6 mm) ...
+TURN_CARRY_SHARE = 0.6       # ... and more than this share of the disparity its patches were carried across to the
+                             # tip (|slope| x their mean distance: the carry's own uncertainty; right tips: seed 548
+                             # T15 0.76 px after a 2.1 px carry, 385 T8 0.84 after 1.6; 516 T17 0.76 after 1.14)
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,11 @@ class FeatureCheck:
         The pieces' agreement (:func:`estimate`: the second largest of the pieces' own texture estimates
         minus the feature's disparity when none reads under -``OPPOSE_PX``, or the mirror; 0: they do not
         agree; NaN: fewer than two pieces give one), px.
+    overshoot_px : float
+        A tip on a piece turning in depth: how far its disparity lies past the texture's along the turn
+        (:func:`turn_overshoot`; NaN: not such a tip, or no verdict), px.
+    turned : bool
+        Withheld for that overshoot (beyond ``TURN_PX`` and ``TURN_CARRY_SHARE`` of the texture's carry).
     """
 
     node: int
@@ -93,6 +105,8 @@ class FeatureCheck:
     spread_px: float
     withheld: bool
     agree_px: float = math.nan
+    overshoot_px: float = math.nan
+    turned: bool = False
 
     @property
     def diff_px(self) -> float:
@@ -136,9 +150,44 @@ def check_features(features: list, pieces: list, left, right, left_mask: np.ndar
     far = far_piece(t, d_px)
     d_check = np.where(np.abs(far) > FAR_PX, d_px + far, d_check)     # (a far piece's reading: "texture")
     limit = AGREE_PX if agree_px is None else agree_px
-    withheld = (np.abs(d_check - d_px) > max_diff_px) | (np.abs(agree) > limit)     # (NaN: False)
+    over, carry = turn_overshoot(t, d_px, d_check, np.array([ft.kind == "endpoint" for ft in features], bool))
+    turned = over > np.maximum(TURN_PX, TURN_CARRY_SHARE * carry)                                  # (NaN: False)
+    withheld = (np.abs(d_check - d_px) > max_diff_px) | (np.abs(agree) > limit) | turned
     return [FeatureCheck(int(ft.node), float(d_px[i]), float(d_check[i]), int(n[i]), float(spread[i]),
-                         bool(withheld[i]), float(agree[i])) for i, ft in enumerate(features)]
+                         bool(withheld[i]), float(agree[i]), float(over[i]), bool(turned[i]))
+            for i, ft in enumerate(features)]
+
+
+def turn_overshoot(t: dict, d_px: np.ndarray, d_check: np.ndarray, tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far each tip on a piece turning in depth lies past its texture's reading along the turn, and the
+    disparity its texture was carried across, px (F,) each.
+
+    ``t``: :func:`patch_table`'s (``feature``, ``s``: px from the feature, ``slope``: the piece's disparity
+    slope away from the feature, px per px, ``d_axis``, ``score``); ``d_px``, ``d_check`` (F,): the features'
+    disparities and the texture's estimate (:func:`estimate`; NaN: no verdict); ``tip`` (F,): the features
+    that are tips. For a tip whose piece's ``|slope| >= TURN_SLOPE``: the overshoot ``(d_check - d) *
+    sign(slope)``, positive where the tip's disparity lies beyond the texture's on the far side from the
+    piece's body (its end extrapolated too far along the turn), and the carry ``|slope|`` x the mean ``s`` of
+    its confident patches (``score >= MIN_SCORE``, at least ``FIT_MIN_PATCHES``: two cannot tell their own line; seed 467 T4, right, read 1.5 px off by two); NaN for every other feature. A tip's end on such a piece
+    is read from the last few px of a curve bending in depth (seed 516 T17: 165.7, 166.4, 167.5 px over its
+    last 13 px, 1.05 px past the truth; its three patches 7-18 px back read it within 0.15 px): the check's
+    ``max_diff_px`` (1.6, set by the noise of every feature) lets such an overshoot pass. The texture's
+    reading is itself carried along the slope: ``check_features`` withholds an overshoot beyond ``TURN_PX``
+    and beyond ``TURN_CARRY_SHARE`` of the carry."""
+    nf = len(d_px)
+    over, carry = np.full(nf, np.nan), np.full(nf, np.nan)
+    if len(t["feature"]) == 0:
+        return over, carry
+    f, first = np.unique(t["feature"], return_index=True)          # (a tip has one piece: its slope)
+    slope = np.full(nf, np.nan)
+    slope[f] = t["slope"][first]
+    ok = np.isfinite(t["d_axis"]) & (t["score"] >= MIN_SCORE)
+    n_ok = np.bincount(t["feature"][ok], minlength=nf)
+    s_mean = np.bincount(t["feature"][ok], weights=t["s"][ok], minlength=nf) / np.maximum(n_ok, 1)
+    turns = tip & (np.abs(np.nan_to_num(slope)) >= TURN_SLOPE) & np.isfinite(d_check) & (n_ok >= FIT_MIN_PATCHES)
+    over[turns] = ((d_check - d_px) * np.sign(slope))[turns]
+    carry[turns] = (np.abs(slope) * s_mean)[turns]
+    return over, carry
 
 
 def far_piece(t: dict, d_px: np.ndarray) -> np.ndarray:

@@ -19,7 +19,8 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import known_side_stands, none_vouched, outvoted, scattered_read_contradicted
+from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, none_vouched, outvoted,
+                                          scattered_read_contradicted)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -145,6 +146,11 @@ SCATTERED_READ_WITHHELD = True
 # on 144 columns up to the fork, 0.17 px off; the child carried 27 rows and its outline, 1.3 / 1.8 px off, agreeing
 # with each other: their mean with it +9.1 mm)
 REACHED_STANDS = True
+# a flat parent's side carried to the fork further than CHILD_CARRY_PX past its span, not read there, gives way to
+# the other side read next to the fork where the child's curve and the child's right outline both confirm the read
+# side: the fork takes the mean of those three (forkvouch.carried_side_outvoted: seed 556's fork 10, exact masks,
+# a thin side carried 54 px, 1.6 px off; the plain mean of the sides -6.0 mm)
+CARRIED_FLAT_OUTVOTED = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -380,6 +386,14 @@ class ForkPlacing:
                 # carried tens of rows): the side that the right outline confirms (seed 151's fork,
                 # +2.5 px from the child's carried curve)
                 d, agree = 0.5 * (min(sides, key=lambda v: abs(v - d_out)) + d_out), True
+            elif CARRIED_FLAT_OUTVOTED and sides is None and len(parents) == 2 and child_ok \
+                    and sum(s in flat_read for s in parents) == 1 and all(
+                        s in flat_read or self._carried_px(s, xy) > CHILD_CARRY_PX for s in parents) \
+                    and carried_side_outvoted(*(at(s) for s in sorted(parents, key=lambda s: s not in flat_read)),
+                                              at(child), d_out):
+                # the side carried far to the fork is off: the side read there, the child's curve and its right
+                # outline agree (forkvouch.carried_side_outvoted: seed 556's fork 10)
+                d, agree = float((at(next(s for s in parents if s in flat_read)) + at(child) + d_out) / 3.0), True
             elif FLAT_PICK and len(d_par) == 2 and all(s in flat_read for s in parents) \
                     and abs(d_par[0] - d_par[1]) > FLAT_SIDES_DIFFER_PX:
                 # the two sides' textures next to the fork disagree: the outline's disparity too, if

@@ -83,3 +83,22 @@ def scattered_read_contradicted(d_fork: float, read_mad_px: float, d_outline: fl
     seed 478's fork 10, 2.1 px from their outline, are right.)"""
     return d_outline is not None and not child_confirms and read_mad_px > READ_SCATTER_PX \
         and abs(d_outline - d_fork) > READ_OUTLINE_PX
+
+
+# a flat parent side carried past its span (not read next to the fork) that differs from the other side, read
+# there, by more than CARRIED_APART_PX while the child's curve and its right outline both confirm the read side
+# (within CARRIED_CONFIRM_PX each)
+CARRIED_APART_PX = 0.5
+CARRIED_CONFIRM_PX = 0.5
+
+
+def carried_side_outvoted(d_read: float, d_carried: float, d_child: float, d_outline: float) -> bool:
+    """Whether a flat parent's two sides at a fork disagree because the one carried there is off: the side read
+    next to the fork (its bark texture, ``d_read``, px) and the side carried to it past its fitted span
+    (``d_carried``) differ by more than ``CARRIED_APART_PX``, while the child's curve ``d_child`` and the child's
+    outline in the right view ``d_outline`` both lie within ``CARRIED_CONFIRM_PX`` of the read side: three
+    readings at the fork agree, the fourth is a line carried across a gap. Seed 556's fork 10 (exact masks): a
+    thick side (r 12.7 px) read next to the fork at 164.91 px, a thin one (r 5.5 px, fitted on 112 columns)
+    carried 54 px to 166.25, the child 164.80, the outline 164.85, truth 164.66: their mean +0.92 px, -6.0 mm."""
+    return abs(d_read - d_carried) > CARRIED_APART_PX and abs(d_child - d_read) <= CARRIED_CONFIRM_PX \
+        and abs(d_outline - d_read) <= CARRIED_CONFIRM_PX

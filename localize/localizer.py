@@ -291,7 +291,7 @@ class Localizer:
                 branches.append(Branch(len(branches), ids, poly, radius_mm, bool(p.recovered)))
         if withheld:
             at = self.rectifier.to_original(np.array([[ft.u, ft.v] for ft, _ in withheld]), 0)
-            texture = [abs(k.diff_px) > self.cfg.feature_check.max_diff_px for _, k in withheld]
+            texture = [abs(k.diff_px) > self.cfg.feature_check.max_diff_px or k.turned for _, k in withheld]
             withheld = [WithheldFeature(ft.kind, tuple(at[i]), float(ft.d),
                                         float(k.d_check_px if t else ft.d + k.agree_px),
                                         "texture" if t else "pieces_agree")

@@ -331,3 +331,66 @@ def test_a_fork_whose_pieces_read_far_off_is_withheld_at_the_far_pieces_reading(
     assert not ok[1].withheld
     off = check_features(_features(D_PX, D_PX + 4.0), _pieces(), left, right, mask, D_RANGE, F_PX)
     assert off[1].withheld and abs(off[1].d_check_px - D_PX) < 0.5
+
+
+def _turning_pair(k: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """The constructed pair with the disparity changing along the rows: D_PX at column 200 (the tip), D_PX + k
+    (x - 200) elsewhere (a branch turning in depth, k px per px); the left mask and the tip's two pieces with
+    that disparity along them."""
+    rng = np.random.default_rng(5)
+    t = cv2.GaussianBlur(rng.uniform(0, 255, (H, W + 60)).astype(np.float32), (0, 0), 1.2)
+    t = (60 + 140 * (t - t.min()) / (t.max() - t.min())).astype(np.uint8)
+    left = np.ascontiguousarray(t[:, :W])
+    xr = np.tile(np.arange(W, dtype=np.float32), (H, 1))
+    map_x = (xr + D_PX - k * 200.0) / (1.0 - k)                      # (x_left - D(x_left) = x_right)
+    right = cv2.remap(t, map_x, np.tile(np.arange(H, dtype=np.float32)[:, None], (1, W)), cv2.INTER_CUBIC)
+    mask = np.zeros((H, W), np.uint8)
+    cv2.line(mask, (60, 100), (200, 100), 255, int(2 * R_PX) + 1)
+    x = np.linspace(60, 130, 36), np.linspace(130, 200, 36)
+    pieces = [PieceUVD(i, np.column_stack([xi, np.full(36, 100.0), D_PX + k * (xi - 200.0)]), R_PX, False, (i, i + 1))
+              for i, xi in enumerate(x)]
+    return left, right, mask, pieces
+
+
+def test_turn_overshoot_signs_a_tips_distance_past_its_texture_along_the_turn():
+    # features 0, 1: tips on pieces turning at -0.08 / +0.06 px per px away from them; 2: a tip on a piece
+    # turning slower than TURN_SLOPE; 3: a fork; 4: a tip without a verdict. Feature 0's fourth patch is not
+    # confident (its distance not in the carry).
+    t = {"feature": np.array([0, 0, 0, 0, 1, 1, 1, 2, 3, 3, 4]),
+         "slope": np.array([-0.08] * 4 + [0.06] * 3 + [0.03, -0.1, -0.1, 0.1]),
+         "s": np.array([10.0, 10.0, 10.0, 30.0, 10.0, 15.0, 20.0, 10.0, 10.0, 20.0, 10.0]), "d_axis": np.full(11, 100.0),
+         "score": np.array([0.95, 0.95, 0.95, 0.5, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9])}
+    d = np.array([167.5, 100.0, 50.0, 80.0, 60.0])
+    check = np.array([166.6, 101.0, 49.0, 79.0, np.nan])
+    tip = np.array([True, True, True, False, True])
+    over, carry = FC.turn_overshoot(t, d, check, tip)
+    assert over[0] == pytest.approx(0.9) and over[1] == pytest.approx(1.0)
+    assert carry[0] == pytest.approx(0.08 * 10.0) and carry[1] == pytest.approx(0.06 * 15.0)
+    assert np.isnan(over[2:]).all() and np.isnan(carry[2:]).all()
+    t["slope"] = -t["slope"]                                         # (the tips short of their texture instead)
+    assert (FC.turn_overshoot(t, d, check, tip)[0][:2] < 0).all()
+    t["score"][1] = 0.5                                              # (two confident patches: no line, no value)
+    assert np.isnan(FC.turn_overshoot(t, d, check, tip)[0][0])
+
+
+@pytest.mark.parametrize("k", [0.06, -0.06])
+def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(k, monkeypatch):
+    # the texture reads the tip at D_PX (its patches 8-32 px back, carried ~1.2 px); a tip 1.2 px past it along
+    # the turn (the far side from the piece's body: + for a disparity falling away from the tip) is withheld,
+    # 1.2 px short of it is kept (under max_diff_px), and on a piece not turning in depth either is kept
+    left, right, mask, pieces = _turning_pair(k)
+    past = 1.2 * np.sign(k)
+    checks = [check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + dd, R_PX)], pieces, left, right,
+                             mask, D_RANGE, F_PX)[0] for dd in (past, -past)]
+    assert abs(checks[0].d_check_px - D_PX) < 0.4 and checks[0].n_patches >= 2, checks[0]
+    assert checks[0].overshoot_px > FC.TURN_PX and checks[0].turned and checks[0].withheld
+    assert checks[1].overshoot_px < 0 and not checks[1].withheld
+    monkeypatch.setattr(FC, "TURN_CARRY_SHARE", 1.0 / (abs(k) * 8.0))    # (the patches ~8+ px back: a carry of
+    c = check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + past, R_PX)], pieces, left, right, mask,
+                       D_RANGE, F_PX)[0]                                # 1+ px allows the overshoot)
+    assert not c.turned and not c.withheld
+    left, right, mask, pieces = _turning_pair(0.0)
+    for dd in (1.2, -1.2):
+        c = check_features([FeatureUVD(2, "endpoint", 200.0, 100.0, D_PX + dd, R_PX)], pieces, left, right, mask,
+                           D_RANGE, F_PX)[0]
+        assert np.isnan(c.overshoot_px) and not c.withheld and abs(c.diff_px + dd) < 0.4

@@ -365,3 +365,18 @@ def test_a_lone_flat_side_fitted_up_to_the_fork_is_not_outvoted(rendered_scene, 
         assert row is None or row.result_id < 0 or abs(row.dz_mm) < 3.0
     else:
         assert row.result_id >= 0 and row.dz_mm > 8.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_flat_side_carried_far_gives_way_to_the_side_read_at_the_fork(rendered_scene, monkeypatch, rule):
+    # seed 556's fork 10, exact masks: a flat parent, its thick side (r 12.7 px) read next to the fork at 164.91 px,
+    # its thin side (r 5.5 px, fitted on 112 columns) carried 54 px to 166.25; the child's curve 164.80 and its
+    # right outline 164.85 agree with the read side (truth 164.66). The sides' mean +0.92 px, -6.0 mm; the mean of
+    # the read side, the child and the outline (forkvouch.carried_side_outvoted) -1.3 mm.
+    monkeypatch.setattr(forkends, "CARRIED_FLAT_OUTVOTED", rule)
+    row = score_row(rendered_scene(556), 10, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.0
+    else:
+        assert row.dz_mm < -5.0

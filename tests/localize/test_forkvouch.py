@@ -1,7 +1,7 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import (known_side_stands, none_vouched, outvoted, scattered_read_contradicted,
-                                          vouched_by_span)
+from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, none_vouched, outvoted,
+                                          scattered_read_contradicted, vouched_by_span)
 
 
 def test_a_span_vouches_for_half_its_length_past_either_end():
@@ -42,3 +42,11 @@ def test_a_scattered_read_far_from_the_outline_is_contradicted_a_tight_one_is_no
     assert not scattered_read_contradicted(201.62, 0.50, 199.04, True)   # the child's curve confirms the read
     assert not scattered_read_contradicted(201.62, 0.50, 200.00, False)  # the outline within 2 px
     assert not scattered_read_contradicted(201.62, 0.50, None, False)    # no outline
+
+
+def test_a_carried_side_gives_way_only_when_the_child_and_its_outline_both_confirm_the_read_side():
+    assert carried_side_outvoted(164.91, 166.25, 164.80, 164.85)          # seed 556's fork 10 (exact masks)
+    assert carried_side_outvoted(164.91, 163.50, 165.30, 164.50)          # the carried side low, both within 0.5
+    assert not carried_side_outvoted(164.91, 165.30, 164.80, 164.85)      # the sides within 0.5 px: their mean
+    assert not carried_side_outvoted(164.91, 166.25, 165.50, 164.85)      # the child 0.59 px off the read side
+    assert not carried_side_outvoted(164.91, 166.25, 164.80, 166.00)      # the outline with the carried side

@@ -1,11 +1,12 @@
 """The tip rules of tips.py / tipends.py, each off and on, on the accuracy benchmark's rendered scene where a
 gross error showed the need for it (issue 5; docs/localize-gross340.md, -gross19b.md)."""
 
+import math
 from dataclasses import replace
 
 import pytest
 from appliance.config import load_config
-from appliance.localize import Localizer, capslope, dense, tipends, tips
+from appliance.localize import Localizer, capslope, dense, featurecheck, tipends, tips
 from appliance.synth.evaluate import score_result
 
 
@@ -14,7 +15,8 @@ def tip_row(scene, truth_index: int, exact: bool, cfg=None):
     left, right, truth, calib = scene
     kw = dict(mask_left=truth.mask_left, mask_right=truth.mask_right) if exact else {}
     res = Localizer(calib, cfg or load_config().localize).localize(left, right, **kw)
-    row = next(r for r in score_result(res, truth).rows if r.truth_index == truth_index)
+    row = next((r for r in score_result(res, truth).rows if r.truth_index == truth_index), None)
+    assert row is not None, f"true tip {truth_index} not seen in both views"
     assert row.kind == "endpoint"
     return row
 
@@ -82,3 +84,17 @@ def test_a_steep_tip_on_a_piece_inclined_in_depth_is_read_at_its_caps_centre(ren
         assert abs(row.dz_mm) <= 2.0
     else:
         assert row.dz_mm <= -3.0
+
+
+@pytest.mark.parametrize("turn_px", [math.inf, featurecheck.TURN_PX])
+def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(rendered_scene, monkeypatch, turn_px):
+    # seed 516's tip 17 (Z 1052 mm, colour masks): a thin piece (r 7 px) turning in depth towards its tip (0.09 px
+    # of disparity per px), its end's disparity carried 1.05 px past the truth (-6.6 mm); the feature check's
+    # patches 7-18 px back read it 0.9 px short of the tip along the turn, under max_diff_px (1.6): withheld
+    # by featurecheck.turn_overshoot. (Constructed cases: test_featurecheck.py.)
+    monkeypatch.setattr(featurecheck, "TURN_PX", turn_px)
+    row = tip_row(rendered_scene(516), 17, exact=False)
+    if math.isfinite(turn_px):
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm < -5.0

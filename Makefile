@@ -1,6 +1,6 @@
 # Two commands set everything up on a fresh machine (Python >= 3.11 with venv):
 #   make demo   runs the appliance on the bundled fixtures (no camera needed)
-#   make test   runs the test suite (make test PYTEST_ARGS="-n 2": on two processes, README "Test time")
+#   make test   runs the test suite (on two processes, then the timing tests alone: README "Test time")
 # Each creates the virtual environment .venv on first use.
 # Optional, as root, before them: make system-packages (Debian packages some tests and the GigE
 # driver need: OpenCV's sample data, Aravis). Without them those tests skip and say why.
@@ -34,8 +34,11 @@ demo: $(BIN)/.installed
 	$(BIN)/python -m appliance.synth.evaluate $(foreach l,$(SCENES),$(OUT)/result_$(subst left_,,$(basename $(notdir $(l)))).json fixtures/scenes/truth_$(subst left_,,$(basename $(notdir $(l)))).json)
 	@echo "overlays: $(OUT)/overlay_*.png   log: $(OUT)/logs"
 
+# The suite on two processes, then the tests that wait for real processes and real time on their own
+# (tests/conftest.py: SERIAL_FOLDERS); exit status 5 is "no test selected" (a PYTEST_ARGS subset).
 test: $(BIN)/.installed
-	$(BIN)/pytest $(PYTEST_ARGS)
+	$(BIN)/pytest -n 2 -m "not serial" $(PYTEST_ARGS) || [ $$? -eq 5 ]
+	$(BIN)/pytest -m serial $(PYTEST_ARGS) || [ $$? -eq 5 ]
 
 system-packages:
 	apt-get update -q

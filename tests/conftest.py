@@ -102,3 +102,18 @@ def rendered_scene(_shared_dir):
         left, right, truth = (rendered if _shared_dir is None else shared)(seed)
         return left, right, truth, rig.calibration()
     return scene
+
+
+# Folders whose tests wait for real processes, pseudo-terminals, sockets and real time (the run loop, the arm
+# link, the camera drivers, the calibrate command, the logs' crash tests): `make test` runs them on their own
+# after the rest, which runs on two processes (README, "Test time").
+SERIAL_FOLDERS = ("acquire", "appliance", "arm", "calibrate", "config", "logs")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Mark the tests of :data:`SERIAL_FOLDERS` ``serial`` (before ``-m`` selects by marks)."""
+    tests = Path(__file__).resolve().parent
+    for item in items:
+        if item.path.resolve().relative_to(tests).parts[0] in SERIAL_FOLDERS:
+            item.add_marker(pytest.mark.serial)

@@ -6,15 +6,7 @@ from __future__ import annotations
 import numpy as np
 from appliance.localize import kernels_forkglue, kernels_forknear
 
-
-def _former(pts, p, r):
-    """ForkPlacing.fork's former steps: near_piece, and fewer than 3 points: the 15 nearest in numpy."""
-    near, dist, u = kernels_forkglue.near_piece(pts, float(p[0]), float(p[1]), float(r))
-    if len(near) < 3:
-        near = pts[np.argsort(dist)[:15]]
-        v = near.sum(0) / len(near) - p
-        u = v / max(np.hypot(*v), 1e-9)
-    return near, u
+from .test_kernels_forkglue import _near_piece_new as _former   # ForkPlacing.fork's former steps
 
 
 def _now(pts, p, r):

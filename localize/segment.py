@@ -138,11 +138,15 @@ def bark_lut_rows(cfg: SegmentConfig) -> tuple[np.ndarray, np.ndarray]:
 
 @lru_cache(maxsize=4)
 def _bark_lut_rows(*values: int) -> tuple[np.ndarray, np.ndarray]:
-    rows, index = np.unique(_bark_lut(*values).reshape(1 << 16, 32), axis=0, return_inverse=True)
-    if len(rows) > 1 << 16:                                      # (cannot happen: 2^16 rows at most)
-        raise AssertionError("bark table rows")
-    index = index.reshape(-1).astype(np.uint16)
-    rows = np.ascontiguousarray(rows).reshape(-1)
+    table = _bark_lut(*values).reshape(1 << 16, 32)
+    words = table.view(np.uint64)                              # (2^16, 4): each row's 32 bytes as 4 words
+    order = np.lexsort(words.T)                                # (~10 ms; np.unique(axis=0) took ~1 s: a
+    ordered = words[order]                                     #  sort of 32-byte void items)
+    first = np.ones(1 << 16, bool)
+    first[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    index = np.empty(1 << 16, np.uint16)                       # (2^16 rows at most: uint16 holds every row number)
+    index[order] = np.cumsum(first) - 1
+    rows = np.ascontiguousarray(table[order[first]]).reshape(-1)
     index.setflags(write=False)
     rows.setflags(write=False)
     return index, rows

@@ -287,6 +287,12 @@ def _steep_fit_numpy(t, alive, n, degree, q, rr, cd, cw, gq, c_l, w_l, model, ro
     return alive, tf, df, cf, wf, gc, rr[chosen], uw_inl[:len(tf)], te, de, re, ge
 
 
+# steep_fit's optional arguments at their defaults (no occlusion test, no fork rows), passed explicitly: the
+# localizer's signature, loaded from numba's cache (left out, they are a signature of their own, compiled anew
+# in every process: ~30 s)
+_STEEP_FIT_DEFAULTS = (-1.0, 0.0, 1.0, 0.0, 0.0, np.full((0, 2), np.nan))
+
+
 def test_steep_fit_is_the_numpy_steps():
     """:func:`_steep_scenes`' pieces through :func:`kernels_dense.steep_candidates`, the degrees and the
     consensus lines: the same picks, lines' inliers and single-edge samples, bit for bit."""
@@ -306,7 +312,7 @@ def test_steep_fit_is_the_numpy_steps():
         got = kernels_dense.steep_fit(t, alive, n, degree.astype(np.int64), q, rr, cd, cw, gq, c_l, w3, model.coef,
                                       model.t0, model.ts, rows_all, il_all, g_all, runs_r._find_tables,
                                       runs_l.bounds_px, runs_r.bounds_px, runs_l.width,
-                                      np.zeros(0, bool) if taken is None else taken)
+                                      np.zeros(0, bool) if taken is None else taken, *_STEEP_FIT_DEFAULTS)
         assert got[0] == (want is not None)
         if want is None:
             continue

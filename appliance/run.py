@@ -172,7 +172,8 @@ class _Loop:
         self.frames_q: queue.Queue = queue.Queue(maxsize=2)
         self.log_q: queue.Queue = queue.Queue(maxsize=cfg.logging.queue_frames)
         # built here even with worker processes: a bad calibration or setting fails now, in one line
-        self.localizer = Localizer(calib, cfg.localize, variant=opts.variant)
+        # (its kernels are loaded only where it localizes)
+        self.localizer = Localizer(calib, cfg.localize, variant=opts.variant, warm=opts.workers == 1)
         self.camera_to_base = np.asarray(cfg.arm.camera_to_base, float)
         self._done_ns: deque = deque(maxlen=120)      # result times, for the rate
         self._latency_ms: deque = deque(maxlen=300)

@@ -131,9 +131,14 @@ class Localizer:
     calib : StereoCalibration
     cfg : LocalizeConfig
     variant : {"improved", "paper"}
+    warm : bool
+        Load the numba kernels (~1.5 s from numba's disk cache) and the colour tables now, so that the
+        first pair does not wait for them. False for a localizer built only to check the settings (the run
+        loop's, when localizer processes do the work): its first pair would load them.
     """
 
-    def __init__(self, calib: StereoCalibration, cfg: LocalizeConfig, variant: Variant = "improved"):
+    def __init__(self, calib: StereoCalibration, cfg: LocalizeConfig, variant: Variant = "improved",
+                 warm: bool = True):
         if variant not in ("improved", "paper"):
             raise ValueError(f"variant must be 'improved' or 'paper', got {variant!r}")
         self.calib = calib
@@ -141,8 +146,9 @@ class Localizer:
         self.cfg = paper_config(cfg) if variant == "paper" else cfg
         self.rectifier = Rectifier.from_calibration(calib)
         self.d_range_px = disparity_range_px(calib, self.cfg.working_range_mm)
-        kernels.warm_up()               # (compiled or loaded now, not on the first frame)
-        bark_lut_rows(self.cfg.segment)  # (the colour recogniser's tables, ~0.1 s once per process)
+        if warm:
+            kernels.warm_up()               # (compiled or loaded now, not on the first frame)
+            bark_lut_rows(self.cfg.segment)  # (the colour recogniser's tables, ~0.1 s once per process)
 
     # -- stages -------------------------------------------------------------------------------
     def _masks(self, left, right, mask_left, mask_right, clock):

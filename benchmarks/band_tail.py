@@ -14,12 +14,15 @@ source lines they look for stay). Every matched feature whose true depth lies in
   matched by their row crossings, ``flat`` ones by bark texture);
 - forks: the rule that set the disparity (``mean2`` / ``one`` the parent sides' mean / lone side, ``median3``,
   ``known``, ``weighted``, ``flat-outline``, ``lone-flat-outvoted``, ``flat-pick-mean3``, ``flat-pick-one``,
-  ``carried-flat-outvoted``, ``sides-outline``, ``child``; ``+axis`` when moved onto the parent's axis,
-  ``+later`` when changed after ``fork`` returned, ``hidden-fork`` for a hidden end's crossing) and each side's
+  ``carried-flat-outvoted``, ``sides-outline``, ``lone-carried-median``, ``child``; ``+axis`` when moved onto
+  the parent's axis, ``+later`` when changed after ``fork`` returned, ``hidden-fork`` for a hidden end's crossing)
+  and each side's
   source (``steep-read`` its crossings next to the fork, ``flat-tex`` its texture there, ``-span`` / ``-carried``
-  its curve inside its fitted span / carried past it) with its error against the truth (px);
+  its curve inside its fitted span / carried past it, ``(tex agrees)`` its texture read there within 0.25 px of
+  it) with its error against the truth (px), the child's curve and its right outline;
 - tips: ``steep-cap`` (the cap's rows), ``steep-curve``, ``flat-runend`` (the right run's end), ``flat-texture``,
-  ``merged-right-cap``, ``flat-stub``, with the piece's origin (``dense``, ``caps`` stub, ``flatcap``).
+  ``merged-right-cap``, ``flat-stub``, with the piece's origin (``dense``, ``caps`` stub, ``flatcap``) and its
+  curve's error there.
 
 Then the counts by kind / slope / rule (the table of causes).
 """
@@ -58,6 +61,7 @@ FORK_RULES = {          # a source line's start -> the rule it applies (the last
     "d, agree = d_out, True": "flat-outline",
     "self.uvd[node][2] = d_known": "known",
     "self.uvd[node][2] = weigh_sides(": "weighted",
+    "self.uvd[node][2] = lone_carried_median(": "lone-carried-median",
 }
 AXIS_LINE = "self.uvd[node][2] -= centre_bias_px("
 TIP_RULES = {

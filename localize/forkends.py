@@ -19,8 +19,8 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, none_vouched, outvoted,
-                                          scattered_read_contradicted)
+from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, lone_carried_median, none_vouched,
+                                          outvoted, scattered_read_contradicted)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -151,6 +151,12 @@ REACHED_STANDS = True
 # side: the fork takes the mean of those three (forkvouch.carried_side_outvoted: seed 556's fork 10, exact masks,
 # a thin side carried 54 px, 1.6 px off; the plain mean of the sides -6.0 mm)
 CARRIED_FLAT_OUTVOTED = True
+
+# a fork whose disparity is a lone flat parent side's curve carried further than CHILD_CARRY_PX past its fitted span
+# (not read next to the fork, or its texture there within FLAT_NEAR_MIN_PX of the curve) takes the median of that
+# side, the child's curve and the child's right outline (forkvouch.lone_carried_median); after every decision, so
+# which forks are reported is unchanged (docs/localize-forktail22.md: such forks read +0.28 px high at the median)
+LONE_CARRIED_MEDIAN = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -370,6 +376,7 @@ class ForkPlacing:
                 self.place_pending(node)          # (if not made yet: it stands)
             return
         agree = seen_right = False
+        d_out = None
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
             # outline leaving it in the right view tells the fork's own (along the rows)
@@ -483,6 +490,11 @@ class ForkPlacing:
                 and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
                     float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
+        if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \
+                and not from_outline and float(self.uvd[node][2]) == d and parents[0] not in side_near \
+                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX:
+            # (a flat parent: d_out is set only there; the fork's disparity still the side's own, no rule took another)
+            self.uvd[node][2] = lone_carried_median(d, float(at(child)), d_out)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):

@@ -102,3 +102,14 @@ def carried_side_outvoted(d_read: float, d_carried: float, d_child: float, d_out
     carried 54 px to 166.25, the child 164.80, the outline 164.85, truth 164.66: their mean +0.92 px, -6.0 mm."""
     return abs(d_read - d_carried) > CARRIED_APART_PX and abs(d_child - d_read) <= CARRIED_CONFIRM_PX \
         and abs(d_outline - d_read) <= CARRIED_CONFIRM_PX
+
+
+def lone_carried_median(d_side: float, d_child: float, d_outline: float) -> float:
+    """The disparity (px) of a fork whose lone flat parent side is only carried to it: the median of that side's
+    curve carried past its fitted span ``d_side``, the child's curve ``d_child`` and the child's outline in the
+    right view ``d_outline`` (three independent readings at the fork, none of them measured on the parent there;
+    the median leaves out the one furthest off on either side). On seeds 100-155 and 356-611, both mask sources,
+    such sides (carried 34-60 px) read their forks +0.28 px high at the median (seed 515's fork 16: +0.36 /
+    +0.43 px, the child +0.19 / +0.07; seed 511's fork 12: +0.29 / +0.30, the child +0.26 / -0.08, its outline
+    -1.30 / +0.16): docs/localize-forktail22.md."""
+    return float(sorted((d_side, d_child, d_outline))[1])

@@ -380,3 +380,18 @@ def test_a_flat_side_carried_far_gives_way_to_the_side_read_at_the_fork(rendered
         assert abs(row.dz_mm) < 2.0
     else:
         assert row.dz_mm < -5.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_side_carried_far_to_the_fork_gives_way_to_the_median_of_three(rendered_scene, monkeypatch, rule):
+    # seed 515's fork 16, exact masks (Z 1135 mm): a flat parent fitted on one side of the fork, its curve carried
+    # 60 px past its span to the fork (its texture there not read apart from it), +0.36 px: -2.7 mm; the child's
+    # curve +0.19 px and its right outline +0.10 px. The median of the three (forkvouch.lone_carried_median) takes
+    # the child's: -1.4 mm.
+    monkeypatch.setattr(forkends, "LONE_CARRIED_MEDIAN", rule)
+    row = score_row(rendered_scene(515), 16, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 1.8
+    else:
+        assert row.dz_mm < -2.3

@@ -1,7 +1,7 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, none_vouched, outvoted,
-                                          scattered_read_contradicted, vouched_by_span)
+from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, lone_carried_median, none_vouched,
+                                          outvoted, scattered_read_contradicted, vouched_by_span)
 
 
 def test_a_span_vouches_for_half_its_length_past_either_end():
@@ -50,3 +50,11 @@ def test_a_carried_side_gives_way_only_when_the_child_and_its_outline_both_confi
     assert not carried_side_outvoted(164.91, 165.30, 164.80, 164.85)      # the sides within 0.5 px: their mean
     assert not carried_side_outvoted(164.91, 166.25, 165.50, 164.85)      # the child 0.59 px off the read side
     assert not carried_side_outvoted(164.91, 166.25, 164.80, 166.00)      # the outline with the carried side
+
+
+def test_a_lone_carried_side_gives_way_to_the_middle_of_the_three_readings():
+    assert lone_carried_median(155.76, 155.59, 155.49) == 155.59         # seed 515's fork 16 (exact masks): the child
+    assert lone_carried_median(146.00, 145.62, 145.86) == 145.86         # seed 511's fork 12 (colour): the outline
+    assert lone_carried_median(146.00, 145.96, 144.40) == 145.96         # an outline 1.6 px off is left out
+    assert lone_carried_median(160.54, 160.45, 161.63) == 160.54         # the side in the middle stands
+    assert lone_carried_median(160.54, 167.00, 161.63) == 161.63         # another branch's curve never taken

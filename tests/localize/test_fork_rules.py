@@ -380,3 +380,65 @@ def test_a_flat_side_carried_far_gives_way_to_the_side_read_at_the_fork(rendered
         assert abs(row.dz_mm) < 2.0
     else:
         assert row.dz_mm < -5.0
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_unread_flat_sides_clearly_disagree_rests_on_the_child_and_its_outline(rendered_scene,
+                                                                                              monkeypatch, masks, rule):
+    # seed 607's fork 7: a thin flat parent turning 0.1 px per px in depth, its two sides constants (83 and 95
+    # columns, no clean texture line) carried 24 and 17 px to the fork at 141.4 and 151.7 px, neither read there
+    # (their texture searched about the carried constants); the median of three took the child, a 9-row fit carried
+    # 24 rows: exact masks 146.29 (truth 148.07, +14.5 mm), colour masks 147.61 (+3.7 mm). The child's right outline
+    # reads 148.30 / 148.14. With the rule: exact, child and outline 2.0 px apart, withheld; colour, their mean.
+    monkeypatch.setattr(forkends, "UNREAD_SIDES_APART", rule)
+    row = score_row(rendered_scene(607), 7, exact=masks == "true")
+    if masks == "true":
+        if rule:
+            assert row.result_id < 0
+        else:
+            assert row.result_id >= 0 and row.dz_mm > 10.0
+    else:
+        assert row.result_id >= 0
+        if rule:
+            assert abs(row.dz_mm) < 2.5
+        else:
+            assert row.dz_mm > 3.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_hidden_fork_does_not_take_a_few_patch_flat_constant(rendered_scene, monkeypatch, rule):
+    # seed 607's fork 9, exact masks: a leaf hides a steep parent's upper end; carried 20 px on it meets a 25-column
+    # flat piece (the child and the parent's stub at the view's top edge) whose disparity is a constant from 5 texture
+    # patches, 148.26 px (truth 149.43): the hidden fork took it, +9.3 mm. Such a constant is no parent's disparity
+    # (forkvouch.few_patch_constant): the end stays hidden.
+    monkeypatch.setattr(forkends, "HIDDEN_ON_FEW_PATCHES", rule)
+    row = score_row(rendered_scene(607), 9, exact=True)
+    if rule:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 8.0
+
+
+def test_unread_sides_apart_leave_a_side_that_agrees_with_the_child(rendered_scene):
+    # seed 364's fork 14, exact masks: two flat sides 63 px apart (one another branch), neither read next to the fork,
+    # the other side 0.35 px from the child's curve (the median of three, -1.0 mm); the child's outline 1.6 px from
+    # both. Two readings agree: UNREAD_SIDES_APART does not apply and the fork stands.
+    assert forkends.UNREAD_SIDES_APART
+    row = score_row(rendered_scene(364), 14, exact=True)
+    assert row.result_id >= 0 and abs(row.dz_mm) < 2.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_the_outline_does_not_move_a_fork_whose_side_read_confirms_its_curve(rendered_scene, monkeypatch, rule):
+    # seed 600's fork 14, colour masks: a lone flat side fitted to 3.4 px from the fork, its bark texture read next
+    # to the fork within 0.25 px of its curve (the curve stands: 178.49 px, truth 178.65); the child (a steep fit
+    # carried 28 rows) 180.71, its right outline 179.55. The outline, 1.06 px from the side, moved the fork there:
+    # -4.9 mm. A side read twice (its fit and its texture at the fork) is not moved by the outline.
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", rule)
+    row = score_row(rendered_scene(600), 14, exact=False)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.0
+    else:
+        assert row.dz_mm < -4.0

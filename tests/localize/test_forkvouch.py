@@ -1,6 +1,9 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, none_vouched, outvoted,
+import pytest
+from appliance.localize.flatfit import FEW_PATCHES
+from appliance.localize.forkvouch import (UNREAD_AGREE_PX, carried_side_outvoted, child_outline_consensus,
+                                          few_patch_constant, known_side_stands, none_vouched, outvoted,
                                           scattered_read_contradicted, vouched_by_span)
 
 
@@ -50,3 +53,21 @@ def test_a_carried_side_gives_way_only_when_the_child_and_its_outline_both_confi
     assert not carried_side_outvoted(164.91, 165.30, 164.80, 164.85)      # the sides within 0.5 px: their mean
     assert not carried_side_outvoted(164.91, 166.25, 165.50, 164.85)      # the child 0.59 px off the read side
     assert not carried_side_outvoted(164.91, 166.25, 164.80, 166.00)      # the outline with the carried side
+
+
+def test_unread_sides_apart_take_the_child_and_its_outline_only_where_they_agree():
+    # seed 607's fork 7: colour masks, the child 147.61 and the outline 148.14 agree: their mean
+    assert child_outline_consensus(147.61, 148.14) == pytest.approx(147.875)
+    # exact masks: the child 146.29 and the outline 148.30, 2.0 px apart: nothing to tell the fork's depth
+    assert child_outline_consensus(146.29, 148.30) is None
+    assert child_outline_consensus(146.29, None) is None
+    assert child_outline_consensus(150.0, 150.0 - UNREAD_AGREE_PX + 1e-6) is not None     # either side
+    assert child_outline_consensus(150.0, 150.0 + UNREAD_AGREE_PX + 1e-3) is None
+
+
+def test_only_a_flat_constant_from_few_patches_is_a_few_patch_constant():
+    assert few_patch_constant(False, 1, 5)                 # seed 607's fork 9: a 25-column piece, 5 patches
+    assert few_patch_constant(False, 1, 0)                 # a constant taken from the forks at its ends
+    assert not few_patch_constant(False, 1, FEW_PATCHES + 1)   # seed 476's fork 9: 8-10 patches
+    assert not few_patch_constant(False, 2, 3)             # a texture line
+    assert not few_patch_constant(True, 1, 3)              # a steep piece (its row crossings)

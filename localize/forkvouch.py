@@ -116,7 +116,8 @@ def child_outline_consensus(d_child: float, d_outline: float | None) -> float | 
     next to it (each a curve carried to the fork: a flat piece too short or too curved for a texture line is a
     constant, which on a parent turning in depth is off by the turn times its carry): the mean of the child's
     curve ``d_child`` and the child's outline in the right view ``d_outline`` where those two independent readings
-    agree within ``UNREAD_AGREE_PX``; None (the fork is withheld) where they do not or there is no outline. Seed
+    agree within ``UNREAD_AGREE_PX``; None (the fork is withheld) where they do not, or ``d_outline`` is None
+    (:meth:`forkends.ForkPlacing.fork` asks only where the outline was read; without it the median stands). Seed
     607's fork 7 (exact masks): sides 141.36 and 151.70 px (constants of 83 and 95 columns carried 24 and 17 px
     on a parent turning 0.1 px per px), the child a 9-row fit carried 24 rows 146.29, the outline 148.30, truth
     148.07: the median of three took the child, +14.5 mm; colour masks: the child 147.61, the outline 148.14,

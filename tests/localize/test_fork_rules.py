@@ -204,8 +204,10 @@ def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_chi
     # own curve (-0.7 px); with the outline rule bound towards the child it stays at the texture's +1.0 px
     monkeypatch.setattr(forkends, "LONE_TAPER", False)
     monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
-    # (the texture read next to the fork now keeps the outline off whatever the child: the next test)
+    # (the texture read next to the fork now keeps the outline off whatever the child: the next test; and so does
+    # a read that confirmed the side's curve, OUTLINE_NOT_OVER_CONFIRMED)
     monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", False)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)
     row = score_row(rendered_scene(308), 12, exact=False)
     if towards_child:
         assert row.result_id < 0 or abs(row.dz_mm) <= 5.0
@@ -219,6 +221,7 @@ def test_the_childs_right_outline_does_not_move_a_flat_forks_texture_read(render
     # seed 365's fork 12 (exact masks): a lone flat side whose texture next to the fork reads -0.15 px; the
     # child's right outline, 1.2 px away, took it to +1.0 px (8 mm)
     monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", rule)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)   # (it keeps the outline off too)
     row = score_row(rendered_scene(365), 12, exact=True)
     assert row.result_id >= 0
     if rule:
@@ -236,6 +239,7 @@ def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(
     # colour recogniser the case was found: the olive and grey bark tests move this mask and the fork to
     # +4.9 mm under either bound.)
     monkeypatch.setattr(forkends, "OUTLINE_MAX_SHIFT_PX", max_shift_px)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)   # (the texture read stands under it too)
     cfg = load_config().localize
     cfg = replace(cfg, segment=replace(cfg.segment, olive_saturation_max=0, grey_chroma_max=0))
     row = score_row(rendered_scene(328), 14, exact=False, cfg=cfg)

@@ -19,12 +19,16 @@ from appliance.localize.forkchild import child_texture_agrees, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
-from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, lone_carried_median, none_vouched,
-                                          outvoted, scattered_read_contradicted)
+from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
+                                          known_side_stands, lone_carried_median, none_vouched, outvoted,
+                                          scattered_read_contradicted)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
 HIDDEN_FORK_MIN_DEG = 20.0
+# ... and a piece whose disparity is a flat constant from a few texture patches (forkvouch.few_patch_constant) is
+# not a hidden fork's parent (seed 607's fork 9, exact masks: a 5-patch constant 1.17 px off, +9.3 mm)
+HIDDEN_ON_FEW_PATCHES = True
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
@@ -63,6 +67,10 @@ OUTLINE_MAX_SHIFT_PX = 2.0
 # child leaving at 17 deg from the columns without a curve: the texture -0.15 / -0.1 px, the outline +1.0
 # px with the exact masks, -1.5 px with the colour ones)
 OUTLINE_NOT_OVER_TEXTURE = True
+# ... nor where that read confirmed the side's curve (within FLAT_NEAR_MIN_PX: the curve stands, read twice)
+# (seed 600's fork 14, colour masks: a lone flat side fitted up to 3.4 px from the fork, read there within 0.25 px
+# of its curve, -0.16 px; the outline 1.06 px off moved the fork to +0.90 px, -4.9 mm)
+OUTLINE_NOT_OVER_CONFIRMED = True
 
 # a fork whose two steep parent sides differ by more than this (px; less than the clear
 # disagreement's 2 px) takes their mean weighted by how well each side's line is known there
@@ -151,6 +159,13 @@ REACHED_STANDS = True
 # side: the fork takes the mean of those three (forkvouch.carried_side_outvoted: seed 556's fork 10, exact masks,
 # a thin side carried 54 px, 1.6 px off; the plain mean of the sides -6.0 mm)
 CARRIED_FLAT_OUTVOTED = True
+# a flat parent whose two sides clearly disagree at a fork (the median of three taken), neither of which was read
+# next to it nor agrees with the child's curve (_agree), takes the mean of the child's curve and the child's right
+# outline where those agree, else the fork is withheld (forkvouch.child_outline_consensus: seed 607's fork 7, exact
+# masks, two constant sides 10 px apart on a parent turning in depth, the median the child's 9-row fit carried 24
+# rows, +14.5 mm; a side that agrees with the child stands: seed 364's fork 14, exact masks, one side another
+# branch 63 px off, the other 0.35 px from the child, the outline 1.6 px from both, right at -1.0 mm)
+UNREAD_SIDES_APART = True
 
 # a fork whose disparity is a lone flat parent side's curve carried further than CHILD_CARRY_PX past its fitted span
 # (not read next to the fork, or its texture there within FLAT_NEAR_MIN_PX of the curve) takes the median of that
@@ -375,7 +390,7 @@ class ForkPlacing:
             elif final:
                 self.place_pending(node)          # (if not made yet: it stands)
             return
-        agree = seen_right = False
+        agree = seen_right = unread_apart = False
         d_out = None
         if parents and outline is not None and not any(self.curves[s].by_row for s in parents):
             # a flat parent's disparity (from its texture) may be a px or two off; the child's
@@ -393,6 +408,16 @@ class ForkPlacing:
                 # carried tens of rows): the side that the right outline confirms (seed 151's fork,
                 # +2.5 px from the child's carried curve)
                 d, agree = 0.5 * (min(sides, key=lambda v: abs(v - d_out)) + d_out), True
+            elif UNREAD_SIDES_APART and sides is not None and not any(s in flat_read for s in parents) \
+                    and not any(_agree(at(child), v) for v in sides):
+                # two sides carried to the fork, clearly apart, neither read there, the child agreeing with
+                # neither (the median of three is the child alone): the child's curve and its right outline
+                # decide, if they agree (forkvouch.child_outline_consensus: seed 607's fork 7)
+                d_cons = child_outline_consensus(float(at(child)), d_out)
+                if d_cons is None:
+                    unread_apart = True
+                else:
+                    d, agree = d_cons, True
             elif CARRIED_FLAT_OUTVOTED and sides is None and len(parents) == 2 and child_ok \
                     and sum(s in flat_read for s in parents) == 1 and all(
                         s in flat_read or self._carried_px(s, xy) > CHILD_CARRY_PX for s in parents) \
@@ -428,7 +453,8 @@ class ForkPlacing:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
                     and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))) \
-                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)) and not reached:
+                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)) and not reached \
+                    and not (OUTLINE_NOT_OVER_CONFIRMED and any(s in flat_read for s in parents)):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
                 d, agree = d_out, True
@@ -490,6 +516,8 @@ class ForkPlacing:
                 and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
                     float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
+        if unread_apart and final:
+            agree = False           # (UNREAD_SIDES_APART: the child and its right outline disagree)
         if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \
                 and not from_outline and float(self.uvd[node][2]) == d and parents[0] not in side_near \
                 and self._carried_px(parents[0], xy) > CHILD_CARRY_PX:
@@ -841,6 +869,9 @@ class ForkPlacing:
         if best is None:
             return False
         k, c2 = best
+        if HIDDEN_ON_FEW_PATCHES and few_patch_constant(
+                c2.by_row, len(c2.d_poly.coef) if type(c2.d_poly) is Poly else 0, c2.n_samples):   # (Spliced: not one)
+            return False
         xy = uv[k]
         t2 = c2.t_of(xy)[0]
         e2 = c2.uv_at(t2 + 1.0)[0] - c2.uv_at(t2 - 1.0)[0]

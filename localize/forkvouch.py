@@ -11,6 +11,8 @@ own span: it does not override the others (:func:`known_side_stands`).
 
 from __future__ import annotations
 
+from appliance.localize.flatfit import FEW_PATCHES
+
 
 def vouched_by_span(t_range: tuple[float, float], t_fork: float) -> bool:
     """Whether a curve fitted on ``t_range`` (lo, hi; px of its parameter) is carried to ``t_fork`` (px) no
@@ -113,3 +115,35 @@ def lone_carried_median(d_side: float, d_child: float, d_outline: float) -> floa
     +0.43 px, the child +0.19 / +0.07; seed 511's fork 12: +0.29 / +0.30, the child +0.26 / -0.08, its outline
     -1.30 / +0.16): docs/localize-forktail22.md."""
     return float(sorted((d_side, d_child, d_outline))[1])
+
+
+# a flat parent whose two sides clearly disagree at a fork (the median of three taken), neither read next to it,
+# rests on the child's curve and the child's outline in the right view: they must agree within this (px)
+UNREAD_AGREE_PX = 1.0
+
+
+def child_outline_consensus(d_child: float, d_outline: float | None) -> float | None:
+    """The disparity (px) of a fork on a flat parent whose two sides clearly disagree there and neither was read
+    next to it (each a curve carried to the fork: a flat piece too short or too curved for a texture line is a
+    constant, which on a parent turning in depth is off by the turn times its carry): the mean of the child's
+    curve ``d_child`` and the child's outline in the right view ``d_outline`` where those two independent readings
+    agree within ``UNREAD_AGREE_PX``; None (the fork is withheld) where they do not, or ``d_outline`` is None
+    (:meth:`forkends.ForkPlacing.fork` asks only where the outline was read; without it the median stands). Seed
+    607's fork 7 (exact masks): sides 141.36 and 151.70 px (constants of 83 and 95 columns carried 24 and 17 px
+    on a parent turning 0.1 px per px), the child a 9-row fit carried 24 rows 146.29, the outline 148.30, truth
+    148.07: the median of three took the child, +14.5 mm; colour masks: the child 147.61, the outline 148.14,
+    their mean 147.88."""
+    if d_outline is None or abs(d_child - d_outline) > UNREAD_AGREE_PX:
+        return None
+    return 0.5 * (d_child + d_outline)
+
+
+def few_patch_constant(by_row: bool, n_coef: int, n_samples: int) -> bool:
+    """Whether a piece's disparity is a flat piece's constant from at most ``flatfit.FEW_PATCHES`` texture
+    patches (``by_row`` False, its disparity polynomial of ``n_coef`` 1 coefficient, ``n_samples`` patches on it;
+    0: a constant taken from the forks at its ends): such a constant may scatter 2.3 px (``flatfit.MAX_FEW_MAD_PX``)
+    and says nothing of a turn in depth along the piece, so it does not give a hidden fork its disparity
+    (``forkends.HIDDEN_ON_FEW_PATCHES``). Seed 607's fork 9 (exact masks): a hidden end carried 20 px onto a
+    25-column flat piece's constant from 5 patches, 1.17 px low, +9.3 mm; on every set measured the one other
+    hidden fork onto such a piece is false (seed 588, 78 px from any true fork)."""
+    return not by_row and n_coef == 1 and n_samples <= FEW_PATCHES

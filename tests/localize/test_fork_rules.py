@@ -204,8 +204,10 @@ def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_chi
     # own curve (-0.7 px); with the outline rule bound towards the child it stays at the texture's +1.0 px
     monkeypatch.setattr(forkends, "LONE_TAPER", False)
     monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
-    # (the texture read next to the fork now keeps the outline off whatever the child: the next test)
+    # (the texture read next to the fork now keeps the outline off whatever the child: the next test; and so does
+    # a read that confirmed the side's curve, OUTLINE_NOT_OVER_CONFIRMED)
     monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", False)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)
     row = score_row(rendered_scene(308), 12, exact=False)
     if towards_child:
         assert row.result_id < 0 or abs(row.dz_mm) <= 5.0
@@ -219,6 +221,7 @@ def test_the_childs_right_outline_does_not_move_a_flat_forks_texture_read(render
     # seed 365's fork 12 (exact masks): a lone flat side whose texture next to the fork reads -0.15 px; the
     # child's right outline, 1.2 px away, took it to +1.0 px (8 mm)
     monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", rule)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)   # (it keeps the outline off too)
     row = score_row(rendered_scene(365), 12, exact=True)
     assert row.result_id >= 0
     if rule:
@@ -236,6 +239,7 @@ def test_a_flat_parents_fork_is_not_moved_over_2_px_by_its_childs_right_outline(
     # colour recogniser the case was found: the olive and grey bark tests move this mask and the fork to
     # +4.9 mm under either bound.)
     monkeypatch.setattr(forkends, "OUTLINE_MAX_SHIFT_PX", max_shift_px)
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)   # (the texture read stands under it too)
     cfg = load_config().localize
     cfg = replace(cfg, segment=replace(cfg.segment, olive_saturation_max=0, grey_chroma_max=0))
     row = score_row(rendered_scene(328), 14, exact=False, cfg=cfg)
@@ -395,3 +399,65 @@ def test_a_lone_flat_side_carried_far_to_the_fork_gives_way_to_the_median_of_thr
         assert abs(row.dz_mm) < 1.8
     else:
         assert row.dz_mm < -2.3
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_unread_flat_sides_clearly_disagree_rests_on_the_child_and_its_outline(rendered_scene,
+                                                                                              monkeypatch, masks, rule):
+    # seed 607's fork 7: a thin flat parent turning 0.1 px per px in depth, its two sides constants (83 and 95
+    # columns, no clean texture line) carried 24 and 17 px to the fork at 141.4 and 151.7 px, neither read there
+    # (their texture searched about the carried constants); the median of three took the child, a 9-row fit carried
+    # 24 rows: exact masks 146.29 (truth 148.07, +14.5 mm), colour masks 147.61 (+3.7 mm). The child's right outline
+    # reads 148.30 / 148.14. With the rule: exact, child and outline 2.0 px apart, withheld; colour, their mean.
+    monkeypatch.setattr(forkends, "UNREAD_SIDES_APART", rule)
+    row = score_row(rendered_scene(607), 7, exact=masks == "true")
+    if masks == "true":
+        if rule:
+            assert row.result_id < 0
+        else:
+            assert row.result_id >= 0 and row.dz_mm > 10.0
+    else:
+        assert row.result_id >= 0
+        if rule:
+            assert abs(row.dz_mm) < 2.5
+        else:
+            assert row.dz_mm > 3.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_hidden_fork_does_not_take_a_few_patch_flat_constant(rendered_scene, monkeypatch, rule):
+    # seed 607's fork 9, exact masks: a leaf hides a steep parent's upper end; carried 20 px on it meets a 25-column
+    # flat piece (the child and the parent's stub at the view's top edge) whose disparity is a constant from 5 texture
+    # patches, 148.26 px (truth 149.43): the hidden fork took it, +9.3 mm. Such a constant is no parent's disparity
+    # (forkvouch.few_patch_constant): the end stays hidden.
+    monkeypatch.setattr(forkends, "HIDDEN_ON_FEW_PATCHES", rule)
+    row = score_row(rendered_scene(607), 9, exact=True)
+    if rule:
+        assert row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 8.0
+
+
+def test_unread_sides_apart_leave_a_side_that_agrees_with_the_child(rendered_scene):
+    # seed 364's fork 14, exact masks: two flat sides 63 px apart (one another branch), neither read next to the fork,
+    # the other side 0.35 px from the child's curve (the median of three, -1.0 mm); the child's outline 1.6 px from
+    # both. Two readings agree: UNREAD_SIDES_APART does not apply and the fork stands.
+    assert forkends.UNREAD_SIDES_APART
+    row = score_row(rendered_scene(364), 14, exact=True)
+    assert row.result_id >= 0 and abs(row.dz_mm) < 2.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_the_outline_does_not_move_a_fork_whose_side_read_confirms_its_curve(rendered_scene, monkeypatch, rule):
+    # seed 600's fork 14, colour masks: a lone flat side fitted to 3.4 px from the fork, its bark texture read next
+    # to the fork within 0.25 px of its curve (the curve stands: 178.49 px, truth 178.65); the child (a steep fit
+    # carried 28 rows) 180.71, its right outline 179.55. The outline, 1.06 px from the side, moved the fork there:
+    # -4.9 mm. A side read twice (its fit and its texture at the fork) is not moved by the outline.
+    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", rule)
+    row = score_row(rendered_scene(600), 14, exact=False)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.0
+    else:
+        assert row.dz_mm < -4.0

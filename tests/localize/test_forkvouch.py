@@ -1,6 +1,9 @@
 """forkvouch.py: a parent side known at a fork only by _reach's 12 px floor does not override the fork's disparity."""
 
-from appliance.localize.forkvouch import (carried_side_outvoted, known_side_stands, lone_carried_median, none_vouched,
+import pytest
+from appliance.localize.flatfit import FEW_PATCHES
+from appliance.localize.forkvouch import (UNREAD_AGREE_PX, carried_side_outvoted, child_outline_consensus,
+                                          few_patch_constant, known_side_stands, lone_carried_median, none_vouched,
                                           outvoted, scattered_read_contradicted, vouched_by_span)
 
 
@@ -58,3 +61,21 @@ def test_a_lone_carried_side_gives_way_to_the_middle_of_the_three_readings():
     assert lone_carried_median(146.00, 145.96, 144.40) == 145.96         # an outline 1.6 px off is left out
     assert lone_carried_median(160.54, 160.45, 161.63) == 160.54         # the side in the middle stands
     assert lone_carried_median(160.54, 167.00, 161.63) == 161.63         # another branch's curve never taken
+
+
+def test_unread_sides_apart_take_the_child_and_its_outline_only_where_they_agree():
+    # seed 607's fork 7: colour masks, the child 147.61 and the outline 148.14 agree: their mean
+    assert child_outline_consensus(147.61, 148.14) == pytest.approx(147.875)
+    # exact masks: the child 146.29 and the outline 148.30, 2.0 px apart: nothing to tell the fork's depth
+    assert child_outline_consensus(146.29, 148.30) is None
+    assert child_outline_consensus(146.29, None) is None
+    assert child_outline_consensus(150.0, 150.0 - UNREAD_AGREE_PX + 1e-6) is not None     # either side
+    assert child_outline_consensus(150.0, 150.0 + UNREAD_AGREE_PX + 1e-3) is None
+
+
+def test_only_a_flat_constant_from_few_patches_is_a_few_patch_constant():
+    assert few_patch_constant(False, 1, 5)                 # seed 607's fork 9: a 25-column piece, 5 patches
+    assert few_patch_constant(False, 1, 0)                 # a constant taken from the forks at its ends
+    assert not few_patch_constant(False, 1, FEW_PATCHES + 1)   # seed 476's fork 9: 8-10 patches
+    assert not few_patch_constant(False, 2, 3)             # a texture line
+    assert not few_patch_constant(True, 1, 3)              # a steep piece (its row crossings)

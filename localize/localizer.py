@@ -222,7 +222,8 @@ class Localizer:
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
                              float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid,
-                             cx_px=float(self.calib.P1[0, 2]), left_block=block_l)
+                             cx_px=float(self.calib.P1[0, 2]), left_block=block_l,
+                             baseline_mm=float(self.calib.baseline_mm))
             matching = match_dense(graph_l, sm, c.match)
             if c.feature_check.enabled and matching.features:   # (withheld features: not triangulated)
                 clock.lap("match")

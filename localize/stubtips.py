@@ -37,6 +37,8 @@ MIN_LENGTH_RADII = 3.2     # its length along its axis, in radii (a disc seen en
 MAX_OFF_AXIS_PX = 2.0      # every pixel within the half width plus this of the axis (a straight stub)
 END_SHIFT_PX = 1.5         # the cap ends this close (px, along the axis) in both views (tipends' steep shift)
 STEP_PX = 0.25             # walk step along the axis, px
+MAX_RADIUS_MM = 7.0        # a twig's end; a thicker piece alone is a limb's between two occluders (seed 609: a
+                           # limb between a leaf and an apple, 8.3 mm; the stubs' true tips: 4.2-5.1 mm)
 MAX_BLOCK_SCALE = 6        # a block mask of larger cells is not searched: the full mask is labelled instead
 
 
@@ -215,6 +217,9 @@ def stub_tips(b, taken: np.ndarray) -> list[tuple[float, float, float, float]]:
         if centre is None:
             continue
         back, across_px, rho = centre
+        baseline = getattr(sm, "baseline_mm", None)
+        if baseline is not None and d > sm.offset_px and rho * baseline / (d - sm.offset_px) > MAX_RADIUS_MM:
+            continue                                # (the cap's radius in mm at the tip's depth)
         normal = np.array([-out[1], out[0]])
         u, v = uv_edge - out * back + normal * across_px
         found.append((float(u), float(v), float(d), float(rho)))

@@ -111,3 +111,17 @@ def _mask_with_branch() -> np.ndarray:
     cv2.line(m, (40, 100), (400, 60), 255, 11, cv2.LINE_AA)
     cv2.line(m, (200, 80), (230, 180), 255, 9, cv2.LINE_AA)
     return m
+
+
+def test_a_stub_thicker_than_a_twigs_end_gets_no_tip():
+    """With the rig's baseline known, a stub whose cap is over MAX_RADIUS_MM at its depth is a limb's piece
+    between two occluders (seed 609): the same drawn stub (6 px at 180.3 px) is 4.0 mm with a 120 mm
+    baseline (found) and 8.3 mm with a 250 mm one (none)."""
+    from dataclasses import replace
+
+    from appliance.localize.stubtips import MAX_RADIUS_MM
+    b = _pair((240.4, 60.2), (0.25, -1.0), 20.0, 180.3)
+    for baseline, n in ((120.0, 1), (250.0, 0)):
+        assert (R * baseline / 180.3 > MAX_RADIUS_MM) == (n == 0)
+        b.sm = replace(b.sm, baseline_mm=baseline)
+        assert len(stub_tips(b, NONE)) == n

@@ -273,6 +273,29 @@ def stub_pixels(labels, n, mask, scale, taken, min_cell_px, min_area, max_area):
     return pixels[:npix].copy(), starts[: nk + 1].copy()
 
 
+@numba.njit(**_JIT)
+def walk_end(mask, sx, sy, ox, oy, reach, step):
+    """``stubtips._walk_end``'s walk: samples ``t = 0, step, ...`` below ``reach`` (``np.arange``'s) along the
+    line from (``sx``, ``sy``) in direction (``ox``, ``oy``), each rounded half to even onto ``mask`` (branch
+    where >= 128). Returns (ok, x, y): the point half a step past the last sample inside, where the line first
+    leaves the branch inside the image; ok False when the first sample is not on the branch, the line leaves
+    the image first or does not leave the branch within ``reach``. The same floating-point operations as the
+    numpy steps, so the same values."""
+    h, w = mask.shape
+    n = int(np.ceil(reach / step))
+    for i in range(max(n, 0)):
+        t = 0.0 + i * step
+        x, y = np.rint(sx + t * ox), np.rint(sy + t * oy)
+        inside = 0 <= x < w and 0 <= y < h
+        if inside and mask[int(y), int(x)] >= 128:
+            continue
+        if i == 0 or not inside:
+            return False, 0.0, 0.0
+        c = (0.0 + (i - 1) * step) + 0.5 * step
+        return True, sx + c * ox, sy + c * oy
+    return False, 0.0, 0.0
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     labels, mask = np.zeros((2, 4), np.int32), np.zeros((8, 16), np.uint8)
@@ -281,3 +304,4 @@ def warm_up() -> None:
     for taken in (np.zeros((0, 2)), np.full((1, 2), 5.0)):
         stub_seeds(labels, 2, mask, 4, taken, 13)
         stub_pixels(labels, 2, mask, 4, taken, 13, 10, 900)
+    walk_end(mask, 5.0, 2.0, 1.0, 0.0, 8.0, 0.25)

@@ -120,20 +120,11 @@ def stub_components(sm, scale: int, taken: np.ndarray) -> list[tuple[np.ndarray,
 
 def _walk_end(mask: np.ndarray, start: np.ndarray, out: np.ndarray, reach_px: float) -> np.ndarray | None:
     """Where the line from ``start`` along ``out`` leaves ``mask`` (>= 128), px (x, y): the last sample
-    inside plus half a step; None if it does not leave it within ``reach_px`` or leaves the image."""
-    h, w = mask.shape
-    t = np.arange(0.0, reach_px, STEP_PX)
-    pts = start[None, :] + t[:, None] * out[None, :]
-    ij = np.rint(pts).astype(int)
-    inside = (ij[:, 0] >= 0) & (ij[:, 0] < w) & (ij[:, 1] >= 0) & (ij[:, 1] < h)
-    on = np.zeros(len(t), bool)
-    on[inside] = mask[ij[inside, 1], ij[inside, 0]] >= 128
-    if not on[0]:
-        return None
-    off = np.flatnonzero(~on)
-    if len(off) == 0 or not inside[off[0]]:
-        return None
-    return start + (t[off[0] - 1] + 0.5 * STEP_PX) * out
+    inside plus half a step; None if it does not leave it within ``reach_px`` or leaves the image
+    (:func:`kernels_stubs.walk_end`)."""
+    ok, x, y = kernels_stubs.walk_end(mask, float(start[0]), float(start[1]), float(out[0]), float(out[1]),
+                                      float(reach_px), STEP_PX)
+    return np.array([x, y]) if ok else None
 
 
 def stub_tips(b, taken: np.ndarray) -> list[tuple[float, float, float, float]]:

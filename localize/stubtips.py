@@ -108,8 +108,9 @@ def stub_components(sm, scale: int, taken: np.ndarray) -> list[tuple[np.ndarray,
     left = sm.left_mask
     block, s = _block(sm, scale)
     n, labels = cv2.connectedComponents(block, connectivity=8)
-    pixels, starts = kernels_stubs.stub_pixels(labels, n, left, s, np.ascontiguousarray(taken, np.float64).reshape(-1, 2),
-                                               min_cell_px(s), int(np.ceil(MIN_AREA_PX)), int(MAX_AREA_PX))
+    taken = np.ascontiguousarray(taken, np.float64).reshape(-1, 2)
+    pixels, starts = kernels_stubs.stub_pixels(labels, n, left, s, taken, min_cell_px(s), int(np.ceil(MIN_AREA_PX)),
+                                               int(MAX_AREA_PX))
     if len(starts) < 2:
         return []
     first = pixels[starts[:-1]]

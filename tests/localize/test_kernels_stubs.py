@@ -189,7 +189,8 @@ def test_walk_end_gives_the_numpy_walks_points_bit_for_bit():
         out = np.array([np.cos(a), np.sin(a)])
         reach = float(rng.uniform(0.1, 90))
         want = _walk_end_numpy(m, start, out, reach)
-        ok, x, y = kernels_stubs.walk_end(m, float(start[0]), float(start[1]), float(out[0]), float(out[1]), reach, 0.25)
+        ok, x, y = kernels_stubs.walk_end(m, float(start[0]), float(start[1]), float(out[0]), float(out[1]),
+                                          reach, 0.25)
         assert ok == (want is not None)
         if ok:
             assert x == want[0] and y == want[1]

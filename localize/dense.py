@@ -51,7 +51,7 @@ from appliance.localize.matching import FeatureUVD, Matching, PieceUVD, StereoMa
 from appliance.localize.radius import RadiusMap, radius_at
 from appliance.localize.rectify import ReadBox
 from appliance.localize.steepcheck import withheld_segments
-from appliance.localize.stubtips import stub_tips
+from appliance.localize.stubtips import stub_tips, taken_points
 from appliance.localize.single_edge import (
     carry_over,
     centre_guess,
@@ -62,8 +62,8 @@ from appliance.localize.subpixel import near_points, refine_runs
 from appliance.localize.texture import surface_disparity_many
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
-STUB_TIPS = False       # tips of short isolated stubs (stubtips.py): off until its whole-image labelling is
-                        # made cheap (2-4 ms a pair on fixtures 02/03: docs/localize-tiprec21.md, "Off by default")
+STUB_TIPS = True        # tips of short isolated stubs (stubtips.py; searched from the block mask since stop 22:
+                        # docs/localize-stubfast22.md)
 STUB_NODE = 1 << 30     # ... their features' node ids (no graph node: none of a piece's)
 END_REACH_PX = 48       # run boundaries refined within this of a graph end (its cap, its end rows)
 RIGHT_VIEW_EDGE = True  # a feature whose right position (u - d) lies over its radius off the right view is
@@ -639,9 +639,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
             continue
         features.append(ft)
     if STUB_TIPS:           # short isolated stubs without a piece of their own (stubtips.py)
-        taken = [graph.to_full(graph.seg_yx[s]) for s in curves] + [b.uvd[n][None, :2] for n in b.uvd]
-        taken = np.concatenate(taken) if taken else np.zeros((0, 2))
-        for k, (u, v, d, rho) in enumerate(stub_tips(b, taken)):
+        for k, (u, v, d, rho) in enumerate(stub_tips(b, taken_points(graph, curves, b.uvd))):
             if not (0.95 * dmin <= d <= 1.05 * dmax) or min(u, v, w - 1 - u, h - 1 - v) < border_px + graph.scale:
                 continue
             if RIGHT_VIEW_EDGE and min(u - d, w - 1 - (u - d)) < -rho:

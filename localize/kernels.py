@@ -54,11 +54,11 @@ def kernel_modules() -> tuple:
                                     kernels_forkglue, kernels_forknear, kernels_forks, kernels_front, kernels_graph,
                                     kernels_match,
                                     kernels_ncc, kernels_patchshare, kernels_points, kernels_refine, kernels_runs,
-                                    kernels_segclean, kernels_segment, kernels_tips, kernels_walks)
+                                    kernels_segclean, kernels_segment, kernels_stubs, kernels_tips, kernels_walks)
     return (kernels_fit, kernels_runs, kernels_walks, kernels_graph, kernels_segment, kernels_ncc,
             kernels_dense, kernels_refine, kernels_tips, kernels_forks, kernels_front, kernels_check,
             kernels_match, kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare,
-            kernels_colruns, kernels_points, kernels_forknear)
+            kernels_colruns, kernels_points, kernels_forknear, kernels_stubs)
 
 
 def warm_up() -> None:

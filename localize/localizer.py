@@ -171,9 +171,10 @@ class Localizer:
         ml, mr = r.rectify(ml, 0, fast=True), r.rectify(mr, 1, fast=True)    # coverage 0-255, sub-pixel boundaries
         return ml, mr, occluded if self.cfg.recover.method == "collinear" else None
 
-    def _graph(self, coverage: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap]:
+    def _graph(self, coverage: np.ndarray, occluder, clock) -> tuple[SkeletonGraph, RadiusMap, np.ndarray]:
         """Skeleton, radius map, pruning and recovery of one rectified mask (coverage, uint8 0-255:
-        branch >= 128)."""
+        branch >= 128); the graph, the radius map and the mask the skeleton thinned (the block mask, 0/255,
+        the graph's scale)."""
         c = self.cfg
         skel = skeletonize(coverage, c.skeleton.method, c.skeleton.downscale, level=127)
         clock.lap("skeleton")
@@ -185,7 +186,7 @@ class Localizer:
         clock.lap("prune")
         graph = recover(graph, c.recover, radius, occluder)
         clock.lap("recover")
-        return graph, radius
+        return graph, radius, skel.mask
 
     def localize(self, left: np.ndarray, right: np.ndarray, stamp_ns: int = 0,
                  mask_left: np.ndarray | None = None, mask_right: np.ndarray | None = None) -> LocalizationResult:
@@ -218,16 +219,17 @@ class Localizer:
             return LocalizationResult(stamp_ns=stamp_ns, timings_ms=clock.timings)
         clock.lap("rectify")
         c = self.cfg
-        graph_l, radius_l = self._graph(ml, occluder, clock)
+        graph_l, radius_l, block_l = self._graph(ml, occluder, clock)
         if c.match.method == "features":                # (the right mask's graph: only this method's)
-            graph_r, radius_r = self._graph(mr, None, clock)
+            graph_r, radius_r, _ = self._graph(mr, None, clock)
             matching = match_features(graph_l, graph_r, radius_l, radius_r, self.d_range_px, c.match)
         else:
             gl, gr = LazyRectified(r, left, 0), LazyRectified(r, right, 1)   # grey only where read
             clock.lap("rectify")
             sm = StereoMasks(ml, mr, gl, gr, radius_l, self.d_range_px, self.calib.f_px,
                              float(self.calib.P1[0, 2] - self.calib.P2[0, 2]), *r.valid,
-                             cx_px=float(self.calib.P1[0, 2]))
+                             cx_px=float(self.calib.P1[0, 2]), left_block=block_l,
+                             baseline_mm=float(self.calib.baseline_mm))
             matching = match_dense(graph_l, sm, c.match)
             if c.feature_check.enabled and matching.features:   # (withheld features: not triangulated)
                 clock.lap("match")

@@ -61,6 +61,12 @@ class StereoMasks:
         Where each rectified image sees the scene; a branch end at its edge leaves the view.
     cx_px : float, optional
         The left rectified view's principal-point column (the right's: ``cx_px - offset_px``).
+    baseline_mm : float, optional
+        The rig's baseline (a size in mm at disparity d px: ``size_px * baseline_mm / (d - offset_px)``).
+    left_block : ndarray (H / s, W / s) uint8, optional
+        The block mask the left skeleton thinned (0/255, ``s`` = the skeleton graph's scale): where the
+        tips of short isolated stubs are looked for (:func:`stubtips.stub_components`; without it the
+        full left mask is labelled).
     """
 
     left_mask: np.ndarray
@@ -74,3 +80,5 @@ class StereoMasks:
     valid_left: np.ndarray | None = None
     valid_right: np.ndarray | None = None
     cx_px: float | None = None
+    left_block: np.ndarray | None = None
+    baseline_mm: float | None = None

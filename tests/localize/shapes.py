@@ -76,10 +76,11 @@ def y_pair(calib: StereoCalibration, depth_mm: float, angle_deg: float, parent_r
     return imgs[0], imgs[1], masks[0], masks[1], fork, d
 
 
-def end_placer(left: np.ndarray, right: np.ndarray, valid_right: np.ndarray | None = None):
+def end_placer(left: np.ndarray, right: np.ndarray, valid_right: np.ndarray | None = None, block: bool = False):
     """An ``EndPlacer`` over the soft masks ``left`` / ``right`` (uint8 0-255, no grey texture, rectified,
-    working range 100-300 px; ``valid_right``: where the right view sees the scene): (placer, every
-    segment's index, the left mask's transposed runs)."""
+    working range 100-300 px; ``valid_right``: where the right view sees the scene; ``block``: the masks
+    carry the skeleton's block mask, as the localizer's): (placer, every segment's index, the left mask's
+    transposed runs)."""
     from appliance.config import load_config
     from appliance.localize.edges import find_runs
     from appliance.localize.ends import EndPlacer
@@ -90,7 +91,9 @@ def end_placer(left: np.ndarray, right: np.ndarray, valid_right: np.ndarray | No
 
     grey = np.zeros(left.shape, np.uint8)
     bl = cv2.threshold(left, 127, 255, cv2.THRESH_BINARY)[1]
-    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0, valid_right=valid_right)
-    graph = build_graph(skeletonize(bl, "fast", 4))
+    skel = skeletonize(bl, "fast", 4)
+    sm = StereoMasks(left, right, grey, grey, ridge_radius_map(bl), (100.0, 300.0), 1450.0, valid_right=valid_right,
+                     left_block=skel.mask if block else None)
+    graph = build_graph(skel)
     return EndPlacer(graph, sm, {}, load_config().localize.match), list(range(len(graph.seg_yx))), \
         find_runs(left.T, soft=True)

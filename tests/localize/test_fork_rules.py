@@ -461,3 +461,17 @@ def test_the_outline_does_not_move_a_fork_whose_side_read_confirms_its_curve(ren
         assert abs(row.dz_mm) < 2.0
     else:
         assert row.dz_mm < -4.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_childs_texture_lies_at_another_depth_is_withheld(rendered_scene, monkeypatch, rule):
+    # seed 642's fork 7, exact masks: a thin branch (r 6 mm) leaves the trunk and runs beside it in the image, 8-12 px
+    # of disparity behind it; its child (no curve) seems to leave the trunk, and the child's right outline happens to
+    # leave the trunk where the trunk's disparity puts it: the fork took the trunk's side, 189.8 px (truth 178.4,
+    # -59 mm). The child's texture past the trunk's outline reads 167-178 px (forkchild.child_texture_elsewhere).
+    monkeypatch.setattr(forkends, "CHILD_ELSEWHERE_WITHHELD", rule)
+    row = score_row(rendered_scene(642), 7, exact=True)
+    if rule:        # (not reported: the scorer keeps no row for it, or an unmatched one)
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm < -50.0

@@ -98,7 +98,7 @@ LONE_FAR_PX = 40.0
 # ... and so is a fork whose lone steep parent side, not read next to it, is carried further than LONE_FAR_PX, its
 # only confirmation a child curve carried further than that too (seed 630's fork 3, exact masks: a trunk side carried
 # 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm)
-LONE_FAR_UNREAD_WITHHELD = False
+LONE_FAR_UNREAD_WITHHELD = True
 # ... and so is a fork whose lone steep parent side, read from its own crossings, differs from the fork's
 # disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
 # lines disagree and neither is known at the fork (seed 450 T1, exact masks: the side read 44 rows off at
@@ -146,11 +146,12 @@ SHORT_SIDE_NOT_KNOWN = True
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
 NONE_KNOWN_WITHHELD = True
-# ... and so is a fork whose two steep sides clearly disagree (the median of three taken) where the child's curve agrees
-# with neither (_agree): no two of the three readings agree, whichever is read next to the fork (seed 639's fork 11,
-# exact masks: one side read 34 rows off at 139.09 px, the other another branch at 496, the child carried 49 rows at
-# 143.84; the fork took the read side, truth 136.96: +19 mm)
-STEEP_NONE_AGREE_WITHHELD = False
+# ... and so is a fork whose two steep sides clearly disagree (the median of three taken) where the child's curve
+# clearly disagrees with both too (as the sides: beyond 2 px or 1.2 %): no two of the three readings agree, whichever
+# is read next to the fork (seed 639's fork 11, exact masks: one side read 34 rows off at 139.09 px, the other
+# another branch at 496, the child carried 49 rows at 143.84; the fork took the read side, truth 136.96: +19 mm;
+# within _agree's 1 px the rule lost seed 100's fork 3, exact masks: the read side right, the child 1.17 px from it)
+STEEP_NONE_AGREE_WITHHELD = True
 # a lone flat parent side's disparity at a fork that the child's curve and the child's right outline both contradict
 # (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
 # the side's texture fit 0.78 px low along its whole length, +6.9 mm)
@@ -532,7 +533,8 @@ class ForkPlacing:
                 {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
             agree = False
         if agree and STEEP_NONE_AGREE_WITHHELD and final and sides is not None \
-                and all(self.curves[s].by_row for s in parents) and not any(_agree(at(child), v) for v in sides):
+                and all(self.curves[s].by_row for s in parents) \
+                and all(abs(at(child) - v) > max(2.0, 0.012 * abs(v)) for v in sides):
             agree = False
         if agree and SCATTERED_READ_WITHHELD and final and len(parents) == 1 and parents[0] in flat_read \
                 and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)

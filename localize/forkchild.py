@@ -71,6 +71,58 @@ def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray,
     return n_ok >= MIN_PATCHES and n_ok >= MIN_SHARE * n_good
 
 
+# a child without a curve whose bark texture beyond the parent matches clearly at another depth leaves another branch
+# (one hidden beside the parent in the image, at another depth): searched this far either side of the fork's (px) ...
+ELSEWHERE_SEARCH_PX = 30.0
+ELSEWHERE_PX = 6.0              # ... its patches all this far (px) or more off the fork's disparity, on one side
+ELSEWHERE_REACH_PX = 16.0       # ... over this much of the child's line past the parent's outline (px)
+
+
+def child_texture_elsewhere(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray, s0_px: float, d_px: float,
+                            r_child_px: float, f_px: float, offset_px: float = 0.0) -> bool:
+    """Whether a child's bark texture past the parent's outline matches clearly at another depth than the fork's.
+
+    Patches on the child's line from where it leaves the parent's outline (``s0_px``) over ``ELSEWHERE_REACH_PX``,
+    ``STEP_PX * 2`` apart, are matched along the rows within ``ELSEWHERE_SEARCH_PX`` of the fork's disparity and moved
+    back onto the axis (``texture.surface_to_axis``). At least ``MIN_PATCHES`` correlating at ``MIN_SCORE`` (not at
+    the search's ends), all of them ``ELSEWHERE_PX`` or more off the fork's disparity on the same side: the child is
+    at another depth where it leaves the parent (a branch hidden beside the parent in the image, at another depth,
+    whose fork it is: seed 642's fork 7, exact masks, the child 12-23 px behind the parent it seemed to leave).
+
+    Parameters
+    ----------
+    left_gray, right_gray : array-like (H, W)
+        Rectified grey images.
+    c_px, e : ndarray (2,)
+        The fork (x, y) and the child's unit direction away from it.
+    s0_px : float
+        Where along ``e`` the child leaves the parent's outline (px from the fork).
+    d_px : float
+        The fork's disparity (on the axis, px).
+    r_child_px : float
+        The child's radius (px): patches span rows +-0.6 of it.
+    f_px, offset_px : float
+        Focal length and the rectified principal-point difference (px).
+
+    Returns
+    -------
+    bool
+        True where the texture clearly matches at another depth; False where it agrees, is unclear or unread.
+    """
+    s = s0_px + np.arange(0.0, ELSEWHERE_REACH_PX + 1e-9, 2.0 * STEP_PX)
+    pts = np.asarray(c_px, float) + s[:, None] * np.asarray(e, float)
+    hh = max(1, int(0.6 * r_child_px))
+    frac = np.float64(kernels_forknear.depth_fraction(float(r_child_px), hh))
+    d_s = (d_px - offset_px) * (1.0 + frac * r_child_px / f_px) + offset_px
+    d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
+                                 (d_s - ELSEWHERE_SEARCH_PX, d_s + ELSEWHERE_SEARCH_PX))
+    ok = np.isfinite(d) & (score >= MIN_SCORE) & (np.abs(d - d_s) < ELSEWHERE_SEARCH_PX - 0.5)
+    if int(np.count_nonzero(ok)) < MIN_PATCHES:
+        return False
+    off = surface_to_axis(d[ok], r_child_px, f_px, offset_px, depth_fraction=frac) - d_px
+    return bool(np.all(off <= -ELSEWHERE_PX) or np.all(off >= ELSEWHERE_PX))
+
+
 # a branch passing the parent (behind or in front, at about its depth) shows on the parent's far
 # side along the child's line, within this far (px) of the parent's outline (past an apple or a leaf)
 THROUGH_REACH_PX = 80.0

@@ -15,7 +15,7 @@ import numpy as np
 from appliance.localize import kernels_forkglue, kernels_forknear, kernels_forks, kernels_walks
 from appliance.localize.centreaxis import centre_bias_px
 from appliance.localize.curves import BranchCurve, Poly, linspace
-from appliance.localize.forkchild import child_texture_agrees, passes_through
+from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
@@ -95,6 +95,10 @@ LONE_SIDE_WITHHELD = True
 # 82 rows off, 141.03 px, the child carried 86 rows, 140.74, agreeing; truth 142.09, +9.2 mm)
 LONE_FAR_WITHHELD = True
 LONE_FAR_PX = 40.0
+# ... and so is a fork whose lone steep parent side, not read next to it, is carried further than LONE_FAR_PX, its
+# only confirmation a child curve carried further than that too (seed 630's fork 3, exact masks: a trunk side carried
+# 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm)
+LONE_FAR_UNREAD_WITHHELD = True
 # ... and so is a fork whose lone steep parent side, read from its own crossings, differs from the fork's
 # disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
 # lines disagree and neither is known at the fork (seed 450 T1, exact masks: the side read 44 rows off at
@@ -142,6 +146,12 @@ SHORT_SIDE_NOT_KNOWN = True
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
 NONE_KNOWN_WITHHELD = True
+# ... and so is a fork whose two steep sides clearly disagree (the median of three taken) where the child's curve
+# clearly disagrees with both too (as the sides: beyond 2 px or 1.2 %): no two of the three readings agree, whichever
+# is read next to the fork (seed 639's fork 11, exact masks: one side read 34 rows off at 139.09 px, the other
+# another branch at 496, the child carried 49 rows at 143.84; the fork took the read side, truth 136.96: +19 mm;
+# within _agree's 1 px the rule lost seed 100's fork 3, exact masks: the read side right, the child 1.17 px from it)
+STEEP_NONE_AGREE_WITHHELD = True
 # a lone flat parent side's disparity at a fork that the child's curve and the child's right outline both contradict
 # (agreeing with each other: forkvouch.outvoted) gives way to the mean of the three (seed 378's fork 11, exact masks:
 # the side's texture fit 0.78 px low along its whole length, +6.9 mm)
@@ -204,6 +214,12 @@ SECTIONS_MIN_MOVE_PX = 1.5          # (closer, the first place stands: the two a
 CENTRE_TO_AXIS = True
 CENTRE_MAX_RADIUS_PX = 30.0         # ... for a parent up to this radius (px; thicker ones, the scenes' trunks, read
                                     # 0.07 px where 0.10 is predicted: over-corrected, their cause not traced)
+
+# a fork whose child has no curve is withheld where the child's bark texture just past the parent's outline matches
+# clearly at another depth (forkchild.child_texture_elsewhere: seed 642's fork 7, exact masks, the child leaving a
+# thinner branch hidden beside the parent in the image 12 px behind it; its right outline agreed with the parent's
+# disparity by chance: -59 mm)
+CHILD_ELSEWHERE_WITHHELD = True
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -506,16 +522,29 @@ class ForkPlacing:
                 and parents[0] in side_near and side_near[parents[0]].nearest_px > LONE_FAR_PX \
                 and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
             agree = False
+        if agree and LONE_FAR_UNREAD_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
+                and parents[0] not in side_near and self._carried_px(parents[0], xy) > LONE_FAR_PX \
+                and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
+            agree = False
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
             agree = False
         if agree and NONE_KNOWN_WITHHELD and final and sides is not None and none_vouched(
                 {s: (self.curves[s].t_range, _t_at(self.curves[s], xy)) for s in (*parents, child)}, bool(side_near)):
             agree = False
+        if agree and STEEP_NONE_AGREE_WITHHELD and final and sides is not None \
+                and all(self.curves[s].by_row for s in parents) \
+                and all(abs(at(child) - v) > max(2.0, 0.012 * abs(v)) for v in sides):
+            agree = False
         if agree and SCATTERED_READ_WITHHELD and final and len(parents) == 1 and parents[0] in flat_read \
                 and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
                     float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
+        if agree and CHILD_ELSEWHERE_WITHHELD and final and child not in self.curves and outline is not None:
+            sin_c = abs(float(outline[1][0] * out[1] - outline[1][1] * out[0]))
+            agree = not child_texture_elsewhere(self.sm.left_gray, self.sm.right_gray, xy, out,
+                                                r_par / max(sin_c, 0.2) + 2.0, float(self.uvd[node][2]), rad[child],
+                                                self.sm.f_px, self.sm.offset_px)
         if unread_apart and final:
             agree = False           # (UNREAD_SIDES_APART: the child and its right outline disagree)
         if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \

@@ -140,6 +140,7 @@ def test_a_fork_whose_parent_sides_are_far_apart_in_depth_is_withheld(rendered_s
     # (238) then the one side reaching the fork (210) were taken: +74 mm. Sides 38 px apart, where carrying
     # explains 4 + 0.1 * 79 px: withheld.
     monkeypatch.setattr(forkends, "SIDES_APART_WITHHELD", apart_check)
+    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", False)     # (it withholds this fork too)
     row = score_row(rendered_scene(355), 7, exact=False)
     if apart_check:
         assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
@@ -292,6 +293,7 @@ def test_a_short_side_carried_past_half_its_span_does_not_replace_the_median(ren
     # disagree, so the median of three (183.6) was taken, then _known_disparity replaced it with the 13-row side,
     # "known" by _reach's 12 px floor: 4.15 px off, +22.3 mm. With the rule the median stands: -3.7 mm.
     monkeypatch.setattr(forkends, "SHORT_SIDE_NOT_KNOWN", rule)
+    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", False)     # (it withholds this fork too)
     monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", False)
     row = score_row(rendered_scene(512), 9, exact=True)
     assert row.result_id >= 0
@@ -308,6 +310,7 @@ def test_a_fork_whose_sides_disagree_with_no_piece_known_there_is_withheld(rende
     # truth, the child carried 24-26 rows past its 43-45 row span: the median of three, the child, 0.7 px off
     # (-3.7 mm); no piece is known at the fork. With the rule it is withheld.
     monkeypatch.setattr(forkends, "NONE_KNOWN_WITHHELD", rule)
+    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", False)     # (it withholds this fork too)
     row = score_row(rendered_scene(512), 9, exact=masks == "true")
     if rule:
         assert row.result_id < 0
@@ -461,3 +464,51 @@ def test_the_outline_does_not_move_a_fork_whose_side_read_confirms_its_curve(ren
         assert abs(row.dz_mm) < 2.0
     else:
         assert row.dz_mm < -4.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_childs_texture_lies_at_another_depth_is_withheld(rendered_scene, monkeypatch, rule):
+    # seed 642's fork 7, exact masks: a thin branch (r 6 mm) leaves the trunk and runs beside it in the image, 8-12 px
+    # of disparity behind it; its child (no curve) seems to leave the trunk, and the child's right outline happens to
+    # leave the trunk where the trunk's disparity puts it: the fork took the trunk's side, 189.8 px (truth 178.4,
+    # -59 mm). The child's texture past the trunk's outline reads 167-178 px (forkchild.child_texture_elsewhere).
+    monkeypatch.setattr(forkends, "CHILD_ELSEWHERE_WITHHELD", rule)
+    row = score_row(rendered_scene(642), 7, exact=True)
+    if rule:        # (not reported: the scorer keeps no row for it, or an unmatched one)
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm < -50.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_fork_whose_steep_sides_and_child_all_disagree_is_withheld(rendered_scene, monkeypatch, rule):
+    # seed 639's fork 11, exact masks: one steep side read 34 rows from the fork at 139.09 px, the other side another
+    # branch (496 px, carried 100 rows), the child's curve carried 49 rows at 143.84: the median of three took the
+    # child, the side's read replaced it (truth 136.96: +19 mm). No two of the three readings agree.
+    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", rule)
+    row = score_row(rendered_scene(639), 11, exact=True)
+    if rule:
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 15.0
+
+
+def test_steep_sides_apart_leave_a_child_near_the_read_side(rendered_scene, monkeypatch):
+    # seed 100's fork 3, exact masks: one steep side read 25 rows off at 148.87 px (right), the other 138.55, the child
+    # 147.70: 1.17 px from the read side, over _agree's 1 px but no clear disagreement (2 px): the fork stands.
+    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", True)
+    row = score_row(rendered_scene(100), 3, exact=True)
+    assert row.result_id >= 0 and abs(row.dz_mm) < 1.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_unread_steep_side_carried_far_is_not_confirmed_by_a_child_carried_as_far(rendered_scene, monkeypatch,
+                                                                                         rule):
+    # seed 630's fork 3, exact masks: a trunk's lone steep side carried 75 rows (not read next to the fork) at
+    # 174.80 px, the child's 8-row fit carried 47 rows at 174.67; truth 172.88: -11 mm.
+    monkeypatch.setattr(forkends, "LONE_FAR_UNREAD_WITHHELD", rule)
+    row = score_row(rendered_scene(630), 3, exact=True)
+    if rule:
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm < -9.0

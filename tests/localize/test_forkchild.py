@@ -2,7 +2,7 @@
 
 import cv2
 import numpy as np
-from appliance.localize.forkchild import child_texture_agrees, passes_through
+from appliance.localize.forkchild import ELSEWHERE_PX, child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.texture import surface_to_axis
 
 F_PX = 1450.0
@@ -40,6 +40,25 @@ def test_a_child_without_texture_is_not_confirmed():
     right = left.copy()
     assert not child_texture_agrees(left, right, np.array([280.0, 200.0]), np.array([1.0, 0.0]), 25.0,
                                     150.0, r, F_PX)
+
+
+def test_a_childs_texture_at_another_depth_past_the_parent_tells_another_branch():
+    r = 10
+    left, right = _textured_pair(150, r)
+    d_axis = float(surface_to_axis(np.array([150.0]), r, F_PX)[0])
+    fork, out = np.array([280.0, 200.0]), np.array([1.0, 0.0])
+    # at the fork's depth, or a few px off (a child turning in depth): not elsewhere
+    assert not child_texture_elsewhere(left, right, fork, out, 25.0, d_axis, r, F_PX)
+    assert not child_texture_elsewhere(left, right, fork, out, 25.0, d_axis + ELSEWHERE_PX - 1.0, r, F_PX)
+    # the fork's disparity 12 px over or under the child's texture: another branch's fork
+    assert child_texture_elsewhere(left, right, fork, out, 25.0, d_axis + 12.0, r, F_PX)
+    assert child_texture_elsewhere(left, right, fork, out, 25.0, d_axis - 12.0, r, F_PX)
+
+
+def test_a_child_without_texture_is_not_called_elsewhere():
+    left = np.full((400, 640), 90, np.uint8)
+    assert not child_texture_elsewhere(left, left.copy(), np.array([280.0, 200.0]), np.array([1.0, 0.0]), 25.0,
+                                       162.0, 10, F_PX)
 
 
 def _parent_and(child_sides: str, gap=None) -> np.ndarray:

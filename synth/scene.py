@@ -395,8 +395,8 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
     d = hits.dirs.reshape(-1, 3).astype(np.float64)
     col = out.reshape(-1, 3)
 
-    def point(idx):
-        return hits.origin + t[idx, None] * d[idx]
+    def point(idx):             # (take: rows of a 5 M x 3 array ~5x sooner than fancy indexing, the same values)
+        return hits.origin + t.take(idx)[:, None] * d.take(idx, axis=0)
 
     idx = np.nonzero((flat_ids >= 0) & (flat_ids < n_seg))[0]                      # bark
     if len(idx):
@@ -417,7 +417,7 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
         k = flat_ids[idx] - n_seg
         p = point(idx)
         nrm = scene.leaf_normal[k]
-        facing = np.where(((nrm * d[idx]).sum(1) > 0)[:, None], -nrm, nrm)
+        facing = np.where(((nrm * d.take(idx, axis=0)).sum(1) > 0)[:, None], -nrm, nrm)
         rel = p - scene.leaf_centre[k]
         u = (rel * scene.leaf_u[k]).sum(1) / scene.leaf_size[k, 0]
         v = (rel * np.cross(nrm, scene.leaf_u[k])).sum(1) / scene.leaf_size[k, 1]
@@ -437,7 +437,7 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
         base = red * np.array([0.12, 0.12, 0.70]) + (1 - red) * np.array([0.25, 0.65, 0.62])
         ndl = n @ light
         refl = light - 2 * ndl[:, None] * n
-        spec = 0.45 * np.clip((refl * d[idx]).sum(1), 0, None) ** 25
+        spec = 0.45 * np.clip((refl * d.take(idx, axis=0)).sum(1), 0, None) ** 25
         lit = scene.ambient + (1 - scene.ambient) * np.clip(ndl, 0, None)
         col[idx] = base * lit[:, None] + spec[:, None]
 

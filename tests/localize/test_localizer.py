@@ -1,3 +1,6 @@
+import subprocess
+import sys
+
 import cv2
 import numpy as np
 import pytest
@@ -213,3 +216,11 @@ def test_whole_pieces_is_the_per_piece_test_of_the_range_and_the_steps():
             whole += ok
     assert 200 < whole < 1100                            # both outcomes well represented
     assert _whole_pieces([], lo, hi, grad) == []
+
+
+def test_reading_results_does_not_load_the_compiled_kernels():
+    # `appliance logs`, the arm link and the command line's start import the result types only: numba and the
+    # kernels (~0.5 s of every such process's start) come with the first use of Localizer.
+    code = ("import sys, appliance.cli, appliance.localize as loc; assert 'numba' not in sys.modules; "
+            "loc.Localizer; assert 'numba' in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

@@ -227,23 +227,10 @@ def _free(reading: tuple[str, str] | None) -> bool | None:
     return None if reading is None else reading == ("free", "free")
 
 
-def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 5.0, cover_mm: float = 10.0,
-                 name: str = "", match_kind: bool = True) -> Score:
-    """Score ``result`` against ``truth``.
-
-    Parameters
-    ----------
-    result : LocalizationResult
-    truth : SceneTruth
-    tol_px : float
-        Largest left-image distance of a matched feature, px.
-    cover_mm : float
-        Distance within which a reported polyline covers a true axis, mm.
-    name : str
-        Label in tables.
-    match_kind : bool
-        Match only features of the same kind.
-    """
+def feature_rows(result: LocalizationResult, truth: SceneTruth, tol_px: float = 5.0,
+                 match_kind: bool = True) -> tuple[list[FeatureRow], int]:
+    """The feature part of :func:`score_result` (its rows and the number of matched pairs), without the branches'
+    coverage (the larger part of a score's cost)."""
     calib = truth.rig.calibration()
     fb = calib.f_px * calib.baseline_mm
     tf = truth.features
@@ -287,6 +274,29 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
         if i not in matched_res:
             nan = float("nan")
             rows.append(FeatureRow(-1, int(f.id), f.kind, nan, float(f.xyz_mm[2]), nan, nan, nan, nan, nan))
+    return rows, len(pairs)
+
+
+def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 5.0, cover_mm: float = 10.0,
+                 name: str = "", match_kind: bool = True) -> Score:
+    """Score ``result`` against ``truth``.
+
+    Parameters
+    ----------
+    result : LocalizationResult
+    truth : SceneTruth
+    tol_px : float
+        Largest left-image distance of a matched feature, px.
+    cover_mm : float
+        Distance within which a reported polyline covers a true axis, mm.
+    name : str
+        Label in tables.
+    match_kind : bool
+        Match only features of the same kind.
+    """
+    tf = truth.features
+    both = tf.visible_left & tf.visible_right
+    rows, n_pairs = feature_rows(result, truth, tol_px, match_kind)
     found = [r for r in rows if r.truth_index >= 0 and r.result_id >= 0]
 
     # branches: coverage of the visible true axes, and how much of what was reported lies on a true axis
@@ -308,8 +318,8 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
         if near.any():
             branch_radius_err.append(float(br.radius_mm - np.mean(true_r[j[near]])))
     return Score(
-        name=name, n_true=int(both.sum()), n_result=len(res),
-        n_found=sum(1 for r in found if both[r.truth_index]), n_correct=len(pairs),
+        name=name, n_true=int(both.sum()), n_result=len(result.features),
+        n_found=sum(1 for r in found if both[r.truth_index]), n_correct=n_pairs,
         depth_err_mm=_stats([r.dz_mm for r in found]),
         depth_err_px=_stats([r.disparity_err_px for r in found]),
         err_3d_mm=_stats([r.err_3d_mm for r in found]),

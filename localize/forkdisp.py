@@ -32,6 +32,20 @@ SIDE_WIDTH_SLOPE = True
 # branch off the image's middle is crossed 2-3 % narrower in the view it lies nearer the middle of (seed
 # 375's fork: a 62.6 px left crossing 60.5 px in the right view, every row failing the 1.2 px check)
 SIDE_WIDTH_PERSPECTIVE = True
+# a read whose rows stop more than SIDE_GROWN_SHORT_PX short of the fork is read again with the crotch's rows
+# (within SIDE_GROWN_MAX_W span widths of the fork's) whose left crossing is wider than the span's (beyond
+# 10 % + 1.5 px) by up to SIDE_GROWN_FRAC of its width plus SIDE_GROWN_PX, where the right crossing is as much
+# wider (within SIDE_GROWN_TOL_PX): there the child's pixels join the parent's outline on one side at the
+# parent's depth in both views, their middles moved alike. The width check alone drops 70 % of the rows within
+# two radii of the fork on the child's side, and a read that stops short is carried by its line: p95 0.58 px
+# against 0.34 px for reads reaching the fork (docs/localize-forktail23.md)
+SIDE_GROWN_SHORT_PX = 6.0
+SIDE_GROWN_MIN_ROWS = 3             # (the second read taken where it keeps this many rows more: one or two rows at
+                                    # the line's end move its value at the fork by their own noise, 0.5 px there)
+SIDE_GROWN_FRAC = 0.2
+SIDE_GROWN_PX = 2.5
+SIDE_GROWN_TOL_PX = 0.6
+SIDE_GROWN_MAX_W = 0.5
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -81,10 +95,15 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if SIDE_WIDTH_PERSPECTIVE and f_px is not None and cx_px is not None:
         ratio *= perspective_width_ratio(s_end, d_end, f_px, cx_px, offset_px)
     tl, tr = runs_l._find_tables, runs_r._find_tables
-    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(
-        *tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px,
-        n_gap, int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork), float(tol_d_px),
-        float(width_tol_px), int(min_rows), 3.5)
+    args = (*tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px,
+            n_gap, int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
+            float(tol_d_px), float(width_tol_px), int(min_rows), 3.5)
+    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0)
+    if ok and nearest > SIDE_GROWN_SHORT_PX:     # (stops short of the fork: the crotch's widened rows with them)
+        grown = kernels_forks.side_near(*args, float(SIDE_GROWN_FRAC), float(SIDE_GROWN_PX), float(SIDE_GROWN_TOL_PX),
+                                        float(SIDE_GROWN_MAX_W))
+        if grown[0] and grown[2] >= n_rows + SIDE_GROWN_MIN_ROWS:
+            ok, d, n_rows, n_gap_k, nearest, mad, slope = grown
     if not ok or (n_gap_k == 0 and hi - lo < 2 * span_rows):
         # (no row past the span: a short span's fit is already a line through these rows)
         return None

@@ -330,15 +330,18 @@ def _line_fit(x, y):
 @numba.njit(**_JIT)
 def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x1_r, width_r, span_r, centre_r,
               n_gap, span_rows, sg, end, s_end, slope_s, d_end, slope_d, ratio, t_fork, tol_d_px, width_tol_px,
-              min_rows, k_mad):
+              min_rows, k_mad, grow_frac, grow_px, grow_tol_px, grow_max_w):
     """:func:`forkdisp.side_disparity_near` compiled from its rows on: the rows ``(i - n_gap) sg + end``
     (i = 0 .. n_gap + span_rows), the curve carried along its tangent at the span's ``end`` (column
     ``s_end + slope_s dt``, disparity ``d_end + slope_d dt``, the right view's widths ``ratio`` times
     the left's), both views' runs (``edges.Runs``' find tables, widths and centres), the robust line
     through the rows kept (one refit without the residuals beyond ``k_mad`` MADs, as
-    ``forkdisp._robust_line`` was). Returns (found, d at the fork, rows kept, of them in the gap,
-    nearest kept row's distance to the fork (px), scaled MAD, slope); equal to the numpy steps up to
-    the rounding of the line fits' product sums."""
+    ``forkdisp._robust_line`` was). A left crossing wider than the span's by up to ``grow_frac`` of its
+    width plus ``grow_px`` (the child's pixels joined to the parent's outline in the crotch), on a row
+    within ``grow_max_w`` span widths of the fork's, counts where its centre is within half the excess
+    more of the line and its right crossing is as much wider (within ``grow_tol_px``; 0, 0: none counts).
+    Returns (found, d at the fork, rows kept, of them in the gap, nearest kept row's distance to the fork
+    (px), scaled MAD, slope); equal to the numpy steps up to the rounding of the line fits' product sums."""
     fail = (False, 0.0, 0, 0, 0.0, 0.0, 0.0)
     n = n_gap + span_rows + 1
     rows = np.empty(n)
@@ -366,11 +369,24 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
         return fail
     w_end = kernels_stats._median(ref[:n_ref])
     k = np.empty(n, np.int64)
+    tol_w = np.empty(n)
     nk = 0
     for i in range(n):
-        if il[i] >= 0 and abs(span_l[il[i]] - w_end) <= 0.1 * w_end + 1.5 \
-                and abs(centre_l[il[i]] - u[i]) <= 0.15 * w_end + 1.5:
+        if il[i] < 0:
+            continue
+        ex = span_l[il[i]] - w_end
+        tol_c = 0.15 * w_end + 1.5
+        if abs(ex) <= 0.1 * w_end + 1.5:
+            tw = width_tol_px
+        elif 0.0 < ex <= grow_frac * w_end + grow_px and abs(rows[i] - t_fork) <= grow_max_w * w_end:
+            # (widened by the child on one side in the crotch: the middle moves half)
+            tw = grow_tol_px
+            tol_c += 0.5 * ex
+        else:
+            continue
+        if abs(centre_l[il[i]] - u[i]) <= tol_c:
             k[nk] = i
+            tol_w[nk] = tw
             nk += 1
     if nk < min_rows:
         return fail
@@ -387,7 +403,7 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     for j in range(nk):
         j0 = max(ir[j], 0)
         cd = c_l[j] - centre_r[j0]
-        if ir[j] >= 0 and abs(cd - d[k[j]]) <= tol_d_px and abs(span_r[j0] - ratio * w_l[j]) <= width_tol_px:
+        if ir[j] >= 0 and abs(cd - d[k[j]]) <= tol_d_px and abs(span_r[j0] - ratio * w_l[j]) <= tol_w[j]:
             x[n2] = rows[k[j]] - t_fork
             y[n2] = cd
             kk[n2] = k[j]
@@ -630,7 +646,7 @@ def warm_up() -> None:
     ro_i.setflags(write=False)                                # (Runs' cached tables are read-only)
     ro_f.setflags(write=False)
     side_near(ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_i, ro_i, ro_i, 4, ro_f, ro_f, 1, 1, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0,
-              1.0, 0.0, 2.5, 1.2, 12, 3.5)
+              1.0, 0.0, 2.5, 1.2, 12, 3.5, 0.2, 2.5, 0.6, 0.5)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
     curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.0, 1.0, 2)

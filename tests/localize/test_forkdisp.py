@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from appliance.localize import forkdisp
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
 from appliance.localize.forkdisp import (
@@ -55,6 +56,28 @@ def test_a_side_carried_to_the_fork_is_read_from_its_own_rows_there():
     # the rows the child widens are not the parent's alone: left out, so the line stops short of them
     assert near.nearest_px >= 15.0
     assert near.gap_px == 50 and 20 <= near.n_gap_rows <= 35
+
+
+def test_rows_the_child_widens_alike_in_both_views_count_up_to_the_fork(monkeypatch):
+    # the child joins the parent's outline 4 px wide on the rows within 15 of the fork (beyond the width
+    # check's 10 % + 1.5 px of a 20 px crossing), at the parent's depth: as much wider in both views, the
+    # crossings' middles moved alike; the plain read stops 15 rows short, the crotch's rows (within half a
+    # width of the fork's) bring it to the fork's row
+    c = curve(0.01)
+    both = [find_runs(band(f, child_px=4.0), soft=True) for f in (lambda v: 0.0 * v, d_axis)]
+    near = side_disparity_near(c, *both, FORK_ROW)
+    assert near is not None and near.nearest_px <= 1.0
+    assert abs(near.d_px - d_axis(FORK_ROW)) <= 0.05
+    # widened in the left view only (the right crossing not as much wider): those rows are not the parent's
+    one = [find_runs(band(lambda v: 0.0 * v, child_px=4.0), soft=True), find_runs(band(d_axis), soft=True)]
+    assert side_disparity_near(c, *one, FORK_ROW).nearest_px >= 15.0
+    # widened beyond 20 % + 2.5 px (8 px): left out as before
+    wide = [find_runs(band(f, child_px=8.0), soft=True) for f in (lambda v: 0.0 * v, d_axis)]
+    assert side_disparity_near(c, *wide, FORK_ROW).nearest_px >= 15.0
+    # the rule off: the widened rows left out, the line stops short of them
+    monkeypatch.setattr(forkdisp, "SIDE_GROWN_FRAC", 0.0)
+    monkeypatch.setattr(forkdisp, "SIDE_GROWN_PX", 0.0)
+    assert side_disparity_near(c, *both, FORK_ROW).nearest_px >= 15.0
 
 
 def test_a_fork_within_the_span_or_a_flat_side_keeps_the_fit():

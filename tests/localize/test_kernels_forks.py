@@ -261,12 +261,31 @@ def test_child_outline_fork_is_the_numpy_steps_up_to_rounding():
     assert n_found > 60 and n_none > 20
 
 
-def _side_near_numpy(c, runs_l, runs_r, t_fork, gap_min_px=6.0, span_rows=40, tol_d_px=2.5, width_tol_px=1.2,
-                     min_rows=12, max_gap_px=300):
-    """forkdisp.side_disparity_near's former numpy steps (with its _carried, _robust_line, _line_fit):
-    (d, rows kept, of them in the gap, gap, nearest, MAD, slope) or None."""
+def _side_near_numpy(c, runs_l, runs_r, t_fork, **kw):
+    """forkdisp.side_disparity_near's numpy steps: the plain read, and where its rows stop more than
+    ``SIDE_GROWN_SHORT_PX`` short of the fork the read with the crotch's widened rows (when it holds and
+    keeps ``SIDE_GROWN_MIN_ROWS`` more rows); None
+    for a short span's read without a row past it. (d, rows kept, of them in the gap, gap, nearest, MAD,
+    slope) or None."""
+    from appliance.localize import forkdisp as fd
+    out = _side_near_pass(c, runs_l, runs_r, t_fork, grow=False, **kw)
+    if out is not None and out[4] > fd.SIDE_GROWN_SHORT_PX:
+        grown = _side_near_pass(c, runs_l, runs_r, t_fork, grow=True, **kw)
+        out = grown if grown is not None and grown[1] >= out[1] + fd.SIDE_GROWN_MIN_ROWS else out
+    lo, hi = c.t_range
+    if out is None or (out[2] == 0 and hi - lo < 2 * kw.get("span_rows", 40)):
+        return None
+    return out
+
+
+def _side_near_pass(c, runs_l, runs_r, t_fork, gap_min_px=6.0, span_rows=40, tol_d_px=2.5, width_tol_px=1.2,
+                    min_rows=12, max_gap_px=300, grow=False):
+    """forkdisp.side_disparity_near's former numpy steps (with its _carried, _robust_line, _line_fit), with
+    ``grow`` the rows widened by the child (``SIDE_GROWN_*``): (d, rows kept, of them in the gap, gap,
+    nearest, MAD, slope) or None, before the short span's check."""
     import math
 
+    from appliance.localize import forkdisp as fd
     from appliance.localize.curves import median
     if not c.by_row or not math.isfinite(t_fork):
         return None
@@ -294,17 +313,22 @@ def _side_near_numpy(c, runs_l, runs_r, t_fork, gap_min_px=6.0, span_rows=40, to
     if not ref.any():
         return None
     w_end = float(median(w_l[n_gap:n_gap + 20][ref]))
-    ok = found & (np.abs(w_l - w_end) <= 0.1 * w_end + 1.5)
-    ok &= np.abs(c_l - u) <= 0.15 * w_end + 1.5
+    ex = w_l - w_end
+    plain = np.abs(ex) <= 0.1 * w_end + 1.5
+    grown = ~plain & (ex > 0) & (ex <= fd.SIDE_GROWN_FRAC * w_end + fd.SIDE_GROWN_PX) & grow
+    grown &= np.abs(rows - t_fork) <= fd.SIDE_GROWN_MAX_W * w_end
+    ok = found & (plain | grown)
+    ok &= np.abs(c_l - u) <= 0.15 * w_end + 1.5 + np.where(grown, 0.5 * ex, 0.0)
     k = np.flatnonzero(ok)
     if len(k) < min_rows:
         return None
     c_l, d, w_l = c_l.take(k), d.take(k), w_l.take(k)
+    tol_w = np.where(grown.take(k), fd.SIDE_GROWN_TOL_PX, width_tol_px)
     ir = runs_r.find(rows.take(k), c_l - d)
     j0 = np.maximum(ir, 0)
     cd = c_l - runs_r.centre_px.take(j0)
     ok = (ir >= 0) & (np.abs(cd - d) <= tol_d_px)
-    ok &= np.abs(runs_r.span_px.take(j0) - w_ratio * w_l) <= width_tol_px
+    ok &= np.abs(runs_r.span_px.take(j0) - w_ratio * w_l) <= tol_w
     k2 = np.flatnonzero(ok)
     if len(k2) < min_rows:
         return None
@@ -332,21 +356,19 @@ def _side_near_numpy(c, runs_l, runs_r, t_fork, gap_min_px=6.0, span_rows=40, to
         if ab is None:
             return None
     n_gap_k = int(np.count_nonzero(keep & (k < n_gap)))
-    if n_gap_k == 0 and hi - lo < 2 * span_rows:
-        return None
     return ab[1], int(np.count_nonzero(keep)), n_gap_k, n_gap, float(np.abs(x[keep]).min()), mad, ab[0]
 
 
 def test_side_near_kernel_is_the_numpy_steps_up_to_rounding():
     """Steep parents (soft masks, the right view moved by a disparity leaning along the rows, a child
     widening rows near the fork, ragged edges, a leaf cutting rows) read at random fork rows either side
-    of random spans: the same None / values as the numpy steps (rows counted alike; disparity and slope
-    within 1e-9 px, the MAD within 1e-9)."""
+    of random spans (some reads with the crotch's widened rows): the same None / values as the numpy steps
+    (rows counted alike; disparity and slope within 1e-9 px, the MAD within 1e-9)."""
     from appliance.localize.edges import find_runs
     from appliance.localize.forkdisp import side_disparity_near
     rng = np.random.default_rng(13)
     h, w = 400, 320
-    n_found = n_none = 0
+    n_found = n_none = n_grown = 0
     for trial in range(60):
         a_u, b_u = rng.uniform(100, 200), rng.uniform(-0.6, 0.6)
         a_d, b_d = rng.uniform(20, 60), rng.uniform(-0.03, 0.03)
@@ -378,12 +400,13 @@ def test_side_near_kernel_is_the_numpy_steps_up_to_rounding():
             if want is None:
                 n_none += 1
                 continue
+            n_grown += want != _side_near_pass(cv, runs_l, runs_r, t_fork)      # (the crotch's rows read)
             n_found += 1
             assert (got.n_rows, got.n_gap_rows, got.gap_px) == want[1:4]
             assert got.nearest_px == want[4]
             np.testing.assert_allclose([got.d_px, got.mad_px, got.slope], [want[0], want[5], want[6]], rtol=0,
                                        atol=1e-9)
-    assert n_found > 50 and n_none > 50
+    assert n_found > 50 and n_none > 50 and n_grown >= 2
 
 
 def _runs_agree_numpy(runs_l, runs_r, d_range, pts, d, r, min_rows=3):

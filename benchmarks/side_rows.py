@@ -1,0 +1,130 @@
+"""The rows a steep fork side is read from (``forkdisp.side_disparity_near``), fork by fork, against the truth.
+
+    python benchmarks/side_rows.py [--extra 56 | --seeds A-B] [--masks true|colour|both] [--band 750-1250]
+                                   --pickle OUT [--set MODULE.NAME=VALUE ...]
+
+``band_tail.py``'s trace (the improved localizer on cached scenes, ``ForkPlacing.fork`` traced), and for every
+steep side read from its crossings the rows it was read from, recomputed by :func:`side_rows` (the steps of
+``kernels_forks.side_near`` in numpy): each row's offset from the fork (px), both views' crossing edges (px),
+the disparity of the crossing's middle, whether the checks kept it (``grown``: a crossing the child widens,
+``forkdisp.SIDE_GROWN_*``) and whether the robust line kept it; the child's direction in the image. Writes the
+band's matched features (``band_tail``'s records, forks with ``sides[k]['rows']``) to ``--pickle``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import band_tail  # noqa: E402
+
+from appliance.localize import forkdisp, forkends  # noqa: E402
+
+
+def side_rows(c, runs_l, runs_r, t_fork, f_px=None, cx_px=None, offset_px=0.0, span_rows=forkdisp.SIDE_SPAN_ROWS,
+              tol_d_px=2.5, width_tol_px=1.2, k_mad=3.5, grow=True):
+    """The rows of ``side_disparity_near``'s read (same arguments): dict of arrays ``x`` (row - t_fork),
+    ``d`` (the crossings' middles' disparity), ``l_lo``, ``l_hi``, ``r_lo``, ``r_hi`` (edges, px), ``w_end``
+    (the span's left width), ``ratio``, ``kept`` (both views' checks), ``line`` (the robust line's rows), ``grown``
+    (the crotch's widened rows, ``forkdisp.SIDE_GROWN_*``: counted with ``grow`` only)."""
+    lo, hi = c.t_range
+    end, sg = (lo, 1.0) if t_fork < lo else (hi, -1.0)
+    n_gap = int(abs(t_fork - end))
+    s_end, slope_s, d_end, slope_d, ratio = forkdisp._carried(c, end)
+    if forkdisp.SIDE_WIDTH_PERSPECTIVE and f_px is not None and cx_px is not None:
+        ratio *= forkdisp.perspective_width_ratio(s_end, d_end, f_px, cx_px, offset_px)
+    i = np.arange(n_gap + span_rows + 1)
+    rows = (i - n_gap) * sg + end
+    dt = rows - end
+    u, dc = s_end + slope_s * dt, d_end + slope_d * dt
+    ri = rows.astype(np.int64)
+    il = runs_l.find(ri, u)
+    ref = [runs_l.span_px[il[k]] for k in range(n_gap, min(n_gap + 20, len(i))) if il[k] >= 0]
+    w_end = float(np.median(ref)) if ref else np.nan
+    ilc = np.maximum(il, 0)
+    wl, cl = runs_l.span_px[ilc], runs_l.centre_px[ilc]
+    ex = wl - w_end
+    plain = np.abs(ex) <= 0.1 * w_end + 1.5
+    grown = ~plain & (ex > 0) & (ex <= forkdisp.SIDE_GROWN_FRAC * w_end + forkdisp.SIDE_GROWN_PX) \
+        & (np.abs(rows - t_fork) <= forkdisp.SIDE_GROWN_MAX_W * w_end) & grow
+    ok_l = (il >= 0) & (plain | grown) & (np.abs(cl - u) <= 0.15 * w_end + 1.5 + np.where(grown, 0.5 * ex, 0.0))
+    ir = runs_r.find(ri, cl - dc)
+    irc = np.maximum(ir, 0)
+    wr, cr = runs_r.span_px[irc], runs_r.centre_px[irc]
+    dd = cl - cr
+    ok = ok_l & (ir >= 0) & (np.abs(dd - dc) <= tol_d_px) \
+        & (np.abs(wr - ratio * wl) <= np.where(grown, forkdisp.SIDE_GROWN_TOL_PX, width_tol_px))
+    x = rows - t_fork
+    line = ok.copy()
+    if ok.sum() >= 2:
+        a, b = np.polyfit(x[ok], dd[ok], 1)
+        res = dd - (a * x + b)
+        mad = 1.4826 * np.median(np.abs(res[ok] - np.median(res[ok])))
+        line = ok & (np.abs(res) <= k_mad * (mad + 1e-3) + 0.05)
+    return dict(x=x, d=dd, l_lo=runs_l.left_px[ilc], l_hi=runs_l.right_px[ilc], r_lo=runs_r.left_px[irc],
+                r_hi=runs_r.right_px[irc], u=u, d_carried=dc, w_end=w_end, ratio=ratio, kept=ok, line=line, grown=grown,
+                found_l=il >= 0, found_r=ir >= 0)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--extra", type=int, default=56)
+    ap.add_argument("--seeds", metavar="A-B", type=band_tail._seed_range)
+    ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
+    ap.add_argument("--band", default="750-1250")
+    ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
+    ap.add_argument("--pickle", type=Path, required=True)
+    a = ap.parse_args()
+    store = {}
+    orig = forkends.side_disparity_near
+
+    def near(c, runs_l, runs_r, t_fork, **kw):
+        v = orig(c, runs_l, runs_r, t_fork, **kw)
+        if v is not None:       # (as side_disparity_near: the crotch's widened rows where the plain read stops short)
+            rows = side_rows(c, runs_l, runs_r, t_fork, grow=False, **kw)
+            if np.abs(rows['x'][rows['line']]).min() > forkdisp.SIDE_GROWN_SHORT_PX:
+                grown = side_rows(c, runs_l, runs_r, t_fork, **kw)
+                if grown['line'].sum() >= max(12, rows['line'].sum() + forkdisp.SIDE_GROWN_MIN_ROWS):
+                    rows = grown
+            store[id(v)] = (v, rows)
+        return v
+    forkends.side_disparity_near = near
+    fork_return = band_tail.Trace._fork_return
+
+    def _fork_return(self, b, node, loc, lines):
+        fork_return(self, b, node, loc, lines)
+        f = self.forks.get(node)
+        if f is None or "xy" not in loc:
+            return
+        sn = loc.get("side_near") or {}
+        for s in f["sides"]:
+            v = sn.get(s["seg"])
+            if v is not None and id(v) in store and store[id(v)][0] is v:
+                s["rows"] = store[id(v)][1]
+        child = loc.get("child")
+        xy = loc["xy"]
+        if child in b.curves:       # the child's direction from the fork (unit, image px)
+            cc = b.curves[child]
+            lo, hi = cc.t_range
+            t = np.array([lo, hi], float)
+            uv = cc.uv_at(t)
+            far = uv[int(np.argmax(np.hypot(*(uv - xy).T)))]
+            f["child_dir"] = (far - xy) / max(float(np.hypot(*(far - xy))), 1e-9)
+        f["xy"] = np.asarray(xy, float).copy()
+        store.clear()
+    band_tail.Trace._fork_return = _fork_return
+    argv = ["band_tail.py", "--band", a.band, "--masks", a.masks, "--over", "99", "--pickle", str(a.pickle)]
+    argv += ["--seeds", f"{a.seeds[0]}-{a.seeds[-1]}"] if a.seeds else ["--extra", str(a.extra)]
+    for kv in a.set:
+        argv += ["--set", kv]
+    sys.argv = argv
+    return band_tail.main()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -21,7 +21,7 @@ from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
-                                          scattered_read_contradicted)
+                                          scattered_read_contradicted, short_side_unconfirmed)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -97,7 +97,9 @@ LONE_FAR_WITHHELD = True
 LONE_FAR_PX = 40.0
 # ... and so is a fork whose lone steep parent side, not read next to it, is carried further than LONE_FAR_PX, its
 # only confirmation a child curve carried further than that too (seed 630's fork 3, exact masks: a trunk side carried
-# 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm)
+# 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm),
+# or is fitted on a few rows, its only confirmation a child curve carried across a px of disparity or more
+# (forkvouch.short_side_unconfirmed: seed 650's fork 3, both mask sources, a 16-row side 1 px low, +6.1 / +6.5 mm)
 LONE_FAR_UNREAD_WITHHELD = True
 # ... and so is a fork whose lone steep parent side, read from its own crossings, differs from the fork's
 # disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
@@ -523,8 +525,9 @@ class ForkPlacing:
                 and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
             agree = False
         if agree and LONE_FAR_UNREAD_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
-                and parents[0] not in side_near and self._carried_px(parents[0], xy) > LONE_FAR_PX \
-                and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
+                and parents[0] not in side_near and child_ok and (
+                    self._carried_px(parents[0], xy) > LONE_FAR_PX and self._carried_px(child, xy) > LONE_FAR_PX
+                    or short_side_unconfirmed(self.curves[parents[0]].t_range, *self._carry_d(child, xy))):
             agree = False
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
@@ -628,6 +631,14 @@ class ForkPlacing:
         lo, hi = c.t_range
         t = _t_at(c, xy)
         return max(lo - t, t - hi, 0.0)
+
+    def _carry_d(self, s: int, xy: np.ndarray) -> tuple[float, float]:
+        """Piece ``s``'s curve's disparity at ``xy`` (2,) and at its fitted span's end nearer it (inside the span:
+        the same), px."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = _t_at(c, xy)
+        return float(c.d_at(t)[0]), float(c.d_at(min(max(t, lo), hi))[0])
 
     def defer_forks(self, nodes) -> None:
         """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their

@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import pytest
 from appliance.config import load_config
-from appliance.localize import Localizer, dense, featurecheck, forkdisp, forkends
+from appliance.localize import Localizer, dense, featurecheck, forkdisp, forkends, forkvouch
 from appliance.synth.evaluate import score_result
 
 
@@ -512,3 +512,20 @@ def test_a_lone_unread_steep_side_carried_far_is_not_confirmed_by_a_child_carrie
         assert row is None or row.result_id < 0
     else:
         assert row.result_id >= 0 and row.dz_mm < -9.0
+
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_short_unread_steep_side_is_not_confirmed_by_a_child_carried_across_px(rendered_scene, monkeypatch, masks,
+                                                                                  rule):
+    # seed 650's fork 3: the trunk's lone steep side a 16 (colour: 11)-row sliver between a nearer branch crossing it
+    # and the fork, not read next to it, 1 px low; the child's short fit carried 63 rows across 8.4 (5.1) px; the
+    # child's right outline (colour: the child itself) agreed: +6.1 (+6.5) mm.
+    if not rule:
+        monkeypatch.setattr(forkvouch, "SHORT_SIDE_ROWS", 0.0)
+    row = score_row(rendered_scene(650), 3, exact=masks == "true")
+    if rule:
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 5.0

@@ -15,13 +15,14 @@ import numpy as np
 from appliance.localize import kernels_forkglue, kernels_forknear, kernels_forks, kernels_walks
 from appliance.localize.centreaxis import centre_bias_px
 from appliance.localize.curves import BranchCurve, Poly, linspace
+from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
-                                          scattered_read_contradicted)
+                                          scattered_read_contradicted, short_side_unconfirmed)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -97,8 +98,16 @@ LONE_FAR_WITHHELD = True
 LONE_FAR_PX = 40.0
 # ... and so is a fork whose lone steep parent side, not read next to it, is carried further than LONE_FAR_PX, its
 # only confirmation a child curve carried further than that too (seed 630's fork 3, exact masks: a trunk side carried
-# 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm)
+# 75 rows past its 245, 174.80 px, the child's 8-row fit carried 47 rows, 174.67, agreeing; truth 172.88, -11 mm),
+# or is fitted on a few rows, its only confirmation a child curve carried across a px of disparity or more
+# (forkvouch.short_side_unconfirmed: seed 650's fork 3, both mask sources, a 16-row side 1 px low, +6.1 / +6.5 mm)
 LONE_FAR_UNREAD_WITHHELD = True
+# ... and so is a fork whose lone steep parent side, not read next to it, is carried further than CHILD_CARRY_PX (rows)
+# where the side's bark texture next to the fork (forkbark.steep_side_bark) reads more than LONE_BARK_PX from the
+# fork's disparity (seed 657's fork 7, exact masks: a 94-row side whose fit curls at its end carried 16.5 rows to
+# 147.70 px, its bark 149.13, truth 149.17: +11.8 mm)
+LONE_BARK_WITHHELD = True
+LONE_BARK_PX = 1.0
 # ... and so is a fork whose lone steep parent side, read from its own crossings, differs from the fork's
 # disparity (taken from the child's curve carried to it: _known_disparity) by more than LONE_READ_PX: the two
 # lines disagree and neither is known at the fork (seed 450 T1, exact masks: the side read 44 rows off at
@@ -523,9 +532,16 @@ class ForkPlacing:
                 and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
             agree = False
         if agree and LONE_FAR_UNREAD_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
-                and parents[0] not in side_near and self._carried_px(parents[0], xy) > LONE_FAR_PX \
-                and child_ok and self._carried_px(child, xy) > LONE_FAR_PX:
+                and parents[0] not in side_near and child_ok and (
+                    self._carried_px(parents[0], xy) > LONE_FAR_PX and self._carried_px(child, xy) > LONE_FAR_PX
+                    or short_side_unconfirmed(self.curves[parents[0]].t_range, *self._carry_d(child, xy))):
             agree = False
+        if agree and LONE_BARK_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
+                and parents[0] not in side_near and self._carried_px(parents[0], xy) > CHILD_CARRY_PX:
+            d_bark = steep_side_bark(self.sm.left_gray, self.sm.right_gray, self.curves[parents[0]],
+                                     _t_at(self.curves[parents[0]], xy), 1.2 * rad[child] + 2.0, self.sm.f_px,
+                                     self.sm.offset_px)
+            agree = d_bark is None or abs(d_bark - float(self.uvd[node][2])) <= LONE_BARK_PX
         if agree and LONE_READ_WITHHELD and final and len(parents) == 1 and self.curves[parents[0]].by_row \
                 and parents[0] in side_near and abs(side_near[parents[0]].d_px - self.uvd[node][2]) > LONE_READ_PX:
             agree = False
@@ -628,6 +644,14 @@ class ForkPlacing:
         lo, hi = c.t_range
         t = _t_at(c, xy)
         return max(lo - t, t - hi, 0.0)
+
+    def _carry_d(self, s: int, xy: np.ndarray) -> tuple[float, float]:
+        """Piece ``s``'s curve's disparity at ``xy`` (2,) and at its fitted span's end nearer it (inside the span:
+        the same), px."""
+        c = self.curves[s]
+        lo, hi = c.t_range
+        t = _t_at(c, xy)
+        return float(c.d_at(t)[0]), float(c.d_at(min(max(t, lo), hi))[0])
 
     def defer_forks(self, nodes) -> None:
         """Provisional forks (:meth:`fork`, not final) of ``nodes``, made only when read (their

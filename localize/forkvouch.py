@@ -147,3 +147,25 @@ def few_patch_constant(by_row: bool, n_coef: int, n_samples: int) -> bool:
     25-column flat piece's constant from 5 patches, 1.17 px low, +9.3 mm; on every set measured the one other
     hidden fork onto such a piece is false (seed 588, 78 px from any true fork)."""
     return not by_row and n_coef == 1 and n_samples <= FEW_PATCHES
+
+
+
+# a lone steep parent side fitted on fewer rows than this, not read next to its fork, is not confirmed there by a child
+# curve carried to the fork across more than this many px of disparity (its end slope times the carry)
+SHORT_SIDE_ROWS = 20.0
+CARRIED_ACROSS_PX = 1.0
+
+
+def short_side_unconfirmed(side_range: tuple[float, float], d_child: float, d_child_end: float) -> bool:
+    """Whether a fork's lone steep parent side, not read from its own crossings next to the fork, is too short to
+    stand on a child's curve carried there: the side fitted on ``side_range`` (lo, hi rows) spans fewer than
+    ``SHORT_SIDE_ROWS`` rows (a few rows' crossings, often a sliver between occluders, read by single edges),
+    and the child's curve is carried to the fork (``d_child``, px) across more than ``CARRIED_ACROSS_PX`` from
+    its value at its fitted span's end (``d_child_end``): the carry's own uncertainty is a fraction of that, and a
+    short side's of a px. Seed 650's fork 3 (both mask sources): the trunk's side a 16 (11)-row sliver between
+    a nearer branch crossing it and the fork, 1 px low; the child's 19 (24)-row fit carried 63 rows across 8.4
+    (5.1) px, 3.4 px from the side (0.8: the right outline or the child agreeing); +6.1 / +6.5 mm. A short side
+    confirmed by a child carried as far along a flat line stands (seed 508's fork 3: a 10-row side, the child
+    carried 41 rows across 0 px, right within 0.3 px)."""
+    lo, hi = side_range
+    return hi - lo < SHORT_SIDE_ROWS and abs(d_child - d_child_end) > CARRIED_ACROSS_PX

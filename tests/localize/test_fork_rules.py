@@ -518,3 +518,19 @@ def test_a_lone_unread_steep_side_carried_far_is_not_confirmed_by_a_child_carrie
         assert row is None or row.result_id < 0
     else:
         assert row.result_id >= 0 and row.dz_mm < -9.0
+
+
+
+@pytest.mark.parametrize("masks, rule", [("true", False), ("true", True), ("colour", True)])
+def test_a_lone_unread_steep_side_carried_off_its_bark_is_withheld(rendered_scene, monkeypatch, masks, rule):
+    # seed 657's fork 7, exact masks: a trunk's lone steep side, not read next to the fork, whose 94-row fit curls at
+    # its end (end slope 0.077 px per row, truth 0.029), carried 16.5 rows to 147.70 px; its bark next to the fork
+    # 149.13, truth 149.17: +11.8 mm. Colour masks: the side's fit carried to 149.20, its bark agreeing: it stands.
+    monkeypatch.setattr(forkends, "LONE_BARK_WITHHELD", rule)
+    row = score_row(rendered_scene(657), 7, exact=masks == "true")
+    if masks == "colour":
+        assert row.result_id >= 0 and abs(row.dz_mm) < 1.0
+    elif rule:
+        assert row is None or row.result_id < 0
+    else:
+        assert row.result_id >= 0 and row.dz_mm > 10.0

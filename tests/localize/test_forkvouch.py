@@ -2,9 +2,10 @@
 
 import pytest
 from appliance.localize.flatfit import FEW_PATCHES
-from appliance.localize.forkvouch import (UNREAD_AGREE_PX, carried_side_outvoted, child_outline_consensus,
+from appliance.localize.forkvouch import (CARRIED_ACROSS_PX, SHORT_SIDE_ROWS, UNREAD_AGREE_PX, carried_side_outvoted, child_outline_consensus,
                                           few_patch_constant, known_side_stands, lone_carried_median, none_vouched,
-                                          outvoted, scattered_read_contradicted, vouched_by_span)
+                                          outvoted, scattered_read_contradicted, short_side_unconfirmed,
+                                          vouched_by_span)
 
 
 def test_a_span_vouches_for_half_its_length_past_either_end():
@@ -79,3 +80,16 @@ def test_only_a_flat_constant_from_few_patches_is_a_few_patch_constant():
     assert not few_patch_constant(False, 1, FEW_PATCHES + 1)   # seed 476's fork 9: 8-10 patches
     assert not few_patch_constant(False, 2, 3)             # a texture line
     assert not few_patch_constant(True, 1, 3)              # a steep piece (its row crossings)
+
+
+
+def test_a_short_side_is_unconfirmed_by_a_child_carried_across_a_px_of_disparity():
+    # seed 650's fork 3 (exact masks): a 16-row side, the child carried 63 rows from 162.47 to 170.92 px
+    assert short_side_unconfirmed((505.0, 521.0), 170.92, 162.47)
+    # a child carried as far along a flat line confirms it (seed 508's fork 3), so does a child read at the fork
+    assert not short_side_unconfirmed((505.0, 515.0), 135.8, 135.8)
+    assert not short_side_unconfirmed((505.0, 521.0), 150.0 + CARRIED_ACROSS_PX - 0.01, 150.0)
+    assert short_side_unconfirmed((505.0, 521.0), 150.0 - CARRIED_ACROSS_PX - 0.01, 150.0)
+    # a side fitted on SHORT_SIDE_ROWS rows or more stands on such a child (the rule of sides carried far decides)
+    assert not short_side_unconfirmed((505.0, 505.0 + SHORT_SIDE_ROWS), 170.92, 162.47)
+    assert short_side_unconfirmed((505.0, 505.0 + SHORT_SIDE_ROWS - 0.5), 170.92, 162.47)

@@ -14,7 +14,6 @@ band's matched features (``band_tail``'s records, forks with ``sides[k]['rows']`
 from __future__ import annotations
 
 import argparse
-import pickle
 import sys
 from pathlib import Path
 

@@ -149,7 +149,6 @@ def few_patch_constant(by_row: bool, n_coef: int, n_samples: int) -> bool:
     return not by_row and n_coef == 1 and n_samples <= FEW_PATCHES
 
 
-
 # a lone steep parent side fitted on fewer rows than this, not read next to its fork, is not confirmed there by a child
 # curve carried to the fork across more than this many px of disparity (its end slope times the carry)
 SHORT_SIDE_ROWS = 20.0

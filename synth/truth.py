@@ -126,9 +126,9 @@ class SceneTruth:
     cover_left: np.ndarray | None = None
     cover_right: np.ndarray | None = None
 
-    def exact_masks(self, soft: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """The exact branch masks (left, right): the soft coverage (float 0-1) where known and
-        ``soft``, else the binary masks."""
+    def exact_masks(self, *, soft: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The exact branch masks (left, right): the binary masks (the accuracy benchmark's "exact masks"), or
+        with ``soft`` the renderer's coverage of each pixel (float 0-1) where the truth holds it."""
         if soft and self.cover_left is not None and self.cover_right is not None:
             return self.cover_left, self.cover_right
         return self.mask_left, self.mask_right

@@ -132,7 +132,7 @@ def test_soft_coverage_is_the_masks_with_their_outline_in_quarters(truth):
         # partly covered pixels are the outline: about one per outline pixel of the mask
         outline = mask & ~cv2.erode(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
         assert 0.3 < partial.sum() / outline.sum() < 3
-    assert truth.exact_masks()[0] is truth.cover_left and truth.exact_masks(soft=False)[0] is truth.mask_left
+    assert truth.exact_masks(soft=True)[0] is truth.cover_left and truth.exact_masks()[0] is truth.mask_left
 
 
 def test_truth_files_round_trip(tmp_path, truth):

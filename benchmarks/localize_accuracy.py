@@ -246,13 +246,16 @@ def main() -> int:
     print("\n== p95 |dZ| per depth band")
     print(band_table(pooled))
     print("\n== pooled")
-    head = f"{'method':<22}{'recall':>7}{'prec':>6}{'p95 mm':>8}{'p95 px':>8}{'cover':>7}{'b.prec':>7}{'r err mm':>9}"
+    head = (f"{'method':<22}{'recall':>7}{'prec':>6}{'p95 mm':>8}{'p95 px':>8}{'cover':>7}{'b.prec':>7}{'r err mm':>9}"
+            f"{'false off axes':>15}")
     print(head)
     print("-" * len(head))
     for method, s in pooled.items():
         print(f"{method:<22}{s.recall:>7.2f}{s.precision:>6.2f}{s.depth_err_mm['p95']:>8.2f}"
               f"{s.depth_err_px['p95']:>8.3f}{s.branch_coverage:>7.2f}{s.branch_precision:>7.2f}"
-              f"{s.radius_err_mm['median']:>9.2f}")
+              f"{s.radius_err_mm['median']:>9.2f}{s.n_result - s.n_correct - s.n_false_on_axis:>15d}")
+    print("false off axes: reported features matched to no true one and over 10 mm from every true axis (an obstacle "
+          "where there is none; the other false ones lie on a branch)")
     print("\n== per kind: true features found / seen in both views, and false ones")
     head = f"{'method':<22}{'tips':>14}{'false tips':>12}{'forks':>14}{'false forks':>13}{'free-cap tips':>15}"
     print(head)

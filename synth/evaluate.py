@@ -92,6 +92,10 @@ class Score:
     rows : list of FeatureRow
     branch_radius_errors_mm : list of float
         Signed radius error of each reported branch lying on a true axis.
+    n_false_on_axis : int
+        Result features matched to no true feature that lie within ``cover_mm`` of a true axis (a fork placed
+        more than the match radius from its place, a crossing taken for a fork): false, but on a branch; the
+        others (``n_result - n_correct - n_false_on_axis``) are obstacles where there is none.
     """
 
     name: str
@@ -111,6 +115,7 @@ class Score:
     branch_radius_err_mm: dict
     rows: list = field(default_factory=list)
     branch_radius_errors_mm: list = field(default_factory=list)
+    n_false_on_axis: int = 0
 
     @property
     def recall(self) -> float:
@@ -305,6 +310,9 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
     true_a = np.concatenate([br.axis_mm[:-1] for br in truth.branches])
     true_b = np.concatenate([br.axis_mm[1:] for br in truth.branches])
     true_r = np.concatenate([(br.radius_mm[:-1] + br.radius_mm[1:]) / 2 for br in truth.branches])
+    by_id = {f.id: f for f in result.features}
+    false_xyz = np.array([by_id[r.result_id].xyz_mm for r in rows if r.truth_index < 0], float).reshape(-1, 3)
+    n_false_on_axis = int((_distance_to_segments(false_xyz, true_a, true_b)[0] <= cover_mm).sum())
     reported = on_axis = 0.0
     branch_radius_err = []
     for br in result.branches:
@@ -328,6 +336,7 @@ def score_result(result: LocalizationResult, truth: SceneTruth, tol_px: float = 
         visible_axis_mm=float(lens.sum()), covered_axis_mm=covered,
         reported_mm=reported, reported_on_axis_mm=on_axis,
         branch_radius_err_mm=_stats(branch_radius_err), rows=rows, branch_radius_errors_mm=branch_radius_err,
+        n_false_on_axis=n_false_on_axis,
     )
 
 
@@ -345,6 +354,7 @@ def pool(scores, name: str = "all") -> Score:
         reported_mm=sum(s.reported_mm for s in scores), reported_on_axis_mm=sum(s.reported_on_axis_mm for s in scores),
         branch_radius_err_mm=_stats([e for s in scores for e in s.branch_radius_errors_mm]), rows=rows,
         branch_radius_errors_mm=[e for s in scores for e in s.branch_radius_errors_mm],
+        n_false_on_axis=sum(s.n_false_on_axis for s in scores),
     )
 
 

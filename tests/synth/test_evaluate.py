@@ -60,6 +60,13 @@ def test_false_features_and_misplaced_branches_count_against(truth):
     s = score_result(LocalizationResult(perfect.features + (ghost,), tuple(moved)), truth)
     assert s.recall == 1.0 and s.precision == pytest.approx(len(perfect.features) / (len(perfect.features) + 1))
     assert 0.0 < s.branch_coverage < 1.0 and s.branch_precision < 1.0
+    # a false feature on a true axis (a fork placed off its place) is counted apart from one where nothing is
+    assert s.n_false_on_axis == 0
+    axis_point = tuple(truth.branches[0].axis_mm[len(truth.branches[0].axis_mm) // 2])
+    misplaced = Feature(998, "bifurcation", (5.0, 900.0), (0.0, 900.0), axis_point, 5.0, axis_point[2] - 5.0)
+    s = score_result(LocalizationResult(perfect.features + (ghost, misplaced), perfect.branches), truth)
+    assert s.n_result - s.n_correct == 2 and s.n_false_on_axis == 1
+    assert pool([s, s]).n_false_on_axis == 2
     # a wrong kind is not a match
     swapped = tuple(dataclasses.replace(f, kind="endpoint" if f.kind == "bifurcation" else "bifurcation")
                     for f in perfect.features)

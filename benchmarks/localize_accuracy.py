@@ -9,7 +9,7 @@ out/localize_scenes). Rig f ~1450 px, b ~120 mm, 1280x960, branches 500-1500 mm 
 the same scenes, sensor noise and gains), cached in out/localize_scenes_ssN; the 4 fixture scenes are
 then rendered again too (scene seeds 0-3, as ``fixtures/make_fixtures.py`` made them).
 Methods, each scored with :func:`appliance.synth.evaluate.score_result` (features matched in the
-left image within 5 px, same kind):
+left image within 5 px, same kind; ``--tol-px`` sets that radius):
 
 - ``improved``: the default configuration (dense centre-line matching).
 - ``paper``: the paper's steps (thinning, 5 px pruning, Hough recovery, feature matching).
@@ -202,6 +202,8 @@ def main() -> int:
     ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
     ap.add_argument("--soft-truth", action="store_true",
                     help="exact masks as the renderer's soft coverage of each pixel, not whole pixels (half covered)")
+    ap.add_argument("--tol-px", type=float, default=5.0, metavar="PX",
+                    help="match radius of a reported feature to a true one in the left image, px (default 5)")
     ap.add_argument("--json", type=Path, help="write pooled scores here")
     ap.add_argument("--plot", type=Path, metavar="PNG",
                     help="draw dZ against true Z of every matched feature, one panel per method (synth.errorplot)")
@@ -229,14 +231,14 @@ def main() -> int:
                 t0 = time.perf_counter()
                 res = loc.localize(left, right, **kw)
                 times.setdefault(f"{variant}, {mode} masks", []).append(time.perf_counter() - t0)
-                score = score_result(res, truth, name=name)
+                score = score_result(res, truth, tol_px=a.tol_px, name=name)
                 per_method.setdefault(f"{variant}, {mode} masks", []).append(score)
                 if a.pictures and variant == "improved":
                     pic = draw_score(left, res, truth, score)
                     cv2.imwrite(str(a.pictures / f"{name.replace(' ', '_')}_{mode}.png"), pic)
                 axes.setdefault(f"{variant}, {mode} masks", []).extend(axis_errors(res, truth))
         per_method.setdefault("sgbm at true features", []).append(
-            score_result(sgbm_result(locs["improved"], left, right, truth), truth, name=name))
+            score_result(sgbm_result(locs["improved"], left, right, truth), truth, tol_px=a.tol_px, name=name))
         print(f"{name}: done", flush=True)
     pooled = {}
     for method, scores in per_method.items():

@@ -54,21 +54,13 @@ FLAT_TAPER = True
 LONE_TAPER = True
 LONE_MAX_TAPER = 0.03      # ... if the two radii differ by at most this per px between them (a branch's taper)
 
-# a flat parent's fork takes its child's right outline's disparity (1 px to OUTLINE_MAX_SHIFT_PX from the
-# parent's) only if that lies no further than the parent's from the child's own curve there, when the
-# child has one
-OUTLINE_TOWARDS_CHILD = True
 # the most (px) the child's right outline may move a flat parent's fork off its texture's disparity: 3 px took
 # 2.3 px outlines (seed 328's fork, colour masks: texture -0.5 px, outline -2.8, +27 mm; seed 345's, exact
 # masks: +0.45 -> -1.9 px, +5 mm); none of the 60 scenes' or seeds 260-323's forks moved 2-3 px by it
 OUTLINE_MAX_SHIFT_PX = 2.0
-# ... nor where the parent's disparity is its bark texture next to the fork, read there and taken over its
-# curve (forkdisp.flat_side_near, moving it by more than FLAT_NEAR_MIN_PX): the fork's own measurement,
-# which the outline (its place ~1 px off in each view) confirms but does not move (seed 365's fork, the
-# child leaving at 17 deg from the columns without a curve: the texture -0.15 / -0.1 px, the outline +1.0
-# px with the exact masks, -1.5 px with the colour ones)
-OUTLINE_NOT_OVER_TEXTURE = True
-# ... nor where that read confirmed the side's curve (within FLAT_NEAR_MIN_PX: the curve stands, read twice)
+# ... nor where the parent's bark texture read next to the fork (forkdisp.flat_side_near) confirmed its side's curve
+# (within FLAT_NEAR_MIN_PX: the curve stands, read twice) or was taken over it (moving it by more: the fork's own
+# measurement, which the outline, its place ~1 px off in each view, confirms but does not move)
 # (seed 600's fork 14, colour masks: a lone flat side fitted up to 3.4 px from the fork, read there within 0.25 px
 # of its curve, -0.16 px; the outline 1.06 px off moved the fork to +0.90 px, -4.9 mm)
 OUTLINE_NOT_OVER_CONFIRMED = True
@@ -114,16 +106,6 @@ LONE_BARK_PX = 1.0
 # 175.41 px, the child carried 39 rows at 173.97, truth 175.07: +6.3 mm)
 LONE_READ_WITHHELD = True
 LONE_READ_PX = 1.0
-# ... and so is a fork whose two parent sides differ by more than SIDES_APART_PX plus SIDES_APART_PER_PX per
-# px the two are carried past their spans (tipends' carried rule, doubled at its base: no fit error
-# explains such a gap, one side is another branch at another depth) unless the child's curve confirms the
-# fork's disparity within the same allowance for its own carry (seed 355's fork, colour masks: a side
-# carried 79 rows at 248 px, the other a thicker branch behind the parent, its silhouette holding it, at
-# 210, the child carried 77 px at 238; truth 230.5, the fork took 210: +74 mm; seeds 122 and 128: sides
-# 20 and 80 px apart, the child within 1.5 px of the fork, right)
-SIDES_APART_WITHHELD = True
-SIDES_APART_PX = 4.0
-SIDES_APART_PER_PX = 0.1
 
 # a flat parent whose two read sides differ at the fork by more than this (px) takes the mean of
 # the two and the child's right outline's disparity (if within the outline check's tolerance of
@@ -397,7 +379,6 @@ class ForkPlacing:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
-        d_sides = list(d_par)
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -477,8 +458,7 @@ class ForkPlacing:
             elif FLAT_PICK and abs(d_out - d) <= 1.0:
                 seen_right = True       # the child's outline in the right view leaves the parent there too
             elif 1.0 < abs(d_out - d) <= OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)) \
-                    and not (OUTLINE_TOWARDS_CHILD and child_ok and abs(d_out - at(child)) > abs(d - at(child))) \
-                    and not (OUTLINE_NOT_OVER_TEXTURE and any(s in side_near for s in parents)) and not reached \
+                    and not reached \
                     and not (OUTLINE_NOT_OVER_CONFIRMED and any(s in flat_read for s in parents)):
                 if child not in self.curves:            # (checked again: recheck_outline_forks)
                     self._from_outline[int(node)] = (child, d)
@@ -518,11 +498,6 @@ class ForkPlacing:
             # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
             self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
-            agree = False
-        if agree and SIDES_APART_WITHHELD and final and len(d_sides) == 2 and abs(d_sides[0] - d_sides[1]) > \
-                SIDES_APART_PX + SIDES_APART_PER_PX * sum(self._carried_px(s, xy) for s in parents) and not (
-                child_ok and abs(at(child) - self.uvd[node][2]) <= SIDES_APART_PX
-                + SIDES_APART_PER_PX * self._carried_px(child, xy)):
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \
                 and not side_near and self.curves[parents[0]].by_row and self._reach(parents[0], xy) > 0:

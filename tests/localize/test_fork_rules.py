@@ -138,22 +138,6 @@ def test_a_childs_curve_carried_far_does_not_replace_the_parents_own_rows(render
         assert abs(row.disparity_err_px) >= 0.9
 
 
-@pytest.mark.parametrize("apart_check", [False, True])
-def test_a_fork_whose_parent_sides_are_far_apart_in_depth_is_withheld(rendered_scene, monkeypatch, apart_check):
-    # seed 355's fork 7 (Z 763 mm, colour masks): the parent runs in front of a thicker branch whose
-    # silhouette holds it; one side is that thicker branch's piece (210 px at the fork), the other a side
-    # fitted on 11 rows carried 79 rows (248 px), the child carried 77 px (238): truth 230.5. The median
-    # (238) then the one side reaching the fork (210) were taken: +74 mm. Sides 38 px apart, where carrying
-    # explains 4 + 0.1 * 79 px: withheld.
-    monkeypatch.setattr(forkends, "SIDES_APART_WITHHELD", apart_check)
-    monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", False)     # (it withholds this fork too)
-    row = score_row(rendered_scene(355), 7, exact=False)
-    if apart_check:
-        assert row.result_id < 0 or abs(row.dz_mm) <= 3.0
-    else:
-        assert row.result_id >= 0 and row.dz_mm >= 60.0
-
-
 # --- flat sides: their texture next to the fork
 
 
@@ -201,40 +185,6 @@ def test_a_leaf_in_front_of_a_flat_fork_side_in_one_view_is_not_read(rendered_sc
 
 
 # --- the child's outline in the right view
-
-
-@pytest.mark.parametrize("towards_child", [False, True])
-def test_a_flat_parents_fork_takes_its_childs_right_outline_only_towards_the_childs_curve(rendered_scene,
-                                                                                          monkeypatch, towards_child):
-    # seed 308's fork 12 with the lone side's taper off (its texture +1.0 px): with the colour masks the child's
-    # right outline (+2.2 px) was taken over it, though further than the parent's reading from the child's
-    # own curve (-0.7 px); with the outline rule bound towards the child it stays at the texture's +1.0 px
-    monkeypatch.setattr(forkends, "LONE_TAPER", False)
-    monkeypatch.setattr(forkends, "OUTLINE_TOWARDS_CHILD", towards_child)
-    # (the texture read next to the fork now keeps the outline off whatever the child: the next test; and so does
-    # a read that confirmed the side's curve, OUTLINE_NOT_OVER_CONFIRMED)
-    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", False)
-    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)
-    row = score_row(rendered_scene(308), 12, exact=False)
-    if towards_child:
-        assert row.result_id < 0 or abs(row.dz_mm) <= 5.0
-    else:
-        assert row.result_id >= 0 and row.dz_mm <= -8.0
-
-
-@pytest.mark.usefixtures("no_agreement_net")
-@pytest.mark.parametrize("rule", [False, True])
-def test_the_childs_right_outline_does_not_move_a_flat_forks_texture_read(rendered_scene, monkeypatch, rule):
-    # seed 365's fork 12 (exact masks): a lone flat side whose texture next to the fork reads -0.15 px; the
-    # child's right outline, 1.2 px away, took it to +1.0 px (8 mm)
-    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_TEXTURE", rule)
-    monkeypatch.setattr(forkends, "OUTLINE_NOT_OVER_CONFIRMED", False)   # (it keeps the outline off too)
-    row = score_row(rendered_scene(365), 12, exact=True)
-    assert row.result_id >= 0
-    if rule:
-        assert abs(row.disparity_err_px) <= 0.3
-    else:
-        assert abs(row.disparity_err_px) >= 0.9
 
 
 @pytest.mark.parametrize("max_shift_px", [3.0, 2.0])

@@ -51,9 +51,6 @@ def paper_config(cfg: LocalizeConfig) -> LocalizeConfig:
     )
 
 
-KEEP_OCCLUDED_SPURS = True      # (experiment) a spur ending at a leaf or an apple is kept (prune.spur_ids)
-
-
 class _Clock:
     def __init__(self):
         self.timings: dict[str, float] = {}
@@ -185,7 +182,7 @@ class Localizer:
         radius = ridge_radius_map(skel.mask, 3, skel.scale) if skel.scale > 1 else ridge_radius_map(skel.mask)
         clock.lap("radius")
         _, graph = prune(skel, c.prune.min_length_px, c.prune.radius_factor, radius,
-                         keep_border=c.prune.keep_border_spurs, occluded=occluder if KEEP_OCCLUDED_SPURS else None)
+                         keep_border=c.prune.keep_border_spurs)
         clock.lap("prune")
         graph = recover(graph, c.recover, radius, occluder)
         clock.lap("recover")

@@ -80,31 +80,3 @@ def test_two_spurs_of_one_junction_at_the_edge_are_the_corners_of_a_cut_branch()
     _, g = prune(skel, 30.0, keep_border=True)
     assert (g.node_kind == JUNCTION).sum() == 0
     assert (g.node_kind == ENDPOINT).sum() == 2
-
-
-def _thick_line_with_spur(spur_px: int):
-    """A 25 px thick horizontal branch (radius ~12 px) with a one-pixel skeleton spur of ``spur_px`` going up from
-    its skeleton at column 150: the skeleton and the radius map."""
-    mask = np.zeros((120, 300), np.uint8)
-    cv2.line(mask, (20, 60), (280, 60), 255, 25)
-    img = np.zeros((120, 300), np.uint8)
-    img[60, 20:280] = 1
-    img[60 - spur_px:60, 150] = 1
-    return Skeleton(img), ridge_radius_map(mask)
-
-
-def test_a_spur_ending_at_a_leaf_is_kept_as_a_branch_cut_by_it():
-    skel, rmap = _thick_line_with_spur(15)                 # 15 px: pruned by 1.5 x the radius, longer than it
-
-    def leaf_above(y_top):
-        return lambda xy: np.asarray(xy)[:, 1] < y_top      # occluder pixels: rows above y_top
-
-    _, g = prune(skel, 5.0, radius_factor=1.5, radius_map=rmap)
-    assert (g.node_kind == JUNCTION).sum() == 0
-    _, g = prune(skel, 5.0, radius_factor=1.5, radius_map=rmap, occluded=leaf_above(40))   # a leaf past its end
-    assert (g.node_kind == JUNCTION).sum() == 1 and (g.node_kind == ENDPOINT).sum() == 3
-    _, g = prune(skel, 5.0, radius_factor=1.5, radius_map=rmap, occluded=leaf_above(10))   # the leaf far off
-    assert (g.node_kind == JUNCTION).sum() == 0
-    short, rmap = _thick_line_with_spur(8)                 # shorter than the radius: a bump, goes at a leaf too
-    _, g = prune(short, 5.0, radius_factor=1.5, radius_map=rmap, occluded=leaf_above(50))
-    assert (g.node_kind == JUNCTION).sum() == 0

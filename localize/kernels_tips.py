@@ -279,7 +279,7 @@ def _split_rows(mid, e_lo, e_hi, n, d_prior, split_px, out):
 
 @numba.njit(**_JIT)
 def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_prior, f_px, h, w,
-                  cap_edge_back, split_px, split_lo, split_hi, split_share):
+                  cap_edge_back, split_px, split_lo, split_hi, split_share, own_rows, own_px):
     """``ends.EndPlacer._cap_disparity`` from its candidate rows on: the disparity of a steep tip from
     the rows across its round cap.
 
@@ -299,6 +299,11 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         The prior disparity and the rectified focal length (px); ``h``, ``w`` the image's size.
     cap_edge_back, split_px, split_lo, split_hi, split_share : float
         ``tips.CAP_EDGE_BACK``, ``tips.SPLIT_ROW_PX``, ``ends.CAP_SPLIT_PX`` and ``ends.CAP_SPLIT_SHARE``.
+    own_rows, own_px : int, float
+        ``tipends.OWN_CAP_ROWS`` and ``tipends.OWN_CAP_PX``: a cap none of whose rows lies within 2.5 px
+        of ``d_prior`` still gives its rows' median where at least ``own_rows`` rows have both edges on
+        the cap, none of them split, and all of them lie within ``own_px`` of their median (0 rows:
+        never).
 
     Returns
     -------
@@ -356,22 +361,35 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         if split_lo < m <= split_hi and n_alike / n_b >= split_share:
             return 2, np.nan
     v_c = (py - cy) / f_px
-    d = np.empty(n)
-    n_d, j = 0, 0
+    d, d_own = np.empty(n), np.empty(n)
+    n_d, j, n_own, n_own_split = 0, 0, 0, 0
     for k in range(n):
+        v = (rw[k] - cy) / f_px                     # (ends.cap_row_scale)
+        scale = 1.0 - v * (v - v_c) / (1.0 + v * v)
         if cap_lo[k] and cap_hi[k]:
             dk = d_both[j]
             j += 1
+            if abs(e_lo[k] - e_hi[k]) <= split_px:
+                d_own[n_own] = dk * scale
+                n_own += 1
+            else:
+                n_own_split += 1
         else:
             dk = e_lo[k] if cap_lo[k] else e_hi[k]
-        v = (rw[k] - cy) / f_px                     # (ends.cap_row_scale)
-        dk = dk * (1.0 - v * (v - v_c) / (1.0 + v * v))
+        dk = dk * scale
         if (cap_lo[k] or cap_hi[k]) and abs(dk - d_prior) <= 2.5:
             d[n_d] = dk
             n_d += 1
-    if n_d < 3:
+    if n_d >= 3:
+        return 1, _median(d[:n_d])
+    # the cap's own depth (tipends.OWN_CAP_ROWS): its whole rows agree among themselves, not with the prior
+    if own_rows <= 0 or n_own < own_rows or n_own_split > 0:
         return 0, 0.0
-    return 1, _median(d[:n_d])
+    m = _median(d_own[:n_own])
+    for k in range(n_own):
+        if not abs(d_own[k] - m) <= own_px:
+            return 0, 0.0
+    return 1, m
 
 
 @numba.njit(**_JIT)
@@ -481,7 +499,7 @@ def warm_up() -> None:
     rt = (i, i, i, f, f, i, f, f, 4)
     valid = _readonly(np.zeros((0, 0), np.bool_))
     cap_disparity(np.zeros(1, np.int64), np.zeros(1), rt, rt, valid, valid, *(0.0,) * 6, 1.0, 4, 4,
-                  0.2, 1.0, 4.0, 8.0, 0.7)
+                  0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6)
     end_outline_agrees(rt, rt, 0.0, 0.0, 1.0, 0.0, 1.0, 4)
     end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0)
 

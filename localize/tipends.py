@@ -43,6 +43,15 @@ CARRIED_D_PER_PX = 0.1
 CAP_SPLIT_PX = (4.0, 8.0)
 CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that median: all across the cap)
 
+# a steep tip's cap none of whose rows lies within 2.5 px of the piece's disparity carried to it (the
+# prior) still has a depth of its own where at least this many rows have both edges on the cap, none
+# split (tips.SPLIT_ROW_PX), all within OWN_CAP_PX of their median: a round cap seen alike in both views,
+# on a short piece inclined in depth whose curve does not carry its slope to the tip (seed 704's tip 14:
+# a stub of 29 rows below a leaf, its curve fitted on 2 samples 12 rows back reads 177.1 px, the cap's
+# 6 whole rows 173.6-174.6, the truth 174.19; the prior used to stand, -16.6 mm)
+OWN_CAP_ROWS = 4
+OWN_CAP_PX = 0.6
+
 # a piece with a tip at both ends whose two end edges lie less than this many piece radii apart is a
 # blob (a branch's end seen nearly end-on): each end's outline is the silhouette of the branch behind
 # it, not a cap at the tip's depth; both are withheld (seed 327's tip 11, exact masks: a 16-row stub of
@@ -349,7 +358,9 @@ class TipPlacing:
         circle), and a row whose edges disagree (:func:`tips.split_row_disparity`: one cut or
         merged in one view only) the nearest of the two and the middle to the agreeing rows. A
         run ending at the view's edge gives no edge there. Median over the rows, within 2.5 px
-        of ``d_prior``; None with fewer than 3 rows. ``uv_edge``, ``out``: where the centre line
+        of ``d_prior``; with fewer than 3 such rows, the median of the rows with both edges on the
+        cap where they agree among themselves (``OWN_CAP_ROWS``, ``OWN_CAP_PX``: the cap's own depth,
+        off a prior carried along a short piece inclined in depth); else None. ``uv_edge``, ``out``: where the centre line
         leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
         """
         sm = self.sm
@@ -365,7 +376,8 @@ class TipPlacing:
         rl, rr, valid_l, valid_r = TipPlacing._tip_tables(self)
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
-                                               h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE)
+                                               h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                               OWN_CAP_ROWS, OWN_CAP_PX)
         if status != 1:
             return None if status == 0 else float(d)
         return self._cap_slope_corrected(c, float(d), t_edge, uv_edge, out, sign, r)

@@ -12,7 +12,8 @@ from appliance.localize import caps, kernels_ncc, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
-from appliance.localize.tipends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, cap_row_scale
+from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, OWN_CAP_PX, OWN_CAP_ROWS,
+                                       cap_row_scale)
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
                                      split_row_disparity)
 
@@ -129,10 +130,15 @@ def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r
         m = median(split)
         if CAP_SPLIT_PX[0] < m <= CAP_SPLIT_PX[1] and (np.abs(split - m) <= 1.0).mean() >= CAP_SPLIT_SHARE:
             return np.nan
-    d = d * cap_row_scale(rows, p[1], 0.5 * (h - 1), F_PX)
+    scale = cap_row_scale(rows, p[1], 0.5 * (h - 1), F_PX)
+    d = d * scale
+    own = (0.5 * (d_lo + d_hi) * scale)[both]               # (the rows' middles: none split below)
     d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
     if len(d) < 3:
-        return None
+        if len(own) < OWN_CAP_ROWS or (np.abs(e_lo[both] - e_hi[both]) > tips.SPLIT_ROW_PX).any():
+            return None
+        m = median(own)
+        return float(m) if (np.abs(own - m) <= OWN_CAP_PX).all() else None
     return float(median(d))
 
 
@@ -314,7 +320,8 @@ def test_cap_disparity_kernel_is_the_numpy_rows_at_rounding_level():
             want = _ref_cap_disparity_rows(rows, s, b.runs_l, b.runs_r, valid_l, valid_r, p, out, r, d_prior, h, w)
             status, got = kernels_tips.cap_disparity(rows.astype(np.int64), s, rl, rr, vl, vr, p[0], p[1], out[0],
                                                      out[1], r, d_prior, F_PX, h, w, CAP_EDGE_BACK,
-                                                     tips.SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE)
+                                                     tips.SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                                     OWN_CAP_ROWS, OWN_CAP_PX)
             if want is None:
                 assert status == 0
                 n_none += 1

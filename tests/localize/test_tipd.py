@@ -151,3 +151,43 @@ def test_a_flat_end_whose_right_run_is_cut_elsewhere_keeps_its_run_end_disparity
             assert got is None
         else:
             assert got is not None and abs(got - expect) <= 0.1
+
+
+def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_prior():
+    # an upright piece ending in a round cap, drawn alike in both views 150 px apart; the prior (the
+    # piece's curve carried to the tip) reads 3 px nearer, beyond the rows' 2.5 px window: the cap's
+    # whole rows, agreeing among themselves, give its depth (tipends.OWN_CAP_ROWS; seed 704's tip 14).
+    # With one side of the cap widened in the right view on some rows (split rows) they do not: None
+    from appliance.localize import kernels_tips
+    from appliance.localize.edges import find_runs
+    from appliance.localize.tipends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS
+    from appliance.localize.tips import CAP_EDGE_BACK, SPLIT_ROW_PX
+
+    d, r, f_px = 150.0, 6.0, 3000.0
+    tip, base = (300.3, 60.4), (300.3, 20.0)                   # the cap's centre, going down (+v)
+    h, w = 100, 400
+    left = np.rint(255 * _capsule_cover((h, w), tip, base, r)).astype(np.uint8)
+    right = np.rint(255 * _capsule_cover((h, w), (tip[0] - d, tip[1]), (base[0] - d, base[1]), r)).astype(np.uint8)
+    widened = right.copy()
+    widened[58:66, int(tip[0] - d + r):int(tip[0] - d + r) + 3] = 255       # the cap's right side, 3 px wider
+    out = np.array([0.0, 1.0])
+    rows = np.arange(int(np.ceil(tip[1] - r)), int(np.floor(tip[1] + r)) + 1)
+    s = np.full(len(rows), tip[0])
+    rl = kernels_tips.runs_tables(find_runs(left, soft=True))
+    valid = kernels_tips.valid_table(None)
+
+    def read(mask_r, own_rows):
+        rr = kernels_tips.runs_tables(find_runs(mask_r, soft=True))
+        return kernels_tips.cap_disparity(rows, s, rl, rr, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 3.0,
+                                          f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                          own_rows, OWN_CAP_PX)
+
+    status, got = read(right, OWN_CAP_ROWS)
+    assert status == 1 and abs(got - d) <= 0.1
+    assert read(right, 0)[0] == 0                              # the rule off: no depth (the prior stood)
+    assert read(widened, OWN_CAP_ROWS)[0] == 0
+    status, got = kernels_tips.cap_disparity(rows, s, rl, kernels_tips.runs_tables(find_runs(right, soft=True)), valid,
+                                             valid, tip[0], tip[1], out[0], out[1], r, d + 1.0, f_px, h, w,
+                                             CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                             OWN_CAP_ROWS, OWN_CAP_PX)
+    assert status == 1 and abs(got - d) <= 0.1               # within the window: as before

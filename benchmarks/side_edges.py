@@ -1,7 +1,7 @@
 """The steep fork sides' rows on the mask's outline against the grey image's sub-pixel outline (issue 5).
 
     python benchmarks/side_edges.py [--extra 56 | --seeds A-B] [--masks true|colour|both] [--band 750-1250]
-                                    [--pickle OUT] [--set MODULE.NAME=VALUE ...]
+                                    [--pickle OUT] [--axis] [--set MODULE.NAME=VALUE ...]
 
 ``side_rows.py``'s trace (``band_tail.py``'s: the improved localizer on cached scenes), and for every steep side
 read from its crossings (``forkdisp.side_disparity_near``) its rows (:func:`side_rows.side_rows`, the kernel's
@@ -19,8 +19,9 @@ the lag-1 correlation of the residuals of consecutive kept rows (along the rows:
 ``sum r_i r_i+1 / sum r_i^2``) and the line's value at the fork against the fork's true disparity plus the
 silhouette bias (``centreaxis.centre_bias_px``: the side's error, px). Prints the tables by mask source and by
 side (all, crotch / other side, reaching the fork or not), then how much of the sides' error the rows' scatter
-explains (a line's white-noise error at the fork) and how alike the mask's and the grey reads' errors are. Nothing of the localizer is changed: the reads
-themselves use ``used`` as the localizer does.
+explains (a line's white-noise error at the fork) and how alike the mask's and the grey reads' errors are; with
+``--axis`` the rows against the true parent axis (:func:`axis_report`). Nothing of the localizer is changed: the
+reads themselves use ``used`` as the localizer does.
 """
 
 from __future__ import annotations
@@ -77,6 +78,7 @@ def main() -> int:
     ap.add_argument("--band", default="750-1250")
     ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
     ap.add_argument("--pickle", type=Path)
+    ap.add_argument("--axis", action="store_true", help="also the rows against the true parent axis (axis_report)")
     a = ap.parse_args()
 
     alt = {}                    # id(runs the placer sees) -> (those runs, {version: runs})
@@ -115,6 +117,7 @@ def main() -> int:
             uv = b.curves[child].uv_at(np.asarray(b.curves[child].t_range, float))
             far = uv[int(np.argmax(np.hypot(*(uv - xy).T)))]
             cdir = far - xy
+        f["xy"] = xy.copy()
         for s in f["sides"]:
             v = sn.get(s["seg"])
             if v is not None and id(v) in store and store[id(v)][0] is v:
@@ -163,7 +166,105 @@ def main() -> int:
     if a.pickle:
         a.pickle.write_bytes(pickle.dumps(recs))
     report(recs)
+    if a.axis:
+        axis_report(recs, {name: tp for name, _, _, tp in band_tail.scene_list(a.extra, a.seeds)})
     return 0
+
+
+def true_axis_rdv(truth, branch: int, step_mm: float = 0.5):
+    """The true branch's axis (sampled every ``step_mm``) in the left rectified view: columns, rows and
+    disparities (px), through the truth's own rig; and ``(rect, f, off, fb)`` to project other points."""
+    c = truth.rig.calibration()
+    r1, p1, p2 = np.asarray(c.R1), np.asarray(c.P1), np.asarray(c.P2)
+    ax = np.asarray(truth.branches[branch].axis_mm, float)
+    seg = np.linalg.norm(np.diff(ax, axis=0), axis=1)
+    n = np.maximum(np.ceil(seg / step_mm).astype(int), 1)
+    pts = np.concatenate([ax[i] + np.linspace(0, 1, n[i], endpoint=False)[:, None] * (ax[i + 1] - ax[i])
+                          for i in range(len(seg))] + [ax[-1:]])
+
+    def rect(xyz):
+        x = np.asarray(xyz, float) @ r1.T
+        return (p1[0, 0] * x[..., 0] / x[..., 2] + p1[0, 2], p1[1, 1] * x[..., 1] / x[..., 2] + p1[1, 2],
+                -p2[0, 3] / x[..., 2] + p1[0, 2] - p2[0, 2])
+    return (*rect(pts), rect)
+
+
+def axis_report(recs, truth_paths: dict) -> None:
+    """Each read side's rows (``used``) against the TRUE parent axis on the same rows (minus the silhouette bias):
+    the line through those differences at the fork (the line against the axis), the rows' mean difference, a
+    straight line through the true axis on the same rows at the fork against the true axis there (the straight
+    line's model error: the parent bends in depth), the true axis at the placed fork's row against the fork's true
+    disparity (the placement along the parent), and,
+    for sides reaching the fork, the rows' mean difference per stretch of one radius (how far a stretch of rows
+    is off the axis together)."""
+    from appliance.synth.truth import load_truth
+    out, cache = [], {}
+    for r in recs:
+        f = r["fork"]
+        if r["kind"] != "bifurcation" or not f or "xy" not in f:
+            continue
+        sides = [s for s in f["sides"] if s.get("edges") and s["edges"]["st"]["used"] is not None]
+        if not sides:
+            continue
+        if r["scene"] not in cache:
+            cache.clear()
+            cache[r["scene"]] = load_truth(truth_paths[r["scene"]])
+        truth = cache[r["scene"]]
+        u, v, d, rect = true_axis_rdv(truth, int(truth.features.parent[r["t"]]))
+        xf = np.asarray(f["xy"], float)
+        d_true = r["d"] - r["derr"]
+        near = np.hypot(u - xf[0], v - xf[1]) < 400
+        for s in sides:
+            e, st = s["edges"], s["edges"]["st"]["used"]
+            rows = xf[1] + st["x"]
+            dt = np.full(len(rows), np.nan)
+            for k, rv in enumerate(rows):          # (a few dozen rows a side)
+                cand = np.flatnonzero(near & (np.abs(v - rv) < 0.6))
+                if len(cand):
+                    dt[k] = d[cand[np.argmin(np.abs(v[cand] - rv))]]
+            ok = np.isfinite(dt)
+            cand = np.flatnonzero(near & (np.abs(v - xf[1]) < 0.6))
+            if ok.sum() < 8 or not len(cand):
+                continue
+            rowerr = st["d"][ok] - e["bias"] - dt[ok]
+            sel = near & (v >= rows.min()) & (v <= rows.max())
+            slant = abs(np.polyfit(v[sel], u[sel], 1)[0]) if sel.sum() >= 3 else np.nan     # |du/dv| of the true axis
+            d_row = d[cand[np.argmin(np.abs(v[cand] - xf[1]))]]         # the true axis on the placed fork's row
+            out.append(dict(m=r["masks"], err=st["d0"] - e["bias"] - d_true, line=np.polyfit(st["x"][ok], rowerr, 1)[1],
+                            model=np.polyfit(st["x"][ok], dt[ok], 1)[1] - d_row,
+                            rows=rowerr.mean(), place=d_row - d_true,
+                            reach=st["nearest"] < 2, x=st["x"][ok], rowerr=rowerr, rad=s["radius_px"], slant=slant))
+    print("\n| masks | sides | reach | side error sd px | line against the true axis, at the fork: sd | rows' mean against "
+          "it: sd | a straight line through the true axis, at the fork: sd | true axis at the placed row against the "
+          "fork's truth: sd | per one-radius stretch of rows: sd (stretches) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for m in ("true", "colour"):
+        for grp, sel in (("all", lambda x: True), ("< 2 px", lambda x: x["reach"]), ("short", lambda x: not x["reach"])):
+            o = [x for x in out if x["m"] == m and sel(x)]
+            if len(o) < 2:
+                continue
+            sd = {k: np.std([x[k] for x in o]) for k in ("err", "line", "rows", "model", "place")}
+            per = [x["rowerr"][k].mean() for x in o
+                   for lo in range(8) for k in [(np.abs(x["x"]) >= lo * x["rad"]) & (np.abs(x["x"]) < (lo + 1) * x["rad"])]
+                   if k.sum() >= 3]
+            print(f"| {m} | {len(o)} | {grp} | {sd['err']:.3f} | {sd['line']:.3f} | {sd['rows']:.3f} | {sd['model']:.3f} | "
+                  f"{sd['place']:.3f} | {np.std(per) if per else np.nan:.3f} ({len(per)}) |")
+    # the renderer's 2 x 2 supersampling places a near-vertical outline with an error that keeps its phase over many
+    # rows (docs/localize-rendering.md): the line against the true axis by the outline's slant from the vertical
+    print("\n| masks | reach | slant from vertical | sides | line against the true axis at the fork: sd, p95 abs px | "
+          "per one-radius stretch: sd |")
+    print("|---|---|---|---|---|---|")
+    for m in ("true", "colour"):
+        for lo, hi in ((0, 3), (3, 10), (10, 90)):
+            o = [x for x in out if x["m"] == m and x["reach"] and lo <= np.degrees(np.arctan(x["slant"])) < hi]
+            if len(o) < 2:
+                continue
+            a = np.array([x["line"] for x in o])
+            per = [x["rowerr"][k].mean() for x in o
+                   for j in range(8) for k in [(np.abs(x["x"]) >= j * x["rad"]) & (np.abs(x["x"]) < (j + 1) * x["rad"])]
+                   if k.sum() >= 3]
+            print(f"| {m} | < 2 px | {lo}-{hi} deg | {len(o)} | {a.std():.3f}, {np.percentile(np.abs(a), 95):.3f} | "
+                  f"{np.std(per):.3f} |")
 
 
 def _t(c, xy):

@@ -15,6 +15,7 @@ from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.capslope import MIN_SLOPE, curve_slope, slope_corrected
 from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
+from appliance.localize.tipbark import bark_backs_run_end
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
                                      cap_shapes_offsets, occluder_confirmed, reads_round, right_flanks_filled)
 from appliance.localize.walks import WALK_EDGE_BIAS
@@ -58,6 +59,11 @@ OWN_CAP_PX = 0.6
 # radius 6 px, 2.7 radii, each end's cap rows +2.0 / +2.2 px, -7.7 mm; seed 284's tip 4, colour masks: a
 # right twig's stub 2.96 radii long, kept; 3.0 withheld it)
 BLOB_STUB_WITHHELD = True
+
+# a flat tip whose run end's outline does not agree row by row still takes the run end where the bark next to
+# the tip reads it rather than the piece's level (tipbark.bark_backs_run_end; seed 686's tip 15, colour masks: the
+# right cap touching an apple on 3 of 13 rows, the level 259.13 px, the run end 264.94, the truth 264.50)
+TIP_BARK = True
 BLOB_STUB_RADII = 2.8
 
 
@@ -222,6 +228,13 @@ class TipPlacing:
                 # an occluder's edge lies in front of the branch it cuts: an end further away
                 # than the texture says is the cap's own (the texture's is off, and so is the
                 # end shift below, measured with it)
+                cap_behind = d_end < self.uvd[node][2]
+                self.uvd[node][2] = d_end
+            elif TIP_BARK and not right_flanks_filled(self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r) \
+                    and bark_backs_run_end(self.sm.left_gray, self.sm.right_gray, uv_edge, out, r, self.uvd[node][2],
+                                           d_end, self.sm.f_px, self.sm.offset_px):
+                # the outline fails on a few rows (something touching the cap in one view), but the bark next
+                # to the tip reads the run end, not the piece's level: a short piece turning in depth (tipbark)
                 cap_behind = d_end < self.uvd[node][2]
                 self.uvd[node][2] = d_end
             # else the right run's end is not the cap's (something touches it there, along the row or

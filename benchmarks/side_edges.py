@@ -40,7 +40,6 @@ import band_tail  # noqa: E402
 import side_rows as sr  # noqa: E402
 
 from appliance.localize import centreaxis, dense, forkdisp, forkends  # noqa: E402
-from appliance.localize.subpixel import refine_runs  # noqa: E402
 
 VERSIONS = ("mask", "used", "grey")
 

@@ -59,12 +59,12 @@ OWN_CAP_PX = 0.6
 # radius 6 px, 2.7 radii, each end's cap rows +2.0 / +2.2 px, -7.7 mm; seed 284's tip 4, colour masks: a
 # right twig's stub 2.96 radii long, kept; 3.0 withheld it)
 BLOB_STUB_WITHHELD = True
+BLOB_STUB_RADII = 2.8
 
 # a flat tip whose run end's outline does not agree row by row still takes the run end where the bark next to
 # the tip reads it rather than the piece's level (tipbark.bark_backs_run_end; seed 686's tip 15, colour masks: the
 # right cap touching an apple on 3 of 13 rows, the level 259.13 px, the run end 264.94, the truth 264.50)
 TIP_BARK = True
-BLOB_STUB_RADII = 2.8
 
 
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:

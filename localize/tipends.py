@@ -66,6 +66,12 @@ BLOB_STUB_RADII = 2.8
 # right cap touching an apple on 3 of 13 rows, the level 259.13 px, the run end 264.94, the truth 264.50)
 TIP_BARK = True
 
+# a steep tip whose right view runs on past its cap into something wider (the end-shift check waived:
+# TipPlacing._wider_on_right) and none of whose cap rows reads a depth (TipPlacing._cap_disparity None) is hidden:
+# the right view may show only the thing in front of it (seed 723 T6, exact masks: its tip behind a nearer branch in
+# the right view, the piece's line carried 21 px to it: +1.29 px, +11.9 mm)
+WIDER_RIGHT_NEEDS_CAP = True
+
 
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
     """Factor (N,) taking the disparity of the middle of a round cap's crossing of each rectified
@@ -245,8 +251,9 @@ class TipPlacing:
         # a tip ends where its 3D cap ends, in both views alike; an outline that cuts the branch
         # (a leaf, an apple, another branch at another depth) ends it elsewhere in the right view
         t_right, _ = self._walk_out(c, node, right=True)
-        if not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX) and not (
-                c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)):
+        shifted = not cap_behind and abs(t_right - t_edge) * speed > (END_SHIFT_STEEP_PX if c.by_row else END_SHIFT_FLAT_PX)
+        runs_on_right = shifted and c.by_row and sign * (t_right - t_edge) > 0 and self._wider_on_right(c, t_edge, sign, r)
+        if shifted and not runs_on_right:
             # the left cap cut by a thing in front of it, whole in the right view: placed from there
             # (merged_tips.py; its own checks of the right view's cap stand for those below)
             uvd = right_cap_tip(self, c, t_edge, t_right, sign) if c.by_row else None
@@ -258,6 +265,12 @@ class TipPlacing:
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
             d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
             if d_cap is not None and np.isnan(d_cap):
+                self.hidden.add(int(node))
+                return None
+            if d_cap is None and runs_on_right and WIDER_RIGHT_NEEDS_CAP:
+                # the right view runs on past the cap into something wider and no row of the cap reads a
+                # depth near the piece's: the cap may lie behind that thing (hidden in the right view), and
+                # the piece's line carried to it is no depth of the tip's own (seed 723 T6)
                 self.hidden.add(int(node))
                 return None
             if d_cap is not None:

@@ -191,3 +191,29 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
                                              CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
                                              OWN_CAP_ROWS, OWN_CAP_PX)
     assert status == 1 and abs(got - d) <= 0.1               # within the window: as before
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_a_cap_hidden_in_the_right_view_behind_something_wider_is_no_tip(monkeypatch, rule):
+    # a branch coming nearer towards its base; in the right view a wide bar covers its cap and runs on past
+    # it (the branch's tip behind a nearer branch there, seed 723's tip 6): the right view runs on wider past
+    # the end (the end-shift check waived) and no row of the cap reads a depth near the piece's (the bar's
+    # edges are the rows' edges): hidden (tipends.WIDER_RIGHT_NEEDS_CAP); without the rule the piece's line
+    # carried to the tip stood as its depth
+    from appliance.localize import tipends
+    monkeypatch.setattr(tipends, "WIDER_RIGHT_NEEDS_CAP", rule)
+    calib = ideal_rig(**RIG)
+    d_tip = calib.f_px * calib.baseline_mm / 900.0
+    tip, r = (300.0, 90.0), 8.0
+    left, ml, right, mr = _inclined_pair(calib, tip, (330.0, 440.0), d_tip, d_tip + 10.0, r)
+    bar = np.zeros(mr.shape, bool)
+    x_r = int(round(tip[0] - d_tip))
+    bar[40:104, x_r - 45:x_r + 12] = True
+    mr = np.where(bar, 255, mr).astype(np.uint8)
+    right = np.where(bar[..., None], 200, right).astype(np.uint8)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    tips = [f for f in res.features if f.kind == "endpoint" and f.left_px[1] < 200]
+    if rule:
+        assert tips == []
+    else:
+        assert len(tips) == 1 and np.hypot(*np.subtract(tips[0].left_px, tip)) <= 2.0

@@ -110,12 +110,7 @@ def main() -> int:
             return
         sn = loc.get("side_near") or {}
         xy = np.asarray(loc["xy"], float)
-        child = loc.get("child")
-        cdir = None
-        if child in b.curves:
-            uv = b.curves[child].uv_at(np.asarray(b.curves[child].t_range, float))
-            far = uv[int(np.argmax(np.hypot(*(uv - xy).T)))]
-            cdir = far - xy
+        cdir = sr.child_direction(b, loc)
         f["xy"] = xy.copy()
         for s in f["sides"]:
             v = sn.get(s["seg"])
@@ -132,10 +127,7 @@ def main() -> int:
         store.clear()
     band_tail.Trace._fork_return = _fork_return
 
-    argv = ["band_tail.py", "--band", a.band, "--masks", a.masks, "--over", "99"]
-    argv += ["--seeds", f"{a.seeds[0]}-{a.seeds[-1]}"] if a.seeds else ["--extra", str(a.extra)]
-    for kv in a.set:
-        argv += ["--set", kv]
+    argv = sr.band_tail_argv(a)
     rows_by = {}        # (scene, masks, truth index) -> the evaluator's row (its left_err_px: the placement's error)
     orig_score = band_tail.score_result
     masks = ["true", "colour"] if a.masks == "both" else [a.masks]

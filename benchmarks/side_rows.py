@@ -70,6 +70,27 @@ def side_rows(c, runs_l, runs_r, t_fork, f_px=None, cx_px=None, offset_px=0.0, s
                 found_l=il >= 0, found_r=ir >= 0)
 
 
+def child_direction(b, loc: dict) -> np.ndarray | None:
+    """The traced fork's child's direction from the fork (unit, image px), towards the end of the child's curve
+    further from it; None where the child has no curve (``b`` the placer, ``loc`` ``ForkPlacing.fork``'s locals)."""
+    child, xy = loc.get("child"), np.asarray(loc["xy"], float)
+    if child not in b.curves:
+        return None
+    uv = b.curves[child].uv_at(np.asarray(b.curves[child].t_range, float))
+    far = uv[int(np.argmax(np.hypot(*(uv - xy).T)))]
+    return (far - xy) / max(float(np.hypot(*(far - xy))), 1e-9)
+
+
+def band_tail_argv(a) -> list[str]:
+    """``band_tail.py``'s command line for this script's arguments (``--band --masks --seeds/--extra --set``),
+    every matched fork traced (``--over 99``); the caller adds ``--pickle``."""
+    argv = ["band_tail.py", "--band", a.band, "--masks", a.masks, "--over", "99"]
+    argv += ["--seeds", f"{a.seeds[0]}-{a.seeds[-1]}"] if a.seeds else ["--extra", str(a.extra)]
+    for kv in a.set:
+        argv += ["--set", kv]
+    return argv
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--extra", type=int, default=56)
@@ -105,23 +126,13 @@ def main() -> int:
             v = sn.get(s["seg"])
             if v is not None and id(v) in store and store[id(v)][0] is v:
                 s["rows"] = store[id(v)][1]
-        child = loc.get("child")
-        xy = loc["xy"]
-        if child in b.curves:       # the child's direction from the fork (unit, image px)
-            cc = b.curves[child]
-            lo, hi = cc.t_range
-            t = np.array([lo, hi], float)
-            uv = cc.uv_at(t)
-            far = uv[int(np.argmax(np.hypot(*(uv - xy).T)))]
-            f["child_dir"] = (far - xy) / max(float(np.hypot(*(far - xy))), 1e-9)
-        f["xy"] = np.asarray(xy, float).copy()
+        cdir = child_direction(b, loc)
+        if cdir is not None:
+            f["child_dir"] = cdir
+        f["xy"] = np.asarray(loc["xy"], float).copy()
         store.clear()
     band_tail.Trace._fork_return = _fork_return
-    argv = ["band_tail.py", "--band", a.band, "--masks", a.masks, "--over", "99", "--pickle", str(a.pickle)]
-    argv += ["--seeds", f"{a.seeds[0]}-{a.seeds[-1]}"] if a.seeds else ["--extra", str(a.extra)]
-    for kv in a.set:
-        argv += ["--set", kv]
-    sys.argv = argv
+    sys.argv = band_tail_argv(a) + ["--pickle", str(a.pickle)]
     return band_tail.main()
 
 

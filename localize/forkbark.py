@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 from appliance.localize import kernels_forknear
-from appliance.localize.texture import surface_disparity, surface_to_axis
+from appliance.localize.texture import axis_to_surface, surface_disparity, surface_to_axis
 
 BARK_REACH_PX = 40.0         # patches over this many rows of the side ...
 BARK_STEP_PX = 4.0           # ... this many rows apart, from clear of the child
@@ -57,7 +57,7 @@ def steep_side_bark(left_gray, right_gray, curve, t_fork: float, s0_px: float, f
     r = float(curve.radius_px)
     hw = max(2, int(BARK_ACROSS * r))
     frac = np.float64(kernels_forknear.depth_fraction(r, hw))
-    d_s = (curve.d_at(ts) - offset_px) * (1.0 + frac * r / f_px) + offset_px     # (the curve's, on the surface)
+    d_s = axis_to_surface(curve.d_at(ts), r, f_px, offset_px, frac)     # (the curve's, on the surface)
     d, score = surface_disparity(left_gray, right_gray, uv, np.full(len(ts), BARK_HALF_ROWS),
                                  (float(d_s.min()) - BARK_SEARCH_PX, float(d_s.max()) + BARK_SEARCH_PX), half_w_px=hw)
     ok = np.isfinite(d) & (score >= BARK_MIN_SCORE) & (np.abs(d - d_s) < BARK_SEARCH_PX - 0.5)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from appliance.localize import kernels_forknear, kernels_forks
-from appliance.localize.texture import surface_disparity, surface_to_axis
+from appliance.localize.texture import axis_to_surface, surface_disparity, surface_to_axis
 
 # disparities searched either side of the fork's (px): a crossing branch at another depth finds its
 # own match there, or none that correlates
@@ -58,7 +58,7 @@ def child_texture_agrees(left_gray, right_gray, c_px: np.ndarray, e: np.ndarray,
     # the axis' disparity on the surface the patches see (surface_to_axis inverted; its depth fraction,
     # surface_to_axis' own default, reused below; compiled: kernels_forknear.depth_fraction)
     frac = np.float64(kernels_forknear.depth_fraction(float(r_child_px), hh))    # (patch_depth_fraction's value)
-    d_s = (d_px - offset_px) * (1.0 + frac * r_child_px / f_px) + offset_px
+    d_s = axis_to_surface(d_px, r_child_px, f_px, offset_px, frac)
     d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
                                  (d_s - SEARCH_PX, d_s + SEARCH_PX))
     # (a best match at the search's end is no peak: the texture matches further out, or nowhere)
@@ -113,7 +113,7 @@ def child_texture_elsewhere(left_gray, right_gray, c_px: np.ndarray, e: np.ndarr
     pts = np.asarray(c_px, float) + s[:, None] * np.asarray(e, float)
     hh = max(1, int(0.6 * r_child_px))
     frac = np.float64(kernels_forknear.depth_fraction(float(r_child_px), hh))
-    d_s = (d_px - offset_px) * (1.0 + frac * r_child_px / f_px) + offset_px
+    d_s = axis_to_surface(d_px, r_child_px, f_px, offset_px, frac)
     d, score = surface_disparity(left_gray, right_gray, pts, np.full(len(pts), hh),
                                  (d_s - ELSEWHERE_SEARCH_PX, d_s + ELSEWHERE_SEARCH_PX))
     ok = np.isfinite(d) & (score >= MIN_SCORE) & (np.abs(d - d_s) < ELSEWHERE_SEARCH_PX - 0.5)

@@ -227,6 +227,12 @@ def surface_to_axis(d_px: np.ndarray, radius_px: float, f_px: float, offset_px: 
     return (np.asarray(d_px, float) - offset_px) / (1.0 + depth_fraction * radius_px / f_px) + offset_px
 
 
+def axis_to_surface(d_px, radius_px: float, f_px: float, offset_px: float, depth_fraction):
+    """:func:`surface_to_axis` inverted: the disparity (px, scalar or array, its type kept) of the surface
+    ``depth_fraction`` radius in front of an axis at ``d_px`` (where a texture patch centred on the axis matches)."""
+    return (d_px - offset_px) * (1.0 + depth_fraction * radius_px / f_px) + offset_px
+
+
 def patch_depth_fraction(radius_px: float, half_h_px: int, slope=0.0):
     """Mean depth of a cylinder's visible surface over a patch's rows, in radii in front of the axis.
 

@@ -13,7 +13,7 @@ reading: a texture patch one radius behind the tip's centre (``texture.surface_d
 from __future__ import annotations
 
 import numpy as np
-from appliance.localize.texture import patch_depth_fraction, surface_disparity, surface_to_axis
+from appliance.localize.texture import axis_to_surface, patch_depth_fraction, surface_disparity, surface_to_axis
 
 TIP_BARK_BACK = 2.0          # the patch's centre this many radii behind the tip's edge (one behind its centre)
 TIP_BARK_HALF_W = 7          # its half width along the rows (px); half height 0.6 radius (texture's flat patches)
@@ -46,7 +46,7 @@ def bark_backs_run_end(left_gray, right_gray, uv_edge: np.ndarray, out: np.ndarr
     """
     hh = max(1, int(0.6 * r))
     frac = patch_depth_fraction(r, hh)
-    surf = [(d - offset_px) * (1.0 + frac * r / f_px) + offset_px for d in (d_level, d_end)]
+    surf = [axis_to_surface(d, r, f_px, offset_px, frac) for d in (d_level, d_end)]
     lo, hi = min(surf) - TIP_BARK_SEARCH_PX, max(surf) + TIP_BARK_SEARCH_PX
     uv = (np.asarray(uv_edge, float) - TIP_BARK_BACK * r * np.asarray(out, float))[None]
     d, score = surface_disparity(left_gray, right_gray, uv, np.array([hh]), (lo, hi), half_w_px=TIP_BARK_HALF_W)

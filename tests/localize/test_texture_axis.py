@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from appliance.localize.texture import (
+    axis_to_surface,
     patch_depth_fraction,
     slant_depth_factor,
     surface_disparity,
@@ -91,3 +92,11 @@ def test_patch_depth_fraction_is_the_mean_surface_offset():
     assert patch_depth_fraction(10.0, 6, np.array([1.0]))[0] > patch_depth_fraction(10.0, 6)
     assert surface_to_axis(np.array([100.0]), 10.0, 1000.0)[0] == pytest.approx(
         100.0 / (1 + patch_depth_fraction(10.0, 6) * 0.01))
+
+
+def test_axis_to_surface_inverts_surface_to_axis_and_lies_nearer():
+    d_axis = np.array([120.0, 180.0, 240.0])
+    d_surf = axis_to_surface(d_axis, 9.0, F_PX, 3.0, 0.8)
+    assert np.all(d_surf > d_axis)                  # the surface is in front of the axis: nearer, more disparity
+    np.testing.assert_allclose(surface_to_axis(d_surf, 9.0, F_PX, 3.0, 0.8), d_axis, rtol=0, atol=1e-12)
+    assert isinstance(axis_to_surface(150.0, 9.0, F_PX, 3.0, 0.8), float)     # a scalar stays a scalar

@@ -91,7 +91,8 @@ def main() -> int:
             store[id(v)] = (v, dict(x=rows["x"][k], d=rows["d"][k], t_fork=float(t_fork),
                                     end=float(lo if t_fork < lo else hi),
                                     poly=(np.asarray(dp.coef, float).copy(), float(dp.t0), float(dp.ts)),
-                                    t_range=(float(lo), float(hi)), d_kernel=float(v.d_px), nearest=float(v.nearest_px)),
+                                    t_range=(float(lo), float(hi)), d_kernel=float(v.d_px),
+                                    nearest=float(v.nearest_px)),
                             kw)
         return v
     forkends.side_disparity_near = near

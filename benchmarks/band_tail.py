@@ -13,7 +13,8 @@ source lines they look for stay). Every matched feature whose true depth lies in
 - kind, masks, dZ (mm), disparity error (px), the feature's radius (px), the parent's slope (``steep`` pieces are
   matched by their row crossings, ``flat`` ones by bark texture);
 - forks: the rule that set the disparity (``mean2`` / ``one`` the parent sides' mean / lone side, ``median3``,
-  ``known``, ``weighted``, ``flat-outline``, ``lone-flat-outvoted``, ``flat-pick-mean3``, ``flat-pick-one``,
+  ``known``, ``weighted``, ``bent`` (forkdisp.weigh_bent_sides), ``flat-outline``, ``lone-flat-outvoted``,
+  ``flat-pick-mean3``, ``flat-pick-one``,
   ``carried-flat-outvoted``, ``sides-outline``, ``lone-carried-median``, ``child``; ``+axis`` when moved onto
   the parent's axis, ``+later`` when changed after ``fork`` returned, ``hidden-fork`` for a hidden end's crossing)
   and each side's
@@ -61,6 +62,7 @@ FORK_RULES = {          # a source line's start -> the rule it applies (the last
     "d, agree = d_out, True": "flat-outline",
     "self.uvd[node][2] = d_known": "known",
     "self.uvd[node][2] = weigh_sides(": "weighted",
+    "self.uvd[node][2] = weigh_bent_sides(": "bent",
     "self.uvd[node][2] = lone_carried_median(": "lone-carried-median",
 }
 AXIS_LINE = "self.uvd[node][2] -= centre_bias_px("
@@ -159,7 +161,8 @@ class Trace:
             sides.append(dict(seg=int(s), src=src, d=sn.d_px if sn is not None else curve_d, d_curve=curve_d,
                               nearest_px=None if sn is None else float(sn.nearest_px),
                               n_rows=None if sn is None else int(getattr(sn, "n_rows", -1)),
-                              carried_px=float(b._carried_px(s, xy)), radius_px=float(c.radius_px)))
+                              carried_px=float(b._carried_px(s, xy)), radius_px=float(c.radius_px),
+                              t_range=tuple(float(t) for t in c.t_range), by_row=bool(c.by_row)))
         rule = None
         for ln in lines:
             if ln in self.fork_lines:

@@ -147,6 +147,56 @@ def weigh_sides(d_px, rows) -> float:
     return float((w0 * d_px[0] + w1 * d_px[1]) / (w0 + w1))
 
 
+# a steep parent side's value at the fork is off, besides its rows' noise (line_carry_var), by an offset its
+# rows share (px^2: sd ~0.14 px; sides reaching the fork, docs/localize-edges24.md) and by the parent bending in
+# depth between its nearest row and the fork, which a line through its rows does not follow: ~0.01 px per row
+# carried beyond the first 2 (the true axis's own straight line there: 0.08 px rms for reads reaching the fork,
+# 0.14-0.19 px for reads 6-30 px short; docs/localize-forkcurve25.md)
+SIDE_OFFSET_VAR = 0.02
+SIDE_BEND_PX_PER_ROW = 0.01
+SIDE_BEND_FREE_PX = 2.0
+SIDE_ROW_VAR = 0.04                 # (px^2: one row's noise, the unit of line_carry_var, where the rows count)
+
+
+def side_carry_var(n_rows: float, gap_rows: float, rows: bool = True) -> float:
+    """Variance (px^2) of a steep parent side's disparity at a fork from ``n_rows`` rows (or a fitted
+    span of that many rows) carried ``gap_rows`` past the nearest: the offset its rows share
+    (``SIDE_OFFSET_VAR``), the parent's bend in depth over the carry beyond ``SIDE_BEND_FREE_PX``
+    (``SIDE_BEND_PX_PER_ROW`` per row, squared) and, with ``rows``, the rows' noise carried
+    (``SIDE_ROW_VAR`` times :func:`line_carry_var`)."""
+    bend = SIDE_BEND_PX_PER_ROW * max(float(gap_rows) - SIDE_BEND_FREE_PX, 0.0)
+    v = SIDE_OFFSET_VAR + bend * bend
+    return v + SIDE_ROW_VAR * line_carry_var(n_rows, gap_rows) if rows else v
+
+
+# ... for two sides each read on at least this many rows (SideNear.n_rows) or, not read, fitted on a span of at
+# least this many: a side on fewer rows, or a short piece's curve, is off by more than its carry tells (seed 564
+# T7, colour: -0.83 px on 15 rows against -0.23 on 53, both reaching the fork; seed 137 T7: a span of 5 rows,
+# +1.99 px)
+SIDE_BENT_MIN_ROWS = 16
+SIDE_BENT_MIN_SPAN = 40.0
+
+
+def bent_sides_apply(rows, read) -> bool:
+    """Whether a fork's two steep parent sides are weighed by :func:`weigh_bent_sides`: each, with its
+    (rows, rows carried) in ``rows`` and whether it was read from its own crossings in ``read``, read on at
+    least ``SIDE_BENT_MIN_ROWS`` rows or, not read, fitted on a span of at least ``SIDE_BENT_MIN_SPAN`` rows."""
+    return all(n >= (SIDE_BENT_MIN_ROWS if r else SIDE_BENT_MIN_SPAN) for (n, _), r in zip(rows, read))
+
+
+def weigh_bent_sides(d_px, rows, with_rows: bool) -> float:
+    """A fork's disparity from its two steep parent sides' values ``d_px`` (2,), each weighted by the
+    inverse of :func:`side_carry_var` of its (rows, rows carried) in ``rows`` ((n, g) per side): a side
+    carried further from its rows counts the less (the parent bends in depth in between); with
+    ``with_rows`` its rows' noise counts too (sides that disagree beyond it: :func:`weigh_sides`'s
+    case). Equal variances give the plain mean, ``(d0 + d1) / 2``."""
+    v0, v1 = (side_carry_var(n, g, with_rows) for n, g in rows)
+    if v0 == v1:
+        return float((d_px[0] + d_px[1]) / 2)
+    w0, w1 = 1.0 / v0, 1.0 / v1
+    return float((w0 * d_px[0] + w1 * d_px[1]) / (w0 + w1))
+
+
 # a flat parent side's disparity at a fork: its bark texture on patches from the fork this far along it
 FLAT_NEAR_PX = 24.0
 FLAT_STEP_PX = 6.0

@@ -17,7 +17,8 @@ from appliance.localize.centreaxis import centre_bias_px
 from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
-from appliance.localize.forkdisp import flat_side_near, side_disparity_near, taper_radius, weigh_sides
+from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
+                                         weigh_bent_sides, weigh_sides)
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
@@ -70,6 +71,11 @@ OUTLINE_NOT_OVER_CONFIRMED = True
 # (forkdisp.weigh_sides) instead of the plain mean
 SIDES_WEIGHTED = True
 SIDES_WEIGHT_PX = 0.5
+# ... and any two steep parent sides, each read on enough of its own rows or fitted on a long enough span
+# (forkdisp.bent_sides_apply), are weighted by how far each is carried to the fork (forkdisp.weigh_bent_sides:
+# the parent bends in depth between a side's rows and the fork), their rows' noise counted where they differ by
+# more than SIDES_WEIGHT_PX (docs/localize-forkcurve25.md)
+SIDES_BENT = True
 
 # a fork whose two steep parent sides are both known there from their own rows (their fitted spans
 # reach it, or forkdisp.side_disparity_near read rows next to it) yet are not of one branch there
@@ -492,11 +498,17 @@ class ForkPlacing:
             agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
         if agree and d_known is not None:
             self.uvd[node][2] = d_known
-        elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and abs(d_par[0] - d_par[1]) > SIDES_WEIGHT_PX \
-                and all(self.curves[s].by_row for s in parents):
-            # the two steep sides disagree beyond their rows' noise (the checks above took their mean):
-            # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
-            self.uvd[node][2] = weigh_sides(d_par, [self._side_rows(s, xy, side_near.get(s)) for s in parents])
+        elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and all(self.curves[s].by_row for s in parents):
+            apart = abs(d_par[0] - d_par[1]) > SIDES_WEIGHT_PX
+            rows = [self._side_rows(s, xy, side_near.get(s)) for s in parents]
+            if SIDES_BENT and bent_sides_apply(rows, [s in side_near for s in parents]):
+                # each side weighted by how far it is carried to the fork (the parent bends in depth), and
+                # where they disagree beyond their rows' noise by those rows too (forkdisp.weigh_bent_sides)
+                self.uvd[node][2] = weigh_bent_sides(d_par, rows, apart)
+            elif apart:
+                # the two steep sides disagree beyond their rows' noise (the checks above took their mean):
+                # each weighted by how well its line is known at the fork (fewer rows, carried further: the less)
+                self.uvd[node][2] = weigh_sides(d_par, rows)
         if agree and SIDES_CONFLICT_WITHHELD and final and self._sides_conflict(parents, xy, d_par, side_near):
             agree = False
         if agree and LONE_SIDE_WITHHELD and final and len(parents) == 1 and not child_ok \

@@ -42,7 +42,8 @@ def test_a_fork_whose_sides_both_known_there_disagree_is_withheld(monkeypatch, w
     # both parent sides are known at the fork from their own rows (the upper side's fitted span
     # reaches it, the lower one is read from its crossings next to it) and differ by ~1 px: one of them
     # is another shape's there, and which one nothing tells; their weighted mean was ~0.5 px off
-    # (main: reported, 5-6 mm at 1000 mm); the fork is withheld
+    # (main: reported, 5-6 mm at 1000 mm; 0.33 px with forkdisp.weigh_bent_sides, the side read next to
+    # the fork counting more than the one whose fit is carried to it); the fork is withheld
     import appliance.localize.forkends as forkends
     from appliance.localize import kernels_dense
     monkeypatch.setattr(forkends, "SIDES_CONFLICT_WITHHELD", withheld)
@@ -54,7 +55,7 @@ def test_a_fork_whose_sides_both_known_there_disagree_is_withheld(monkeypatch, w
     if withheld:
         assert found == []
     else:
-        assert len(found) == 1 and (found[0].left_px[0] - found[0].right_px[0]) - d >= 0.35
+        assert len(found) == 1 and (found[0].left_px[0] - found[0].right_px[0]) - d >= 0.3
 
 
 def test_a_fork_whose_side_is_cut_in_one_view_is_reported_right_with_the_width_rule():

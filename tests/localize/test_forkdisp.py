@@ -8,7 +8,8 @@ from appliance.localize import forkdisp
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.edges import find_runs
 from appliance.localize.forkdisp import (
-    flat_side_near, line_carry_var, perspective_width_ratio, side_disparity_near, taper_radius, weigh_sides,
+    bent_sides_apply, flat_side_near, line_carry_var, perspective_width_ratio, side_carry_var, side_disparity_near,
+    taper_radius, weigh_bent_sides, weigh_sides,
 )
 from appliance.localize.texture import patch_depth_fraction
 
@@ -255,6 +256,61 @@ def test_two_disagreeing_sides_count_by_how_well_each_is_known():
     d = weigh_sides([101.9, 99.65], [(5.0, 4.0), (45.0, 13.0)])
     assert abs(d - 99.65) <= 0.25
     assert abs(weigh_sides([100.3, 99.7], [(40.0, 10.0), (40.0, 10.0)]) - 100.0) <= 1e-9
+
+
+def _line_at_fork(x, d):
+    """A straight line through rows ``x`` (row - fork's row) of disparity ``d``, read at the fork."""
+    return float(np.polyfit(x, d, 1)[1])
+
+
+def test_a_side_carried_past_the_parents_bend_in_depth_counts_less():
+    # a parent straight in depth on each side of its fork (disparity linear in the row), but one side
+    # turning 10 rows before the fork (0.03 px per row more): that side's rows stop 25 rows short of
+    # the fork, the other side's reach it; a line through each side's own rows
+    d0, s_a, s_b, s_far = 60.0, -0.02, 0.01, 0.04
+    x_a = np.arange(0.0, 60.0)                                  # (rows past the fork, reaching it)
+    x_b = np.arange(-85.0, -25.0)                               # (rows before it, 25 short)
+    d_a = d0 + s_a * x_a
+    d_b = np.where(x_b >= -10.0, d0 + s_b * x_b, d0 - 10.0 * s_b + s_far * (x_b + 10.0))
+    sides = [_line_at_fork(x_a, d_a), _line_at_fork(x_b, d_b)]
+    assert abs(sides[0] - d0) <= 1e-9 and abs(sides[1] - d0) >= 0.25        # (the premise: the bend missed)
+    mean = 0.5 * (sides[0] + sides[1])
+    bent = weigh_bent_sides(sides, [(60.0, 0.0), (60.0, 25.0)], False)
+    assert abs(bent - d0) <= 0.5 * abs(mean - d0)
+    # with the rows' noise counted too (sides apart): still nearer the side that reaches the fork
+    bent_rows = weigh_bent_sides(sides, [(60.0, 0.0), (60.0, 25.0)], True)
+    assert abs(bent_rows - d0) <= 0.5 * abs(mean - d0)
+
+
+def test_sides_carried_alike_give_their_plain_mean():
+    # both within SIDE_BEND_FREE_PX of the fork (or carried equally far): the plain mean, bit for bit
+    for gaps in ((0.0, 1.5), (2.0, 0.0), (17.0, 17.0)):
+        d = [100.3, 99.75]
+        assert weigh_bent_sides(d, [(50.0, gaps[0]), (50.0, gaps[1])], False) == (d[0] + d[1]) / 2
+    # the rows count only where asked: 6 rows against 60, both reaching the fork
+    d = [101.0, 100.0]
+    assert weigh_bent_sides(d, [(6.0, 0.0), (60.0, 0.0)], False) == 100.5
+    assert weigh_bent_sides(d, [(6.0, 0.0), (60.0, 0.0)], True) < 100.5
+
+
+def test_only_sides_read_on_enough_rows_or_fitted_on_a_long_span_are_weighed_by_their_carry():
+    n_read, n_span = forkdisp.SIDE_BENT_MIN_ROWS, forkdisp.SIDE_BENT_MIN_SPAN
+    assert n_read < n_span
+    assert bent_sides_apply([(n_read, 20.0), (n_span, 0.0)], [True, False])
+    assert bent_sides_apply([(60.0, 30.0), (55.0, 1.0)], [True, True])
+    # a read on too few rows, or a short span's curve (even reaching the fork): today's rule
+    assert not bent_sides_apply([(n_read - 1, 0.0), (60.0, 0.0)], [True, True])
+    assert not bent_sides_apply([(60.0, 0.0), (n_span - 1, 0.0)], [True, False])
+    # (a span is counted in rows of the piece's fit, not of a read: as many rows as a read's fail as a span)
+    assert not bent_sides_apply([(60.0, 0.0), (n_read, 0.0)], [True, False])
+
+
+def test_a_sides_variance_grows_with_its_carry_past_the_free_rows():
+    v = [side_carry_var(50.0, g, False) for g in (0.0, 2.0, 6.0, 20.0, 40.0)]
+    assert v[0] == v[1] == forkdisp.SIDE_OFFSET_VAR
+    assert v[1] < v[2] < v[3] < v[4]
+    assert abs(v[3] - v[0] - (forkdisp.SIDE_BEND_PX_PER_ROW * 18.0) ** 2) <= 1e-12
+    assert side_carry_var(50.0, 20.0, True) == pytest.approx(v[3] + forkdisp.SIDE_ROW_VAR * line_carry_var(50.0, 20.0))
 
 
 @pytest.mark.parametrize("z_mm, x_mm", [(600.0, 0.0), (900.0, 250.0), (1200.0, -300.0), (1400.0, 500.0)])

@@ -1,0 +1,218 @@
+"""The steep fork sides' reads carried to the fork by a line or by a curve, against the truth (issue 5).
+
+    python benchmarks/side_curve.py [--extra 56 | --seeds A-B] [--masks true|colour|both] [--band 750-1250]
+                                    [--pickle OUT] [--axis] [--set MODULE.NAME=VALUE ...]
+
+``side_rows.py``'s trace (``band_tail.py``'s: the improved localizer on cached scenes; nothing of the localizer
+changed), and for every steep side read from its crossings (``forkdisp.side_disparity_near``) its rows
+(:func:`side_edges.read_rows`: the kernel's steps in numpy on the runs the read sees) and the side's value at the
+fork carried from those rows in several ways (:func:`carries`):
+
+- ``line``: the robust line through the rows (today's read);
+- ``quad``: a second-degree fit through the same rows;
+- ``poly``: the piece's own fit (``BranchCurve.d_poly``, its polynomial continued past the span, not its end
+  slope) moved onto the rows by their mean offset from it;
+- ``polyline``: a line through the rows' offsets from the piece's polynomial, plus the polynomial at the fork;
+- ``bend``: the line through the rows less half the polynomial's second derivative at the span's end times the
+  square of the row's distance from the fork (the piece's curvature in depth kept, its level and slope the rows').
+
+Each against the fork's true disparity plus the silhouette bias (``centreaxis.centre_bias_px``), grouped by the
+read's reach (nearest kept row within 2 px of the fork, 2-6 px, more than 6 px short). With ``--axis`` the same
+carries through the TRUE parent axis on the read's own rows (the carry's model error alone: how far a line or a
+curve through the parent's true depth on those rows misses it at the fork). ``--pickle`` keeps the sides (rows,
+curve coefficients, truth) for other carries.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import pickle
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import band_tail  # noqa: E402
+import side_edges as se  # noqa: E402
+import side_rows as sr  # noqa: E402
+
+from appliance.localize import centreaxis, forkends  # noqa: E402
+
+CARRIES = ("line", "quad", "poly", "polyline", "bend")
+
+
+def _poly_free(coef, t0, ts, t):
+    """A :class:`curves.Poly`'s polynomial (``coef`` highest first, on ``(t - t0) / ts``) at ``t``, continued past
+    the span (no end slopes)."""
+    return np.polyval(coef, (np.asarray(t, float) - t0) / ts)
+
+
+def carries(x, d, t_fork, poly, end) -> dict:
+    """The side's value at the fork (x = 0) from rows at ``x`` (row - t_fork) with disparities ``d``, carried each
+    way of :data:`CARRIES`; ``poly`` (coef, t0, ts) the piece's d fit, ``end`` the span's end row."""
+    out = {"line": float(np.polyfit(x, d, 1)[1])}
+    out["quad"] = float(np.polyfit(x, d, 2)[2]) if len(x) >= 6 and np.ptp(x) >= 8 else out["line"]
+    coef, t0, ts = poly
+    p_rows = _poly_free(coef, t0, ts, x + t_fork)
+    p_fork = float(_poly_free(coef, t0, ts, t_fork))
+    out["poly"] = p_fork + float(np.mean(d - p_rows))
+    out["polyline"] = p_fork + float(np.polyfit(x, d - p_rows, 1)[1])
+    c2 = np.polyder(np.asarray(coef, float), 2)
+    k = float(np.polyval(c2, (end - t0) / ts)) / ts ** 2 if len(coef) >= 3 else 0.0     # d'' (px / row^2)
+    out["bend"] = float(np.polyfit(x, d - 0.5 * k * x ** 2, 1)[1])
+    out["k"] = k
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--extra", type=int, default=56)
+    ap.add_argument("--seeds", metavar="A-B", type=band_tail._seed_range)
+    ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
+    ap.add_argument("--band", default="750-1250")
+    ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
+    ap.add_argument("--pickle", type=Path)
+    ap.add_argument("--axis", action="store_true", help="also each carry through the true parent axis on the rows")
+    a = ap.parse_args()
+
+    store = {}
+    orig_near = forkends.side_disparity_near
+
+    def near(c, runs_l, runs_r, t_fork, **kw):
+        v = orig_near(c, runs_l, runs_r, t_fork, **kw)
+        if v is not None:
+            rows = se.read_rows(c, runs_l, runs_r, t_fork, **kw)
+            k = rows["line"]
+            lo, hi = c.t_range
+            dp = getattr(c.d_poly, "base", c.d_poly)        # (a Spliced fit: the piece's own polynomial)
+            store[id(v)] = (v, dict(x=rows["x"][k], d=rows["d"][k], t_fork=float(t_fork),
+                                    end=float(lo if t_fork < lo else hi),
+                                    poly=(np.asarray(dp.coef, float).copy(), float(dp.t0), float(dp.ts)),
+                                    t_range=(float(lo), float(hi)), d_kernel=float(v.d_px),
+                                    nearest=float(v.nearest_px)),
+                            kw)
+        return v
+    forkends.side_disparity_near = near
+    fork_return = band_tail.Trace._fork_return
+
+    def _fork_return(self, b, node, loc, lines):
+        fork_return(self, b, node, loc, lines)
+        f = self.forks.get(node)
+        if f is None or "xy" not in loc:
+            return
+        sn = loc.get("side_near") or {}
+        xy = np.asarray(loc["xy"], float)
+        f["xy"] = xy.copy()
+        for s in f["sides"]:
+            c = b.curves[s["seg"]]
+            s["t_range"], s["by_row"] = tuple(float(t) for t in c.t_range), bool(c.by_row)
+            v = sn.get(s["seg"])
+            if v is not None and id(v) in store and store[id(v)][0] is v:
+                _, st, kw = store[id(v)]
+                st["bias"] = centreaxis.centre_bias_px(v.d_px, float(xy[0]), s["radius_px"], kw["f_px"], kw["cx_px"],
+                                                       kw.get("offset_px", 0.0))
+                s["curve"] = st
+        store.clear()
+    band_tail.Trace._fork_return = _fork_return
+
+    recs = []
+    orig_dumps = pickle.dumps
+
+    def grab(obj, *k, **kw):
+        recs.extend(obj)
+        return orig_dumps(obj, *k, **kw)
+    pickle.dumps = grab
+    sys.argv = sr.band_tail_argv(a) + ["--pickle", "/dev/null"]
+    with contextlib.redirect_stdout(io.StringIO()):
+        band_tail.main()
+    pickle.dumps = orig_dumps
+    if a.axis:
+        add_axis(recs, {name: tp for name, _, _, tp in band_tail.scene_list(a.extra, a.seeds)})
+    if a.pickle:
+        a.pickle.write_bytes(pickle.dumps(recs))
+    report(recs, a.axis)
+    return 0
+
+
+def add_axis(recs, truth_paths: dict) -> None:
+    """Each traced side's ``axis``: the true parent axis's disparity on its rows and at the fork's row
+    (:func:`side_edges.true_axis_rdv`), NaN where the axis does not cross a row near the fork."""
+    from appliance.synth.truth import load_truth
+    cache = {}
+    for r in recs:
+        f = r["fork"]
+        if r["kind"] != "bifurcation" or not f or "xy" not in f:
+            continue
+        sides = [s for s in f["sides"] if s.get("curve")]
+        if not sides:
+            continue
+        if r["scene"] not in cache:
+            cache.clear()
+            cache[r["scene"]] = load_truth(truth_paths[r["scene"]])
+        truth = cache[r["scene"]]
+        u, v, d, _ = se.true_axis_rdv(truth, int(truth.features.parent[r["t"]]))
+        xf = np.asarray(f["xy"], float)
+        near = np.hypot(u - xf[0], v - xf[1]) < 400
+
+        def on_row(rv):
+            cand = np.flatnonzero(near & (np.abs(v - rv) < 0.6))
+            return d[cand[np.argmin(np.abs(v[cand] - rv))]] if len(cand) else np.nan
+        for s in sides:
+            st = s["curve"]
+            st["axis"] = np.array([on_row(rv) for rv in xf[1] + st["x"]])
+            st["axis_fork"] = float(on_row(xf[1]))
+
+
+def side_table(recs) -> list[dict]:
+    """The traced sides with their carries' errors (px, after the silhouette bias) and, where traced, the carries'
+    errors through the true axis (``model``)."""
+    out = []
+    for r in recs:
+        if r["kind"] != "bifurcation" or not r["fork"]:
+            continue
+        d_true = r["d"] - r["derr"]
+        for s in r["fork"]["sides"]:
+            st = s.get("curve")
+            if st is None or len(st["x"]) < 12:
+                continue
+            cv = carries(st["x"], st["d"], st["t_fork"], st["poly"], st["end"])
+            row = dict(masks=r["masks"], scene=r["scene"], t=r["t"], z=r["z"], dz=r["dz"], nearest=st["nearest"],
+                       k=cv["k"], n=len(st["x"]), err={c: cv[c] - st["bias"] - d_true for c in CARRIES},
+                       kernel=st["d_kernel"] - st["bias"] - d_true, rule=r["rule"])
+            ax = st.get("axis")
+            if ax is not None and np.isfinite(st["axis_fork"]) and np.isfinite(ax).sum() >= 12:
+                ok = np.isfinite(ax)
+                mv = carries(st["x"][ok], ax[ok], st["t_fork"], st["poly"], st["end"])
+                row["model"] = {c: mv[c] - st["axis_fork"] for c in CARRIES}
+            out.append(row)
+    return out
+
+
+def report(recs, axis: bool) -> None:
+    """Prints the carries' errors by mask source and reach: sd, p95 abs and mean abs (px)."""
+    rows = side_table(recs)
+    groups = (("all", lambda s: True), ("< 2 px", lambda s: s["nearest"] < 2),
+              ("2-6 px", lambda s: 2 <= s["nearest"] <= 6), ("> 6 px short", lambda s: s["nearest"] > 6))
+    for key, title in (("err", "the read's error at the fork"), ("model", "through the true axis on the read's rows")):
+        if key == "model" and not axis:
+            continue
+        print(f"\n{title}: sd / p95 abs (px)\n")
+        print("| masks | reach | sides | " + " | ".join(CARRIES) + " |")
+        print("|---|---|---|" + "---|" * len(CARRIES))
+        for m in ("true", "colour"):
+            for grp, sel in groups:
+                ss = [s for s in rows if s["masks"] == m and sel(s) and key in s]
+                if len(ss) < 2:
+                    continue
+                cells = []
+                for c in CARRIES:
+                    e = np.array([s[key][c] for s in ss])
+                    cells.append(f"{e.std():.3f} / {np.percentile(np.abs(e), 95):.3f}")
+                print(f"| {m} | {grp} | {len(ss)} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

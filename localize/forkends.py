@@ -246,6 +246,16 @@ def _d_at(c: BranchCurve, xu: float, xv: float) -> np.float64:
     return np.float64(c._at(c.d_poly, xv if c.by_row else xu, c.d_end_slopes))
 
 
+def walk_reach_t(c: BranchCurve, t_edge: float, sign: float, reach_px: float) -> float:
+    """How far in the curve's parameter ``t`` (rows of a steep piece, columns of a flat one) a walk from
+    ``t_edge`` in the direction ``sign`` goes to cover ``reach_px`` along the branch in the image: the
+    reach divided by the centre line's speed there (|d uv / dt|, px per unit of t, at least 1). A piece
+    at 24 deg to its parameter's axis walked ``reach_px`` rows would run 2.4x as far
+    (docs/localize-softfork25.md)."""
+    step = c.uv_at(np.array([t_edge, t_edge + sign]))
+    return reach_px / max(float(np.hypot(*(step[1] - step[0]))), 1.0)
+
+
 def _agree(d1: float, d2: float) -> bool:
     """Whether two disparities (px) at one point are of one branch: within 1 px or 0.6 %."""
     return abs(d1 - d2) <= max(1.0, 0.006 * abs(d2))
@@ -873,7 +883,8 @@ class ForkPlacing:
     def hidden_fork(self, node: int, reach_px: float = 80.0) -> bool:
         """An end whose branch runs on, hidden (by a leaf, an apple), into another branch: the fork.
 
-        The end's centre line, carried straight on for at most ``reach_px``, crosses the centre
+        The end's centre line, carried straight on for at most ``reach_px`` (along the branch:
+        :func:`walk_reach_t`), crosses the centre
         line of a fitted piece at least as thick, at ``HIDDEN_FORK_MIN_DEG`` or more (at a
         shallower angle it is the branch itself running on, bent, behind the occluder); if the
         end's own disparity carried along agrees there with that piece's (:func:`_agree`), the
@@ -889,7 +900,8 @@ class ForkPlacing:
         # (from the whole-pixel walk's end: its 1 px steps and checks were set with it; the sub-pixel
         # one only moves their grid, and flips borderline crossings, docs/localize-softmask.md)
         t_edge, sign = self._walk_out(c, node, whole=True)
-        n_walk = math.ceil(reach_px)                # (len(np.arange(0.0, reach_px, 1.0)))
+        reach_t = walk_reach_t(c, t_edge, sign, reach_px)
+        n_walk = math.ceil(reach_t)                 # (len(np.arange(0.0, reach_t, 1.0)))
         sp = c.s_poly
         if type(sp) is Poly and n_walk >= 2:       # (compiled: kernels_forkglue.walk_uv, the same points)
             lo, hi = c.t_range
@@ -897,7 +909,7 @@ class ForkPlacing:
                                           float(sp.t0), float(sp.ts), float(lo), float(hi), bool(c.by_row),
                                           float(t_edge), float(sign), n_walk)
         else:
-            uv = c.uv_at(t_edge + sign * np.arange(0.0, reach_px, 1.0))
+            uv = c.uv_at(t_edge + sign * np.arange(0.0, reach_t, 1.0))
         # (the scan of all pieces compiled: kernels_forks.hidden_crossings, the same values)
         row, pieces, table = self._curve_table()
         cross = kernels_forks.hidden_crossings(uv, 0.8 * c.radius_px, row.get(segs[0], -1), *table)

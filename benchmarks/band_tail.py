@@ -1,7 +1,7 @@
 """The features of one depth band whose depth error is in the band's tail, with the rule that set each one's disparity.
 
-    python benchmarks/band_tail.py [--extra 56 | --seeds A-B] [--masks true|colour|both] [--band 1000-1250]
-                                   [--over MM] [--pickle OUT] [--set MODULE.NAME=VALUE ...]
+    python benchmarks/band_tail.py [--extra 56 | --seeds A-B] [--masks true|colour|both] [--soft-truth]
+                                   [--band 1000-1250] [--over MM] [--pickle OUT] [--set MODULE.NAME=VALUE ...]
 
 Scenes as ``localize_accuracy.py`` (fixtures plus ``--extra`` seeds 100.., or ``--seeds A-B``), read from the cache
 only (a scene not rendered is skipped, never rendered). Each pair runs the improved localizer with
@@ -16,7 +16,9 @@ source lines they look for stay). Every matched feature whose true depth lies in
   ``known``, ``weighted``, ``bent`` (forkdisp.weigh_bent_sides), ``flat-outline``, ``lone-flat-outvoted``,
   ``flat-pick-mean3``, ``flat-pick-one``,
   ``carried-flat-outvoted``, ``sides-outline``, ``lone-carried-median``, ``child``; ``+axis`` when moved onto
-  the parent's axis, ``+later`` when changed after ``fork`` returned, ``hidden-fork`` for a hidden end's crossing)
+  the parent's axis, ``+later`` when changed after ``fork`` returned, ``hidden-fork`` for a hidden end placed at
+  its crossing with another piece by ``ForkPlacing.hidden_fork``: the parent piece's curve there and how far past
+  its span, the child's curve and how far (px) it was carried from its own span)
   and each side's
   source (``steep-read`` its crossings next to the fork, ``flat-tex`` its texture there, ``-span`` / ``-carried``
   its curve inside its fitted span / carried past it, ``(tex agrees)`` its texture read there within 0.25 px of
@@ -25,7 +27,8 @@ source lines they look for stay). Every matched feature whose true depth lies in
   ``merged-right-cap``, ``flat-stub``, with the piece's origin (``dense``, ``caps`` stub, ``flatcap``) and its
   curve's error there.
 
-Then the counts by kind / slope / rule (the table of causes).
+Then the counts by kind / slope / rule (the table of causes). ``--soft-truth``: the exact masks as the renderer's
+soft coverage (as ``localize_accuracy.py --soft-truth``).
 """
 
 from __future__ import annotations
@@ -97,6 +100,14 @@ class Trace:
         trace = self
         self._wrap_traced(forkends.ForkPlacing, "fork", self._fork_return)
         self._wrap_traced(tipends.TipPlacing, "_tip_place", self._tip_return)
+        hidden_fork = forkends.ForkPlacing.hidden_fork
+
+        def traced_hidden_fork(placer, node, *a, **k):
+            ok = hidden_fork(placer, node, *a, **k)
+            if ok:
+                trace._hidden_fork_return(placer, int(node))
+            return ok
+        forkends.ForkPlacing.hidden_fork = traced_hidden_fork
         placer_cls = dense.EndPlacer
 
         def placer(*a, **k):
@@ -121,6 +132,23 @@ class Trace:
 
     def reset(self):
         self.forks, self.tips, self.origin, self.placer, self.checked = {}, {}, {}, None, None
+        self.hidden_forks = {}
+
+    def _hidden_fork_return(self, b, node):
+        """A hidden end placed at a crossing (``ForkPlacing.hidden_fork``): the parent piece whose curve gave
+        its disparity, the child's curve there and how far (px) the child's fitted span was carried to it."""
+        u, v, d = (float(x) for x in b.uvd[node])
+        xy = np.array([u, v])
+        child = next(s for s in b.incident[node] if s in b.curves)
+        cc = b.curves[child]
+        parent = None
+        for s, c in b.curves.items():
+            if s != child and abs(float(forkends._d_at(c, u, v)) - d) < 1e-9:
+                parent = int(s)
+        ends = cc.uv_at(np.array(cc.t_range, float))
+        self.hidden_forks[node] = dict(parent=parent, d=d, d_child=float(forkends._d_at(cc, u, v)), child=int(child),
+                                       carried_px=float(np.hypot(*(ends - xy).T).min()),
+                                       parent_past_px=None if parent is None else float(b._carried_px(parent, xy)))
 
     def _wrap_traced(self, cls, name, on_return):
         f = getattr(cls, name)
@@ -208,6 +236,12 @@ def describe(tr: Trace, node: int, kind: str, d_final: float, d_err: float) -> t
         if f["d_out"] is not None:
             parts.append(f"outline {f['d_out'] - d_true:+.2f}")
         return slope, rule, "; ".join(parts) + f"; r_par {f['r_par']:.1f}px"
+    if node in tr.hidden_forks:            # (its disparity: the parent's curve at the crossing, not the tip's rule)
+        h = tr.hidden_forks[node]
+        slope = ("steep" if tr.placer.curves[h["parent"]].by_row else "flat") if h["parent"] is not None else "-"
+        past = "" if h["parent_past_px"] is None else f" ({h['parent_past_px']:.1f} rows/cols past its span)"
+        return slope, "hidden-fork", (f"parent piece {h['parent']} {h['d'] - d_true:+.2f}{past}; child {h['child']} "
+                                      f"{h['d_child'] - d_true:+.2f} carried {h['carried_px']:.0f}px")
     if node in tr.tips:
         t = tr.tips[node]
         det = f"piece {tr.origin.get(t['seg'], 'dense')}, r {t['radius_px']:.1f}px"
@@ -226,6 +260,8 @@ def main() -> int:
     ap.add_argument("--over", type=float, default=1.5, help="also list |dZ| over this (mm)")
     ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
     ap.add_argument("--pickle", type=Path)
+    ap.add_argument("--soft-truth", action="store_true",
+                    help="exact masks as the renderer's soft coverage of each pixel (as localize_accuracy.py)")
     a = ap.parse_args()
     for kv in a.set:
         key, value = kv.split("=", 1)
@@ -244,7 +280,7 @@ def main() -> int:
         truth = load_truth(tp)
         left, right = cv2.imread(str(lp)), cv2.imread(str(rp))
         for m in masks:
-            kw = dict(zip(("mask_left", "mask_right"), truth.exact_masks(soft=False))) if m == "true" else {}
+            kw = dict(zip(("mask_left", "mask_right"), truth.exact_masks(soft=a.soft_truth))) if m == "true" else {}
             tr.reset()
             res = loc.localize(left, right, **kw)
             feats = [f for f, k in zip(*tr.checked) if not k.withheld] if tr.checked else []

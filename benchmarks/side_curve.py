@@ -25,7 +25,6 @@ curve coefficients, truth) for other carries.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import pickle
@@ -68,13 +67,7 @@ def carries(x, d, t_fork, poly, end) -> dict:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--extra", type=int, default=56)
-    ap.add_argument("--seeds", metavar="A-B", type=band_tail._seed_range)
-    ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
-    ap.add_argument("--band", default="750-1250")
-    ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
-    ap.add_argument("--pickle", type=Path)
+    ap = sr.tracer_parser(__doc__.splitlines()[0])
     ap.add_argument("--axis", action="store_true", help="also each carry through the true parent axis on the rows")
     a = ap.parse_args()
 

@@ -26,7 +26,6 @@ reads themselves use ``used`` as the localizer does.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import pickle
@@ -70,13 +69,7 @@ def line_stats(rows) -> dict | None:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--extra", type=int, default=56)
-    ap.add_argument("--seeds", metavar="A-B", type=band_tail._seed_range)
-    ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
-    ap.add_argument("--band", default="750-1250")
-    ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
-    ap.add_argument("--pickle", type=Path)
+    ap = sr.tracer_parser(__doc__.splitlines()[0])
     ap.add_argument("--axis", action="store_true", help="also the rows against the true parent axis (axis_report)")
     a = ap.parse_args()
 

@@ -91,14 +91,21 @@ def band_tail_argv(a) -> list[str]:
     return argv
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def tracer_parser(description: str, pickle_required: bool = False) -> argparse.ArgumentParser:
+    """The fork-side tracers' common options (this script's, ``side_edges.py``'s, ``side_curve.py``'s):
+    ``--extra/--seeds --masks --band --set --pickle``, as :func:`band_tail_argv` passes them on."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--extra", type=int, default=56)
     ap.add_argument("--seeds", metavar="A-B", type=band_tail._seed_range)
     ap.add_argument("--masks", choices=["true", "colour", "both"], default="both")
     ap.add_argument("--band", default="750-1250")
     ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
-    ap.add_argument("--pickle", type=Path, required=True)
+    ap.add_argument("--pickle", type=Path, required=pickle_required)
+    return ap
+
+
+def main() -> int:
+    ap = tracer_parser(__doc__.splitlines()[0], pickle_required=True)
     a = ap.parse_args()
     store = {}
     orig = forkends.side_disparity_near

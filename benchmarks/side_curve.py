@@ -25,8 +25,6 @@ curve coefficients, truth) for other carries.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import pickle
 import sys
 from pathlib import Path
@@ -38,7 +36,7 @@ import band_tail  # noqa: E402
 import side_edges as se  # noqa: E402
 import side_rows as sr  # noqa: E402
 
-from appliance.localize import centreaxis, forkends  # noqa: E402
+from appliance.localize import centreaxis  # noqa: E402
 
 CARRIES = ("line", "quad", "poly", "polyline", "bend")
 
@@ -71,57 +69,29 @@ def main() -> int:
     ap.add_argument("--axis", action="store_true", help="also each carry through the true parent axis on the rows")
     a = ap.parse_args()
 
-    store = {}
-    orig_near = forkends.side_disparity_near
+    def on_read(v, c, runs_l, runs_r, t_fork, kw):
+        rows = se.read_rows(c, runs_l, runs_r, t_fork, **kw)
+        k = rows["line"]
+        lo, hi = c.t_range
+        dp = getattr(c.d_poly, "base", c.d_poly)        # (a Spliced fit: the piece's own polynomial)
+        return (dict(x=rows["x"][k], d=rows["d"][k], t_fork=float(t_fork), end=float(lo if t_fork < lo else hi),
+                     poly=(np.asarray(dp.coef, float).copy(), float(dp.t0), float(dp.ts)),
+                     t_range=(float(lo), float(hi)), d_kernel=float(v.d_px), nearest=float(v.nearest_px)),
+                kw, float(v.d_px))
 
-    def near(c, runs_l, runs_r, t_fork, **kw):
-        v = orig_near(c, runs_l, runs_r, t_fork, **kw)
-        if v is not None:
-            rows = se.read_rows(c, runs_l, runs_r, t_fork, **kw)
-            k = rows["line"]
-            lo, hi = c.t_range
-            dp = getattr(c.d_poly, "base", c.d_poly)        # (a Spliced fit: the piece's own polynomial)
-            store[id(v)] = (v, dict(x=rows["x"][k], d=rows["d"][k], t_fork=float(t_fork),
-                                    end=float(lo if t_fork < lo else hi),
-                                    poly=(np.asarray(dp.coef, float).copy(), float(dp.t0), float(dp.ts)),
-                                    t_range=(float(lo), float(hi)), d_kernel=float(v.d_px),
-                                    nearest=float(v.nearest_px)),
-                            kw)
-        return v
-    forkends.side_disparity_near = near
-    fork_return = band_tail.Trace._fork_return
-
-    def _fork_return(self, b, node, loc, lines):
-        fork_return(self, b, node, loc, lines)
-        f = self.forks.get(node)
-        if f is None or "xy" not in loc:
-            return
-        sn = loc.get("side_near") or {}
+    def on_fork(b, loc, f, kept):
         xy = np.asarray(loc["xy"], float)
         f["xy"] = xy.copy()
-        for s in f["sides"]:
+        for s, keep in kept:
             c = b.curves[s["seg"]]
             s["t_range"], s["by_row"] = tuple(float(t) for t in c.t_range), bool(c.by_row)
-            v = sn.get(s["seg"])
-            if v is not None and id(v) in store and store[id(v)][0] is v:
-                _, st, kw = store[id(v)]
-                st["bias"] = centreaxis.centre_bias_px(v.d_px, float(xy[0]), s["radius_px"], kw["f_px"], kw["cx_px"],
+            if keep is not None:
+                st, kw, d_px = keep
+                st["bias"] = centreaxis.centre_bias_px(d_px, float(xy[0]), s["radius_px"], kw["f_px"], kw["cx_px"],
                                                        kw.get("offset_px", 0.0))
                 s["curve"] = st
-        store.clear()
-    band_tail.Trace._fork_return = _fork_return
-
-    recs = []
-    orig_dumps = pickle.dumps
-
-    def grab(obj, *k, **kw):
-        recs.extend(obj)
-        return orig_dumps(obj, *k, **kw)
-    pickle.dumps = grab
-    sys.argv = sr.band_tail_argv(a) + ["--pickle", "/dev/null"]
-    with contextlib.redirect_stdout(io.StringIO()):
-        band_tail.main()
-    pickle.dumps = orig_dumps
+    sr.trace_sides(on_read, on_fork)
+    recs = sr.band_tail_records(sr.band_tail_argv(a))
     if a.axis:
         add_axis(recs, {name: tp for name, _, _, tp in band_tail.scene_list(a.extra, a.seeds)})
     if a.pickle:

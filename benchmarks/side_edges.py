@@ -26,8 +26,6 @@ reads themselves use ``used`` as the localizer does.
 
 from __future__ import annotations
 
-import contextlib
-import io
 import pickle
 import sys
 from pathlib import Path
@@ -38,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import band_tail  # noqa: E402
 import side_rows as sr  # noqa: E402
 
-from appliance.localize import centreaxis, dense, forkdisp, forkends  # noqa: E402
+from appliance.localize import centreaxis, dense, forkdisp  # noqa: E402
 
 VERSIONS = ("mask", "used", "grey")
 
@@ -84,41 +82,29 @@ def main() -> int:
         return out
     dense.refine_runs = refine
 
-    store = {}
-    orig_near = forkends.side_disparity_near
+    def on_read(v, c, runs_l, runs_r, t_fork, kw):
+        if id(runs_l) not in alt or id(runs_r) not in alt:
+            return None
+        vl, vr = alt[id(runs_l)][1], alt[id(runs_r)][1]
+        return {m: line_stats(read_rows(c, vl[m], vr[m], t_fork, **kw)) for m in VERSIONS}, kw, float(v.d_px)
 
-    def near(c, runs_l, runs_r, t_fork, **kw):
-        v = orig_near(c, runs_l, runs_r, t_fork, **kw)
-        if v is not None and id(runs_l) in alt and id(runs_r) in alt:
-            vl, vr = alt[id(runs_l)][1], alt[id(runs_r)][1]
-            store[id(v)] = (v, {m: line_stats(read_rows(c, vl[m], vr[m], t_fork, **kw)) for m in VERSIONS}, kw)
-        return v
-    forkends.side_disparity_near = near
-    fork_return = band_tail.Trace._fork_return
-
-    def _fork_return(self, b, node, loc, lines):
-        fork_return(self, b, node, loc, lines)
-        f = self.forks.get(node)
-        if f is None or "xy" not in loc:
-            return
-        sn = loc.get("side_near") or {}
+    def on_fork(b, loc, f, kept):
         xy = np.asarray(loc["xy"], float)
         cdir = sr.child_direction(b, loc)
         f["xy"] = xy.copy()
-        for s in f["sides"]:
-            v = sn.get(s["seg"])
-            if v is not None and id(v) in store and store[id(v)][0] is v:
-                _, st, kw = store[id(v)]
-                c = b.curves[s["seg"]]
-                # crotch side: the side's rows lie on the child's side of the fork's row
-                lo, hi = c.t_range
-                side_sign = 1.0 if _t(c, xy) < lo else -1.0           # rows run from the fork this way
-                crotch = None if cdir is None else bool(np.sign(cdir[1]) == side_sign)
-                bias = centreaxis.centre_bias_px(v.d_px, float(xy[0]), s["radius_px"], kw["f_px"], kw["cx_px"],
-                                                 kw.get("offset_px", 0.0))
-                s["edges"] = dict(st=st, bias=bias, crotch=crotch, d_kernel=float(v.d_px))
-        store.clear()
-    band_tail.Trace._fork_return = _fork_return
+        for s, keep in kept:
+            if keep is None:
+                continue
+            st, kw, d_px = keep
+            c = b.curves[s["seg"]]
+            # crotch side: the side's rows lie on the child's side of the fork's row
+            lo, hi = c.t_range
+            side_sign = 1.0 if _t(c, xy) < lo else -1.0           # rows run from the fork this way
+            crotch = None if cdir is None else bool(np.sign(cdir[1]) == side_sign)
+            bias = centreaxis.centre_bias_px(d_px, float(xy[0]), s["radius_px"], kw["f_px"], kw["cx_px"],
+                                             kw.get("offset_px", 0.0))
+            s["edges"] = dict(st=st, bias=bias, crotch=crotch, d_kernel=d_px)
+    sr.trace_sides(on_read, on_fork)
 
     argv = sr.band_tail_argv(a)
     rows_by = {}        # (scene, masks, truth index) -> the evaluator's row (its left_err_px: the placement's error)
@@ -133,17 +119,7 @@ def main() -> int:
             rows_by[(name, masks[k], r.truth_index)] = r
         return out
     band_tail.score_result = score
-    recs = []
-    orig_dumps = pickle.dumps
-
-    def grab(obj, *k, **kw):
-        recs.extend(obj)
-        return orig_dumps(obj, *k, **kw)
-    pickle.dumps = grab
-    sys.argv = argv + ["--pickle", "/dev/null"]
-    with contextlib.redirect_stdout(io.StringIO()):
-        band_tail.main()
-    pickle.dumps = orig_dumps
+    recs = sr.band_tail_records(argv)
     for r in recs:
         row = rows_by.get((r["scene"], r["masks"], r["t"]))
         r["left_err_px"] = None if row is None else float(row.left_err_px)

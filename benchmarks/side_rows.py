@@ -14,6 +14,9 @@ band's matched features (``band_tail``'s records, forks with ``sides[k]['rows']`
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import pickle
 import sys
 from pathlib import Path
 
@@ -104,21 +107,21 @@ def tracer_parser(description: str, pickle_required: bool = False) -> argparse.A
     return ap
 
 
-def main() -> int:
-    ap = tracer_parser(__doc__.splitlines()[0], pickle_required=True)
-    a = ap.parse_args()
+def trace_sides(on_read, on_fork) -> None:
+    """Hook the fork-side tracers (this script's, ``side_edges.py``'s, ``side_curve.py``'s) into the localizer
+    and ``band_tail``'s trace: ``on_read(v, c, runs_l, runs_r, t_fork, kw)`` is called with every side read
+    ``forkdisp.side_disparity_near`` returns (its arguments too) and gives what to keep of it (None: nothing);
+    ``on_fork(b, loc, f, kept)`` is called, after ``band_tail`` recorded a traced fork ``f`` that has a place,
+    with ``kept`` the list of (side record, what ``on_read`` kept of that side's read, or None)."""
     store = {}
     orig = forkends.side_disparity_near
 
     def near(c, runs_l, runs_r, t_fork, **kw):
         v = orig(c, runs_l, runs_r, t_fork, **kw)
-        if v is not None:       # (as side_disparity_near: the crotch's widened rows where the plain read stops short)
-            rows = side_rows(c, runs_l, runs_r, t_fork, grow=False, **kw)
-            if np.abs(rows['x'][rows['line']]).min() > forkdisp.SIDE_GROWN_SHORT_PX:
-                grown = side_rows(c, runs_l, runs_r, t_fork, **kw)
-                if grown['line'].sum() >= max(12, rows['line'].sum() + forkdisp.SIDE_GROWN_MIN_ROWS):
-                    rows = grown
-            store[id(v)] = (v, rows)
+        if v is not None:
+            keep = on_read(v, c, runs_l, runs_r, t_fork, kw)
+            if keep is not None:
+                store[id(v)] = (v, keep)
         return v
     forkends.side_disparity_near = near
     fork_return = band_tail.Trace._fork_return
@@ -129,16 +132,56 @@ def main() -> int:
         if f is None or "xy" not in loc:
             return
         sn = loc.get("side_near") or {}
+        kept = []
         for s in f["sides"]:
             v = sn.get(s["seg"])
-            if v is not None and id(v) in store and store[id(v)][0] is v:
-                s["rows"] = store[id(v)][1]
+            hit = store.get(id(v)) if v is not None else None
+            kept.append((s, hit[1] if hit is not None and hit[0] is v else None))
+        on_fork(b, loc, f, kept)
+        store.clear()
+    band_tail.Trace._fork_return = _fork_return
+
+
+def band_tail_records(argv: list[str]) -> list[dict]:
+    """``band_tail.main()`` run quietly with ``argv`` (no ``--pickle``): its records, as it would pickle them."""
+    recs = []
+    orig_dumps = pickle.dumps
+
+    def grab(obj, *k, **kw):
+        recs.extend(obj)
+        return orig_dumps(obj, *k, **kw)
+    pickle.dumps = grab
+    sys.argv = argv + ["--pickle", "/dev/null"]
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            band_tail.main()
+    finally:
+        pickle.dumps = orig_dumps
+    return recs
+
+
+def main() -> int:
+    ap = tracer_parser(__doc__.splitlines()[0], pickle_required=True)
+    a = ap.parse_args()
+
+    def on_read(v, c, runs_l, runs_r, t_fork, kw):
+        # (as side_disparity_near: the crotch's widened rows where the plain read stops short)
+        rows = side_rows(c, runs_l, runs_r, t_fork, grow=False, **kw)
+        if np.abs(rows['x'][rows['line']]).min() > forkdisp.SIDE_GROWN_SHORT_PX:
+            grown = side_rows(c, runs_l, runs_r, t_fork, **kw)
+            if grown['line'].sum() >= max(12, rows['line'].sum() + forkdisp.SIDE_GROWN_MIN_ROWS):
+                rows = grown
+        return rows
+
+    def on_fork(b, loc, f, kept):
+        for s, rows in kept:
+            if rows is not None:
+                s["rows"] = rows
         cdir = child_direction(b, loc)
         if cdir is not None:
             f["child_dir"] = cdir
         f["xy"] = np.asarray(loc["xy"], float).copy()
-        store.clear()
-    band_tail.Trace._fork_return = _fork_return
+    trace_sides(on_read, on_fork)
     sys.argv = band_tail_argv(a) + ["--pickle", str(a.pickle)]
     return band_tail.main()
 

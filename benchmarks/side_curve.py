@@ -133,24 +133,19 @@ def side_table(recs) -> list[dict]:
     """The traced sides with their carries' errors (px, after the silhouette bias) and, where traced, the carries'
     errors through the true axis (``model``)."""
     out = []
-    for r in recs:
-        if r["kind"] != "bifurcation" or not r["fork"]:
+    for r, st, d_true in sr.traced_sides(recs, "curve"):
+        if len(st["x"]) < 12:
             continue
-        d_true = r["d"] - r["derr"]
-        for s in r["fork"]["sides"]:
-            st = s.get("curve")
-            if st is None or len(st["x"]) < 12:
-                continue
-            cv = carries(st["x"], st["d"], st["t_fork"], st["poly"], st["end"])
-            row = dict(masks=r["masks"], scene=r["scene"], t=r["t"], z=r["z"], dz=r["dz"], nearest=st["nearest"],
-                       k=cv["k"], n=len(st["x"]), err={c: cv[c] - st["bias"] - d_true for c in CARRIES},
-                       kernel=st["d_kernel"] - st["bias"] - d_true, rule=r["rule"])
-            ax = st.get("axis")
-            if ax is not None and np.isfinite(st["axis_fork"]) and np.isfinite(ax).sum() >= 12:
-                ok = np.isfinite(ax)
-                mv = carries(st["x"][ok], ax[ok], st["t_fork"], st["poly"], st["end"])
-                row["model"] = {c: mv[c] - st["axis_fork"] for c in CARRIES}
-            out.append(row)
+        cv = carries(st["x"], st["d"], st["t_fork"], st["poly"], st["end"])
+        row = dict(masks=r["masks"], scene=r["scene"], t=r["t"], z=r["z"], dz=r["dz"], nearest=st["nearest"],
+                   k=cv["k"], n=len(st["x"]), err={c: cv[c] - st["bias"] - d_true for c in CARRIES},
+                   kernel=st["d_kernel"] - st["bias"] - d_true, rule=r["rule"])
+        ax = st.get("axis")
+        if ax is not None and np.isfinite(st["axis_fork"]) and np.isfinite(ax).sum() >= 12:
+            ok = np.isfinite(ax)
+            mv = carries(st["x"][ok], ax[ok], st["t_fork"], st["poly"], st["end"])
+            row["model"] = {c: mv[c] - st["axis_fork"] for c in CARRIES}
+        out.append(row)
     return out
 
 

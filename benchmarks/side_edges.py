@@ -233,17 +233,9 @@ def _t(c, xy):
 
 def report(recs) -> None:
     """Prints the tables (see the module docstring)."""
-    sides = []
-    for r in recs:
-        if r["kind"] != "bifurcation" or not r["fork"]:
-            continue
-        d_true = r["d"] - r["derr"]
-        for s in r["fork"]["sides"]:
-            e = s.get("edges")
-            if e is None or any(e["st"][m] is None for m in VERSIONS):
-                continue
-            sides.append(dict(masks=r["masks"], crotch=e["crotch"], st=e["st"],
-                              err={m: e["st"][m]["d0"] - e["bias"] - d_true for m in VERSIONS}))
+    sides = [dict(masks=r["masks"], crotch=e["crotch"], st=e["st"],
+                  err={m: e["st"][m]["d0"] - e["bias"] - d_true for m in VERSIONS})
+             for r, e, d_true in sr.traced_sides(recs, "edges") if all(e["st"][m] is not None for m in VERSIONS)]
     print("| masks | sides | group | boundaries | rows kept (median) | nearest kept row px (median) | "
           "row residual p50 / p95 px | lag-1 corr | side error p50 / p95 abs px | mean abs px |")
     print("|---|---|---|---|---|---|---|---|---|---|")

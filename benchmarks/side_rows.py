@@ -142,6 +142,18 @@ def trace_sides(on_read, on_fork) -> None:
     band_tail.Trace._fork_return = _fork_return
 
 
+def traced_sides(recs, key: str):
+    """Every traced fork side in ``band_tail``'s records ``recs`` that holds ``key``: (record, the side's
+    ``key``, the fork's true disparity px)."""
+    for r in recs:
+        if r["kind"] != "bifurcation" or not r["fork"]:
+            continue
+        d_true = r["d"] - r["derr"]
+        for s in r["fork"]["sides"]:
+            if s.get(key) is not None:
+                yield r, s[key], d_true
+
+
 def band_tail_records(argv: list[str]) -> list[dict]:
     """``band_tail.main()`` run quietly with ``argv`` (no ``--pickle``): its records, as it would pickle them."""
     recs = []

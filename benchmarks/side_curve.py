@@ -103,19 +103,7 @@ def main() -> int:
 def add_axis(recs, truth_paths: dict) -> None:
     """Each traced side's ``axis``: the true parent axis's disparity on its rows and at the fork's row
     (:func:`side_edges.true_axis_rdv`), NaN where the axis does not cross a row near the fork."""
-    from appliance.synth.truth import load_truth
-    cache = {}
-    for r in recs:
-        f = r["fork"]
-        if r["kind"] != "bifurcation" or not f or "xy" not in f:
-            continue
-        sides = [s for s in f["sides"] if s.get("curve")]
-        if not sides:
-            continue
-        if r["scene"] not in cache:
-            cache.clear()
-            cache[r["scene"]] = load_truth(truth_paths[r["scene"]])
-        truth = cache[r["scene"]]
+    for r, f, sides, truth in sr.forks_with_truth(recs, truth_paths, lambda s: s.get("curve")):
         u, v, d, _ = se.true_axis_rdv(truth, int(truth.features.parent[r["t"]]))
         xf = np.asarray(f["xy"], float)
         near = np.hypot(u - xf[0], v - xf[1]) < 400

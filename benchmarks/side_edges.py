@@ -157,19 +157,9 @@ def axis_report(recs, truth_paths: dict) -> None:
     disparity (the placement along the parent), and,
     for sides reaching the fork, the rows' mean difference per stretch of one radius (how far a stretch of rows
     is off the axis together)."""
-    from appliance.synth.truth import load_truth
-    out, cache = [], {}
-    for r in recs:
-        f = r["fork"]
-        if r["kind"] != "bifurcation" or not f or "xy" not in f:
-            continue
-        sides = [s for s in f["sides"] if s.get("edges") and s["edges"]["st"]["used"] is not None]
-        if not sides:
-            continue
-        if r["scene"] not in cache:
-            cache.clear()
-            cache[r["scene"]] = load_truth(truth_paths[r["scene"]])
-        truth = cache[r["scene"]]
+    out = []
+    for r, f, sides, truth in sr.forks_with_truth(recs, truth_paths,
+                                                  lambda s: s.get("edges") and s["edges"]["st"]["used"] is not None):
         u, v, d, rect = true_axis_rdv(truth, int(truth.features.parent[r["t"]]))
         xf = np.asarray(f["xy"], float)
         d_true = r["d"] - r["derr"]

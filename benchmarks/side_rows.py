@@ -154,6 +154,25 @@ def traced_sides(recs, key: str):
                 yield r, s[key], d_true
 
 
+def forks_with_truth(recs, truth_paths: dict, keep):
+    """Every traced fork with a place in ``band_tail``'s records ``recs`` that has sides for which ``keep(side)``
+    holds, with its scene's truth (loaded once a scene: the records come scene by scene): (record, fork, those
+    sides, truth)."""
+    from appliance.synth.truth import load_truth
+    cache = {}
+    for r in recs:
+        f = r["fork"]
+        if r["kind"] != "bifurcation" or not f or "xy" not in f:
+            continue
+        sides = [s for s in f["sides"] if keep(s)]
+        if not sides:
+            continue
+        if r["scene"] not in cache:
+            cache.clear()
+            cache[r["scene"]] = load_truth(truth_paths[r["scene"]])
+        yield r, f, sides, cache[r["scene"]]
+
+
 def band_tail_records(argv: list[str]) -> list[dict]:
     """``band_tail.main()`` run quietly with ``argv`` (no ``--pickle``): its records, as it would pickle them."""
     recs = []

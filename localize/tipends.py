@@ -31,6 +31,12 @@ END_SHIFT_FLAT_PX = 6.0
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
 
+# a flat tip's run end read on the axis row that agrees (1 px) with fewer than 3 of the rows within half a radius of
+# it takes the median of the rows that agree among themselves instead (a majority of at least 3 within 1 px of their
+# median): one row's outline bulging in one view (seed 787's tip 4, colour masks: the right view's colour outline
+# 1-3.6 px out on the axis row and its neighbour, -1.71 px; the other rows' run ends within 0.3 px of the truth)
+END_ROWS_OUTVOTE = True
+
 # a flat tip on a piece without texture (its disparity carried from its fork) keeps its run end's
 # disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
 CARRIED_D_PX = 2.0
@@ -487,7 +493,7 @@ class TipPlacing:
         ok, d = kernels_tips.end_disparity(rl, rr, valid_r, float(uv_edge[0]), float(uv_edge[1]), float(out[0]),
                                            float(out[1]), float(d_prior), float(r), float(inside_px),
                                            float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
-                                           END_RUN_CUT_PX)
+                                           END_RUN_CUT_PX, END_ROWS_OUTVOTE)
         return float(d) if ok else None
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:

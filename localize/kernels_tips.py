@@ -422,7 +422,8 @@ def end_outline_agrees(rl, rr, ux, uy, ox, d, r, h):
 def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px, outvote):
     """``ends.EndPlacer._end_disparity``: the disparity of a flat piece's end from the ends of its row
     runs in both views (``rl``, ``rr``: :func:`runs_tables`; ``valid_r`` where the rectified right view
-    sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``). Returns
+    sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``; ``outvote``:
+    ``tipends.END_ROWS_OUTVOTE``, the rows' own vote where the axis row's end agrees with too few). Returns
     whether it has one, and the disparity (px)."""
     row = np.int64(np.rint(uy))
     if not 0 <= row < h:

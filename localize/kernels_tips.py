@@ -419,10 +419,11 @@ def end_outline_agrees(rl, rr, ux, uy, ox, d, r, h):
 
 
 @numba.njit(**_JIT)
-def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px):
+def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px, outvote):
     """``ends.EndPlacer._end_disparity``: the disparity of a flat piece's end from the ends of its row
     runs in both views (``rl``, ``rr``: :func:`runs_tables`; ``valid_r`` where the rectified right view
-    sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``). Returns
+    sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``; ``outvote``:
+    ``tipends.END_ROWS_OUTVOTE``, the rows' own vote where the axis row's end agrees with too few). Returns
     whether it has one, and the disparity (px)."""
     row = np.int64(np.rint(uy))
     if not 0 <= row < h:
@@ -468,7 +469,8 @@ def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min,
         # the median of the rows' run ends within half a radius of the axis, near the axis row's (1 px)
         row_c = np.int64(np.rint(uy - oy * r))
         de = np.empty(2 * k + 1)
-        n_de = 0
+        d_all = np.empty(2 * k + 1)
+        n_de, n_all = 0, 0
         for row_k in range(row_c - k, row_c + k + 1):
             if not 0 <= row_k < h:
                 continue
@@ -477,16 +479,39 @@ def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min,
                 continue
             el = rl[4][il] if right_end else rl[3][il]
             ir = _find1(rr, row_k, el - d - sgn * 1.0)
+            if ir < 0 and outvote:
+                # (for the rows' own vote: the right run read a radius inside, the axis row's end may be off)
+                ir = _find1(rr, row_k, el - d - sgn * (1.0 + r))
+                if ir < 0:
+                    continue
+                er = rr[4][ir] if right_end else rr[3][ir]
+                if not _at_view_edge1(row_k, er, sgn, valid_r, w):
+                    d_all[n_all] = el - er
+                    n_all += 1
+                continue
             if ir < 0:
                 continue
             er = rr[4][ir] if right_end else rr[3][ir]
             if _at_view_edge1(row_k, er, sgn, valid_r, w):
                 continue
+            d_all[n_all] = el - er
+            n_all += 1
             if abs(el - er - d) <= 1.0:
                 de[n_de] = el - er
                 n_de += 1
         if n_de >= 3:
             d = _median(de[:n_de])
+        elif outvote and n_all >= 3:
+            # the axis row's end agrees with too few rows: the rows that agree among themselves (a majority of
+            # at least 3, within 1 px of their median) outvote it (one row's outline bulging in one view)
+            m = _median(d_all[:n_all])
+            n_in = 0
+            for q in range(n_all):
+                if abs(d_all[q] - m) <= 1.0:
+                    de[n_in] = d_all[q]
+                    n_in += 1
+            if n_in >= 3 and 2 * n_in > n_all:
+                d = _median(de[:n_in])
     return True, d - _silhouette1(ux, d, r, sgn, f_px, cx)
 
 
@@ -501,7 +526,7 @@ def warm_up() -> None:
     cap_disparity(np.zeros(1, np.int64), np.zeros(1), rt, rt, valid, valid, *(0.0,) * 6, 1.0, 4, 4,
                   0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6)
     end_outline_agrees(rt, rt, 0.0, 0.0, 1.0, 0.0, 1.0, 4)
-    end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0)
+    end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0, True)
 
 
 def runs_tables(runs) -> tuple:

@@ -31,6 +31,12 @@ END_SHIFT_FLAT_PX = 6.0
 # in that view) still gives the end's disparity within this of the prior (px) if the ends agree
 END_RUN_CUT_PX = 2.0
 
+# a flat tip's run end read on the axis row that agrees (1 px) with fewer than 3 of the rows within half a radius of
+# it takes the median of the rows that agree among themselves instead (a majority of at least 3 within 1 px of their
+# median): one row's outline bulging in one view (seed 787's tip 4, colour masks: the right view's colour outline
+# 1-3.6 px out on the axis row and its neighbour, -1.71 px; the other rows' run ends within 0.3 px of the truth)
+END_ROWS_OUTVOTE = True
+
 # a flat tip on a piece without texture (its disparity carried from its fork) keeps its run end's
 # disparity only within this (px) plus this per px carried (else withheld: _carried_agrees)
 CARRIED_D_PX = 2.0
@@ -478,8 +484,11 @@ class TipPlacing:
         disparity range are candidates; the one nearest ``d_prior`` wins. With the radius ``r``
         (px), the median over the rows within half a radius of the axis (at least 3 within 1 px
         of the axis row's): on 28 rendered scenes the median error of such tips drops by a third
-        to a half (docs/localize-subpixel.md). The row's left run is the one ``inside_px`` back
-        along the row from ``uv_edge``.
+        to a half (docs/localize-subpixel.md). Where the axis row's end agrees with fewer than 3 of
+        those rows (``END_ROWS_OUTVOTE``), the median of the rows that agree among themselves (a
+        majority of at least 3 within 1 px of their median; a right run the axis row's end misses is
+        read a radius inside): one row's outline bulging in one view does not set the end. The
+        row's left run is the one ``inside_px`` back along the row from ``uv_edge``.
         """
         sm = self.sm
         h, w = sm.left_mask.shape
@@ -487,7 +496,7 @@ class TipPlacing:
         ok, d = kernels_tips.end_disparity(rl, rr, valid_r, float(uv_edge[0]), float(uv_edge[1]), float(out[0]),
                                            float(out[1]), float(d_prior), float(r), float(inside_px),
                                            float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
-                                           END_RUN_CUT_PX)
+                                           END_RUN_CUT_PX, END_ROWS_OUTVOTE)
         return float(d) if ok else None
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:

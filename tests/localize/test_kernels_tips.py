@@ -12,8 +12,8 @@ from appliance.localize import caps, kernels_ncc, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
-from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_RUN_CUT_PX, OWN_CAP_PX, OWN_CAP_ROWS,
-                                       cap_row_scale)
+from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_ROWS_OUTVOTE, END_RUN_CUT_PX, OWN_CAP_PX,
+                                       OWN_CAP_ROWS, cap_row_scale)
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
                                      split_row_disparity)
 
@@ -158,8 +158,8 @@ def _ref_end_outline_agrees(b, uv_edge, out, d, r):
     return bool((np.abs(e_l[ir >= 0] - e_r - d) <= 1.2).mean() >= 0.8)
 
 
-def _ref_end_disparity(b, uv_edge, out, d_prior, r=0.0, inside_px=1.0):
-    """ends.EndPlacer._end_disparity before the pass."""
+def _ref_end_disparity(b, uv_edge, out, d_prior, r=0.0, inside_px=1.0, outvote=END_ROWS_OUTVOTE):
+    """ends.EndPlacer._end_disparity before the pass (``outvote``: tipends.END_ROWS_OUTVOTE)."""
     sm = b.sm
     row = int(np.rint(uv_edge[1]))
     if not 0 <= row < sm.left_mask.shape[0]:
@@ -200,12 +200,21 @@ def _ref_end_disparity(b, uv_edge, out, d_prior, r=0.0, inside_px=1.0):
     rows, il = rows[il >= 0], il[il >= 0]
     el = runs_l.right_px[il] if right_end else runs_l.left_px[il]
     ir = runs_r.find(rows, el - d - sgn * 1.0)
+    near = ir >= 0
+    if outvote:       # (rows whose right run lies further in: only for the rows' own vote)
+        ir = np.where(near, ir, runs_r.find(rows, el - d - sgn * (1.0 + r)))
     er = np.where(ir >= 0, runs_r.right_px[ir] if right_end else runs_r.left_px[ir], np.nan)
     fin = np.isfinite(er)
     er[fin] = np.where(at_view_edge(rows[fin], er[fin], sgn, sm.valid_right, w), np.nan, er[fin])
-    de = el - er
-    de = de[np.abs(de - d) <= 1.0]
-    d = float(median(de)) if len(de) >= 3 else d
+    d_all = el - er
+    de = d_all[near & (np.abs(d_all - d) <= 1.0)]
+    if len(de) >= 3:
+        d = float(median(de))
+    elif outvote and np.isfinite(d_all).sum() >= 3:
+        d_all = d_all[np.isfinite(d_all)]
+        agree = d_all[np.abs(d_all - median(d_all)) <= 1.0]
+        if len(agree) >= 3 and 2 * len(agree) > len(d_all):
+            d = float(median(agree))
     return d - silhouette_offset_px(uv_edge[0], d, r, sgn, sm.f_px, cx)
 
 
@@ -371,6 +380,45 @@ def test_end_disparity_and_outline_kernels_are_the_numpy_steps():
             assert EndPlacer._end_outline_agrees(b, uv_edge, out, d_try, r_ol) is want_ol
             n_ol += want_ol
     assert n_val > 200 and n_ol > 50
+
+
+def test_end_disparity_kernel_is_the_numpy_steps_where_rows_outvote_the_axis_row():
+    """Flat ends of random capsule pairs whose right view bulges 1-3 px past the end on 1-2 rows near them (the rows'
+    vote of tipends.END_ROWS_OUTVOTE): the kernel's disparity is the numpy steps' within 1e-9 px, and the vote
+    changes some of them."""
+    rng = np.random.default_rng(5)
+    n_val = n_voted = 0
+    for trial in range(60):
+        left, right, d = _blob_pair(rng)
+        b0 = _placer(left, right)
+        if not len(b0.runs_l.row):
+            continue
+        for _ in range(6):
+            k = int(rng.integers(len(b0.runs_l.row)))
+            right_end = rng.random() < 0.5
+            e = (b0.runs_l.right_px if right_end else b0.runs_l.left_px)[k]
+            row = int(b0.runs_l.row[k])
+            bulged = right.copy()
+            x = int(round(e - d))
+            step = int(rng.integers(1, 4))
+            rows = slice(row, row + int(rng.integers(1, 3)))
+            if right_end:
+                bulged[rows, max(x + 1, 0):x + 1 + step] = 255
+            else:
+                bulged[rows, max(x - step, 0):max(x, 0)] = 255
+            b = _placer(left, bulged)
+            a = rng.uniform(-0.3, 0.3)
+            out = np.array([np.cos(a), np.sin(a)]) * (1 if right_end else -1)
+            uv_edge = np.array([e + 0.5 * out[0], row - out[1] * 4.0])
+            r, d_prior = float(rng.uniform(4, 8)), d + float(rng.normal(0, 1.0))
+            want = _ref_end_disparity(b, uv_edge, out, d_prior, r, 1.0, outvote=True)
+            got = EndPlacer._end_disparity(b, uv_edge, out, d_prior, r, 1.0)
+            assert (got is None) == (want is None)
+            if want is not None:
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)     # px
+                n_val += 1
+                n_voted += abs(want - _ref_end_disparity(b, uv_edge, out, d_prior, r, 1.0, outvote=False)) > 0.5
+    assert n_val > 200 and n_voted > 30
 
 
 def test_kernels_take_tips_constants():

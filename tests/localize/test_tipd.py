@@ -153,6 +153,36 @@ def test_a_flat_end_whose_right_run_is_cut_elsewhere_keeps_its_run_end_disparity
             assert got is not None and abs(got - expect) <= 0.1
 
 
+def test_a_flat_ends_rows_outvote_a_bulge_on_its_axis_row(monkeypatch):
+    # a flat branch ending in a round cap, alike in both views 150 px apart; in the right view the outline bulges
+    # 2 px past the end on the axis row and the next (a colour mask taking in background: seed 787's tip 4): the
+    # axis row's run end agrees with too few rows, and the rows within half a radius, agreeing among themselves,
+    # give the end's disparity (tipends.END_ROWS_OUTVOTE); without the rule the bulge's stood. A bulge on most of
+    # the rows is the end's outline: it stands either way (no majority against it)
+    from types import SimpleNamespace
+
+    from appliance.localize import tipends
+    from appliance.localize.edges import find_runs
+    from appliance.localize.ends import EndPlacer
+
+    d, r = 150.0, 8.0
+    left = np.zeros((200, 600), np.uint8)
+    cv2.line(left, (200, 100), (392, 100), 255, int(2 * r))
+    cv2.circle(left, (392, 100), int(r), 255, -1)
+    right = np.roll(left, -int(d), axis=1)
+    end_r = int(np.flatnonzero(right[100])[-1])
+    bulged, wide = right.copy(), right.copy()
+    bulged[100:102, end_r + 1:end_r + 3] = 255          # the axis row and the next: 2 px further out
+    cv2.circle(wide, (392 - int(d) + 2, 100), int(r), 255, -1)   # the whole cap 2 px further out: the end's outline
+    uv_edge, out = np.array([400.0, 100.0]), np.array([1.0, 0.0])
+    sm = SimpleNamespace(left_mask=left, f_px=3000.0, d_range_px=(50.0, 300.0), valid_right=None)
+    for rule, mask_r, expect in ((True, right, d), (True, bulged, d), (False, bulged, d - 2.0), (True, wide, d - 2.0)):
+        monkeypatch.setattr(tipends, "END_ROWS_OUTVOTE", rule)
+        placer = SimpleNamespace(sm=sm, runs_l=find_runs(left), runs_r=find_runs(mask_r))
+        got = EndPlacer._end_disparity(placer, uv_edge, out, d + 1.0, r)
+        assert got is not None and abs(got - expect) <= 0.1, (rule, got, expect)
+
+
 def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_prior():
     # an upright piece ending in a round cap, drawn alike in both views 150 px apart; the prior (the
     # piece's curve carried to the tip) reads 3 px nearer, beyond the rows' 2.5 px window: the cap's

@@ -184,6 +184,12 @@ UNREAD_SIDES_APART = True
 # side, the child's curve and the child's right outline (forkvouch.lone_carried_median); after every decision, so
 # which forks are reported is unchanged (docs/localize-forktail22.md: such forks read +0.28 px high at the median)
 LONE_CARRIED_MEDIAN = True
+# ... and so does such a fork whose disparity _known_disparity took from the child's curve, itself carried further
+# than CHILD_CARRY_PX and past half its span (the one carried least far, no piece known at the fork by its span):
+# two lines carried across gaps, the outline the third reading (seed 825 T12, exact masks: the parent's 19-column
+# constant carried 39 px, +0.71 px, the child's 32-row fit carried 25 rows, -0.72, the outline +0.35; the child's
+# +6.8 mm, the median -3.3 mm)
+CARRIED_CHILD_MEDIAN = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -566,8 +572,11 @@ class ForkPlacing:
         if unread_apart and final:
             agree = False           # (UNREAD_SIDES_APART: the child and its right outline disagree)
         if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \
-                and not from_outline and float(self.uvd[node][2]) == d and parents[0] not in side_near \
-                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX:
+                and not from_outline and parents[0] not in side_near \
+                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX and (float(self.uvd[node][2]) == d or (
+                    CARRIED_CHILD_MEDIAN and float(self.uvd[node][2]) == float(at(child))
+                    and self._carried_px(child, xy) > CHILD_CARRY_PX
+                    and not vouched_by_span(self.curves[child].t_range, _t_at(self.curves[child], xy)))):
             # (a flat parent: d_out is set only there; the fork's disparity still the side's own, no rule took another)
             self.uvd[node][2] = lone_carried_median(d, float(at(child)), d_out)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)

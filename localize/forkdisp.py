@@ -207,6 +207,12 @@ FLAT_ALONG = True
 # curve's disparity) differ by at most this (a leaf in front of the side next to the fork, at its own
 # depth, read instead: seed 454 T11, -2.1 px; localize/patchmask.py); None: all count
 FLAT_NEAR_MAX_SHARE_DIFF = 0.15
+# a flat side whose curve turns in depth faster than this at the fork (px of disparity per px along it) is not read
+# there: a patch 25 px along the rows then spans over 3 px of disparity, its correlation peak is the bark's at
+# either end as much as at its middle (seed 821 T11, exact masks: a side turning 0.19 px per px, its 4 patches
+# 142.1-143.6 px, scaled MAD 0.79, carried to the fork at +1.31 px where its curve read -0.34: -11.4 mm). The
+# feature check's pieces likewise give no verdict beyond featurecheck.MAX_PIECE_SLOPE (0.12); None: always read
+FLAT_NEAR_MAX_SLOPE = 0.12
 
 
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
@@ -252,7 +258,7 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     SideNear or None
         None when fewer than ``min_patches`` patches hold.
     """
-    if c.by_row or not math.isfinite(t_fork):
+    if c.by_row or not math.isfinite(t_fork) or turns_in_depth(c, t_fork):
         return None
     lo, hi = c.t_range
     sg = 1.0 if (t_fork < lo or (t_fork <= hi and t_fork < 0.5 * (lo + hi))) else -1.0
@@ -282,6 +288,17 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     m = float(median(d_ax))
     mad = 1.4826 * float(median(np.abs(d_ax - m)))
     return SideNear(m, len(d_ax), 0, int(max(lo - t_fork, t_fork - hi, 0.0)), float(x.min()), mad, 0.0)
+
+
+def turns_in_depth(c: BranchCurve, t_px: float, max_slope: float | None = None) -> bool:
+    """Whether a flat side's curve ``c`` turns in depth at its parameter ``t_px`` (px) faster than ``max_slope``
+    (px of disparity per px of its parameter; None: ``FLAT_NEAR_MAX_SLOPE``, read at the call; that None too:
+    never), its slope taken over the 2 px about ``t_px`` (the curve's end slopes past its span)."""
+    lim = FLAT_NEAR_MAX_SLOPE if max_slope is None else max_slope
+    if lim is None:
+        return False
+    d0, d1 = c.d_at(np.array([t_px - 1.0, t_px + 1.0])).tolist()
+    return abs(d1 - d0) > 2.0 * lim
 
 
 def taper_radius(r_a_px: float, dist_a_px: float, r_b_px: float, dist_b_px: float) -> float:

@@ -23,7 +23,7 @@ from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
-                                          scattered_read_contradicted, short_side_unconfirmed)
+                                          scattered_read_contradicted, short_side_unconfirmed, vouched_by_span)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -139,6 +139,11 @@ CHILD_DEPTH_PX = 6.0
 # few rows), does not replace the fork's disparity in _known_disparity (forkvouch.py: seed 512's fork 9, exact
 # masks, a 13-row side carried 9.5 rows, 4.15 px off, over the median of three, 0.7 px)
 SHORT_SIDE_NOT_KNOWN = True
+# ... nor is such a side known there against the other side read from its own crossings or texture next to the fork:
+# the read side alone is (seed 772 T9, exact masks: a flat side fitted on 7 columns carried 11, 5.3 px low, the
+# steep side read 3 rows from the fork +0.03 px; both counted as known, the median of three took the child carried
+# 41 px, -0.87 px, +4.3 mm)
+FLOOR_SIDE_UNKNOWN_BY_READ = True
 # ... and a fork whose two steep sides clearly disagree (the median of three taken) is withheld where none of the
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
@@ -179,6 +184,12 @@ UNREAD_SIDES_APART = True
 # side, the child's curve and the child's right outline (forkvouch.lone_carried_median); after every decision, so
 # which forks are reported is unchanged (docs/localize-forktail22.md: such forks read +0.28 px high at the median)
 LONE_CARRIED_MEDIAN = True
+# ... and so does such a fork whose disparity _known_disparity took from the child's curve, itself carried further
+# than CHILD_CARRY_PX and past half its span (the one carried least far, no piece known at the fork by its span):
+# two lines carried across gaps, the outline the third reading (seed 825 T12, exact masks: the parent's 19-column
+# constant carried 39 px, +0.71 px, the child's 32-row fit carried 25 rows, -0.72, the outline +0.35; the child's
+# +6.8 mm, the median -3.3 mm)
+CARRIED_CHILD_MEDIAN = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -561,8 +572,11 @@ class ForkPlacing:
         if unread_apart and final:
             agree = False           # (UNREAD_SIDES_APART: the child and its right outline disagree)
         if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \
-                and not from_outline and float(self.uvd[node][2]) == d and parents[0] not in side_near \
-                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX:
+                and not from_outline and parents[0] not in side_near \
+                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX and (float(self.uvd[node][2]) == d or (
+                    CARRIED_CHILD_MEDIAN and float(self.uvd[node][2]) == float(at(child))
+                    and self._carried_px(child, xy) > CHILD_CARRY_PX
+                    and not vouched_by_span(self.curves[child].t_range, _t_at(self.curves[child], xy)))):
             # (a flat parent: d_out is set only there; the fork's disparity still the side's own, no rule took another)
             self.uvd[node][2] = lone_carried_median(d, float(at(child)), d_out)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
@@ -681,10 +695,16 @@ class ForkPlacing:
         agree, ``FLAT_READ_VOUCH_MAD_PX``). The child's span vouches for at most ``KNOWN_VOUCH_MAX_PX``."""
         vouch = KNOWN_VOUCH_MAX_PX if KNOWN_VOUCH_CAPPED else math.inf
         reach = {s: self._reach(s, xy, vouch if s == child else math.inf) for s in (*parents, child) if s in self.curves}
+        read = set()
         for s, v in (near or {}).items():           # (read from rows within 12 px of the fork: known there)
             if FLAT_READ_VOUCHES or self.curves[s].by_row or v.mad_px <= FLAT_READ_VOUCH_MAD_PX:
                 reach[s] = min(reach[s], v.nearest_px - 12.0)
+                if v.nearest_px <= 12.0:
+                    read.add(s)
         near_p = [s for s in parents if reach[s] <= 0]
+        if FLOOR_SIDE_UNKNOWN_BY_READ and len(near_p) == 2 and read.intersection(near_p):
+            # a side read next to the fork stands alone against one known only by the 12 px floor (forkvouch.py)
+            near_p = [s for s in near_p if s in read or vouched_by_span(self.curves[s].t_range, _t_at(self.curves[s], xy))]
         if near_p and len(near_p) < len(parents):
             d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
             return d_near if abs(d_near - d) > 0.5 else None

@@ -360,6 +360,22 @@ def test_a_lone_flat_side_carried_far_to_the_fork_gives_way_to_the_median_of_thr
         assert row.dz_mm < -2.3
 
 
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_carried_flat_sides_fork_that_took_the_childs_carried_curve_takes_the_median_of_three(
+        rendered_scene, monkeypatch, rule):
+    # seed 825's fork 12, exact masks (Z 1280 mm): a flat parent fitted on 19 columns on one side of the fork (a
+    # constant), carried 39 px to it, +0.71 px; the child, a 32-row steep fit, carried 25 rows, -0.72 px; its right
+    # outline +0.35 px. No piece known at the fork: _known_disparity took the child (carried least far): +6.8 mm.
+    # With the rule the median of the three (LONE_CARRIED_MEDIAN's), the outline's: -3.3 mm.
+    monkeypatch.setattr(forkends, "CARRIED_CHILD_MEDIAN", rule)
+    row = score_row(rendered_scene(825), 12, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 4.0 and abs(row.disparity_err_px) < 0.45
+    else:
+        assert row.dz_mm > 6.0
+
+
 @pytest.mark.parametrize("masks", ["true", "colour"])
 @pytest.mark.parametrize("rule", [False, True])
 def test_a_fork_whose_unread_flat_sides_clearly_disagree_rests_on_the_child_and_its_outline(rendered_scene,

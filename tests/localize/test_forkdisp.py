@@ -329,3 +329,26 @@ def test_the_width_ratio_is_a_cylinders_silhouette_seen_from_both_cameras(z_mm, 
     u = u_l + cx
     d = f * b / z_mm + offset
     assert perspective_width_ratio(u, d, f, cx, offset) == pytest.approx(w_r / w_l, rel=2e-3)
+
+
+def turning_d(u):                       # a flat parent turning in depth: 0.15 px of disparity per column
+    return 40.0 - 0.15 * (u - 150.0)
+
+
+def test_a_flat_side_turning_in_depth_faster_than_a_patch_can_read_is_not_read(monkeypatch):
+    # seed 821 T11 (exact masks): a side turning 0.19 px per px, its patches 25 px along the rows spanning ~5 px of
+    # disparity each and searched within 3 px of the curve's value at the fork, read 1.3 px off where its curve was
+    # 0.34 px off; a side turning 0.02 px per px is read (above), one turning 0.15 px per px is not
+    left, right = textured_pair(turning_d)
+    t = np.arange(200.0, 301.0)
+    c = BranchCurve(0, False, (200.0, 300.0), Poly.fit(t, np.full_like(t, 200.0), 1), Poly.fit(t, turning_d(t), 1),
+                    8.0, len(t))
+    assert forkdisp.turns_in_depth(c, 150.0)
+    assert not forkdisp.turns_in_depth(c, 150.0, max_slope=0.25)
+    assert flat_side_near(c, left, right, 150.0, f_px=1e9) is None
+    monkeypatch.setattr(forkdisp, "FLAT_NEAR_MAX_SLOPE", None)        # (the rule off: read as any flat side)
+    assert not forkdisp.turns_in_depth(c, 150.0)
+    assert flat_side_near(c, left, right, 150.0, f_px=1e9) is not None
+    gentle = BranchCurve(0, False, c.t_range, c.s_poly, Poly.fit(t, flat_d(t), 1), 8.0, len(t))
+    monkeypatch.setattr(forkdisp, "FLAT_NEAR_MAX_SLOPE", 0.12)
+    assert not forkdisp.turns_in_depth(gentle, 150.0)

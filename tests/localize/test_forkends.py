@@ -20,3 +20,34 @@ def test_a_hidden_ends_walk_reaches_its_px_along_the_branch_whatever_its_slant(b
         uv = c.uv_at(np.array([t_edge, t_edge + sign * reach_t]))
         assert np.hypot(*(uv[1] - uv[0])) == pytest.approx(80.0, abs=1e-6)
         assert reach_t == pytest.approx(80.0 * np.cos(np.radians(deg)), abs=1e-6)
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_side_read_next_to_the_fork_stands_alone_against_one_known_only_by_the_floor(monkeypatch, rule):
+    # seed 772 T9 (exact masks): a steep side (rows 140-159) read from its own crossings 3 rows from the fork at
+    # (435, 182), 190.18 px (truth 190.15); a flat side fitted on columns 446-453 only, carried 11 columns to the
+    # fork, 184.81 (known by _reach's 12 px floor, not by its span); the child carried 41 px, 189.29. Both sides
+    # counted as known, _known_disparity kept the median of three (the child): +4.3 mm. With the rule the read side.
+    from appliance.localize import forkends
+    from appliance.localize.forkdisp import SideNear
+    monkeypatch.setattr(forkends, "FLOOR_SIDE_UNKNOWN_BY_READ", rule)
+    fp = forkends.ForkPlacing.__new__(forkends.ForkPlacing)
+    t = np.linspace(0.0, 1.0, 5)
+    steep = BranchCurve(1, True, (140.0, 159.0), Poly.fit(140.0 + 19 * t, 420.0 + 0 * t, 1),
+                        Poly.fit(140.0 + 19 * t, 191.0 + 0 * t, 1), 8.6, 20)
+    flat = BranchCurve(2, False, (446.0, 453.0), Poly.fit(446.0 + 7 * t, 185.0 + 0 * t, 1),
+                       Poly.fit(446.0 + 7 * t, 184.8 + 0 * t, 1), 8.9, 8)
+    child = BranchCurve(3, False, (292.0, 394.0), Poly.fit(292.0 + 102 * t, 150.0 + 0 * t, 1),
+                        Poly.fit(292.0 + 102 * t, 189.3 + 0 * t, 1), 8.5, 103)
+    fp.curves = {1: steep, 2: flat, 3: child}
+    values = {1: 190.18, 2: 184.81, 3: 189.29}
+    xy = np.array([435.3, 182.3])
+    near = {1: SideNear(190.18, 12, 3, 23, 3.29, 0.42, -0.056)}
+    d_known = fp._known_disparity([1, 2], 3, True, xy, 189.29, values.get, near)
+    if rule:
+        assert d_known == pytest.approx(190.18)
+    else:
+        assert d_known is None
+    # a side known by its own span stays known with the read one: both known, the fork keeps its disparity
+    fp.curves[2] = BranchCurve(2, False, (430.0, 453.0), flat.s_poly, flat.d_poly, 8.9, 24)
+    assert fp._known_disparity([1, 2], 3, True, xy, 189.29, values.get, near) is None

@@ -19,6 +19,7 @@ from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
                                          weigh_bent_sides, weigh_sides)
+from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
@@ -31,6 +32,12 @@ HIDDEN_FORK_MIN_DEG = 20.0
 # ... and a piece whose disparity is a flat constant from a few texture patches (forkvouch.few_patch_constant) is
 # not a hidden fork's parent (seed 607's fork 9, exact masks: a 5-patch constant 1.17 px off, +9.3 mm)
 HIDDEN_ON_FEW_PATCHES = True
+# a hidden fork is placed with its parent's disparity read from its own row crossings on each side of the crotch, clear of it
+# (forkhidden.py, as ForkPlacing.fork's sides: forkdisp.side_disparity_near), not its fitted curve at the crossing,
+# which bends into the crotch's rows at a span's end (docs/localize-softfork25.md: fixture 00 T11 with soft masks,
+# +1.61 px); with HIDDEN_READ_AGREES the child's disparity is checked against that read too
+HIDDEN_SIDE_READ = True
+HIDDEN_READ_AGREES = False
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
@@ -933,12 +940,29 @@ class ForkPlacing:
             return False
         d_par = float(c2.d_at(_t_at(c2, xy))[0])
         d_child = float(c.d_at(_t_at(c, xy))[0])
-        if not _agree(d_child, d_par):
+        d_read = self._hidden_parent_read(c, c2, xy, e2, sin_t) if HIDDEN_SIDE_READ else None
+        if not _agree(d_child, d_read if d_read is not None and HIDDEN_READ_AGREES else d_par):
             return False
+        if d_read is not None:
+            d_par = d_read
         self.uvd[node] = np.array([xy[0], xy[1], d_par])
         self.radius[node] = c.radius_px
         self.hidden.discard(int(node))
         return True
+
+    def _hidden_parent_read(self, c: BranchCurve, c2: BranchCurve, xy: np.ndarray, e2: np.ndarray,
+                            sin_t: float) -> float | None:
+        """A hidden fork's parent disparity (px) at ``xy`` (2,) from the steep parent ``c2``'s own row crossings
+        on each side of the crotch (forkhidden.py: the crotch's half length from the child ``c``'s radius, the
+        parent's and the angle's sine ``sin_t``, in rows along the parent's direction ``e2``); None where no
+        side is read (a flat parent, short or unread sides: its curve stands)."""
+        if not c2.by_row:
+            return None
+        rows_per_px = abs(float(e2[1])) / max(float(np.hypot(*e2)), 1e-9)
+        clear_t = crotch_half_px(c.radius_px, c2.radius_px, sin_t) * rows_per_px
+        reads = hidden_side_reads(c2, self.runs_l, self.runs_r, _t_at(c2, xy), clear_t, f_px=self.sm.f_px,
+                                  cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
+        return hidden_parent_disparity(reads)
 
     def _curve_table(self) -> tuple[dict, list, tuple]:
         """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves

@@ -128,7 +128,8 @@ def main() -> int:
                 what = (f"placed {off:.1f} px off (outline's place {ol}; outer {np.degrees(np.arctan(d['k_out'])):.1f} deg, s_f {d['s_f']:.0f}, "
                         f"onset {d['s'][d['i_on']]:.0f}, crossing {d['s_x']:.0f}, parting {d['s'][d['i_part']]:.0f}, child "
                         f"{np.degrees(np.arctan(d['k_mid'])):.0f} deg past it, r_c {d['r_c']:.1f}, rms {d['rms']:.2f}), "
-                        f"{'found' if j in found else 'not found'}, {'withheld' if d.get('hidden', True) else 'REPORTED'}"
+                        f"{'found' if j in found else 'not found'}, "
+                        f"{'no parent curve through it' if d.get('uvd') is None else 'withheld' if d.get('hidden', True) else 'REPORTED'}"
                         + ("" if d.get("uvd") is None else f", d {d['uvd'][2]:.2f} (truth {d_true[k]:.2f})"))
             keys.append((name, j))
             print(f"{name} T{j}: junction {jd:.0f} px from it, child {ang:.0f} deg, radii {r_par:.1f} / {r_child:.1f}: {what}")

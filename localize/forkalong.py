@@ -26,8 +26,9 @@ import numpy as np
 # sections from this far behind the junction (px) to this far ahead of it
 BACK_PX = 170.0
 AHEAD_PX = 50.0
-# the child's angle to the parent (deg) this rule reads: shallower, its lines' crossing is unsure;
-# steeper, the child's own outline places it (forkends)
+# the child's angle to the parent (deg) this rule reads, the skeleton lines' (10-30 deg off at a shallow crotch)
+# and the outer outline's own: shallower, 1 px across moves the place 5+ px along the parent (seed 542's fork 3 at
+# 11 deg: 22 px off); steeper, the child's own outline places it (forkends)
 MIN_DEG = 12.0
 MAX_DEG = 50.0
 # a parent thinner than this (radius, px) is not read: its widening (1.5 px) is a quarter of its radius, within
@@ -35,8 +36,9 @@ MAX_DEG = 50.0
 MIN_PARENT_RADIUS_PX = 8.0
 # a section is widened by the child where its width exceeds the parent's by this (px)
 WIDEN_PX = 1.5
-# at least this many sections on the child's outer outline, of them this many merged (widened), and
-# this many parted sections (the child's own run beside the parent's)
+# at least this many sections on the parent's far outline next to the junction (its direction), this many
+# merged (widened) in one stretch ending at the parting, and this many parted ones in a row (the child's own run
+# beside the parent's)
 MIN_OUTER = 30
 MIN_WIDENED = 15
 MIN_PARTED = 8
@@ -52,11 +54,10 @@ ONSET_TOL_PX = 1.0
 # scatter within OUTER_RMS_PX (a bent child or a leaf in the stretch: unclear)
 OUTER_OFF_PX = 1.0
 OUTER_RMS_PX = 0.6
-# the child's width across the parent (its two outlines' spacing) within this of 2 r_c / cos a
-# (fraction, plus px) where it is read
+# the child's radius measured past the parting within this of the skeleton's (fraction, plus half the px)
 CHILD_WIDTH_TOL = 0.35
 CHILD_WIDTH_TOL_PX = 2.0
-# the place found must lie this far (px) inside the sections read behind the widening's onset
+# the place found must lie this far (px) inside the sections read, with as many parent-alone sections behind it
 BEHIND_MARGIN_PX = 10.0
 # the child's line past the parting (its run's middles) must agree in angle with the outer outline's next to
 # the onset within this (deg): a child of another direction there is another shape merged with the parent

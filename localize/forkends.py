@@ -222,6 +222,11 @@ ALONG_OVER_OUTLINE = False      # (... also over a place from the child's outlin
 # at the left place moved by the fork's disparity, within this (px) or 0.9 % of the disparity
 ALONG_RIGHT = True
 ALONG_RIGHT_PX = 2.0
+# ... and it confirms a child not confirmed otherwise at a place from the child's outline within ALONG_NEAR_PX of its
+# own. Off: +1 fork on each of 60 exact / colour, 356, 452, 484 exact, but 60 exact max 3.12 -> 3.61 mm, p95 1.90 ->
+# 1.92, 484 exact one false fork more (docs/localize-forkalong25.md)
+ALONG_CONFIRMS = False
+ALONG_NEAR_PX = 4.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -497,6 +502,13 @@ class ForkPlacing:
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)
         if parents and not agree and along and ALONG_RIGHT:    # ... or its merged silhouette in the right view
             agree = self._along_agrees(xy, p0, e1, out, d, r_par, rad[child])
+        elif parents and not agree and outline is not None and ALONG_CONFIRMS and final:
+            # a place from the child's outline that the merged silhouette places too (within ALONG_NEAR_PX), the
+            # child's depth from that construction in the right view
+            o_j = e2 if np.dot(c2 - p0, e2) >= 0 else -e2
+            hit = along_fork(self.sm.left_mask, p0, e1, o_j, r_par, rad[child])
+            agree = hit is not None and float(np.hypot(*(hit[0] - xy))) <= ALONG_NEAR_PX \
+                and self._along_agrees(hit[0], p0, e1, o_j, d, r_par, rad[child])
         if parents and not agree and outline is not None and child not in self.curves \
                 and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
             agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,

@@ -15,6 +15,7 @@ import numpy as np
 from appliance.localize import kernels_forkglue, kernels_forknear, kernels_forks, kernels_walks
 from appliance.localize.centreaxis import centre_bias_px
 from appliance.localize.curves import BranchCurve, Poly, linspace
+from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
@@ -224,6 +225,21 @@ CENTRE_MAX_RADIUS_PX = 30.0         # ... for a parent up to this radius (px; th
 # thinner branch hidden beside the parent in the image 12 px behind it; its right outline agreed with the parent's
 # disparity by chance: -59 mm)
 CHILD_ELSEWHERE_WITHHELD = True
+# a fork with no child outline next to the parent (a child lying along its parent: the junction 40-130 px past the
+# fork) is placed from the merged silhouette's widening (forkalong.along_fork) where that is clear. Off: on, the
+# eleven sets gain 4 forks and no false one, but 612-643 colour's p95 goes 2.29 -> 2.38 mm (one added fork, seed
+# 616's fork 1, +0.42 px from its parent's curves): docs/localize-forkalong25.md
+ALONG_FORK = False
+ALONG_OVER_OUTLINE = False      # (... also over a place from the child's outline: measured, not kept)
+# ... and confirmed, where nothing else confirms its child, by the same construction in the right view placing it
+# at the left place moved by the fork's disparity, within this (px) or 0.9 % of the disparity
+ALONG_RIGHT = True
+ALONG_RIGHT_PX = 2.0
+# ... and it confirms a child not confirmed otherwise at a place from the child's outline within ALONG_NEAR_PX of its
+# own. Off: +1 fork on each of 60 exact / colour, 356, 452, 484 exact, but 60 exact max 3.12 -> 3.61 mm, p95 1.90 ->
+# 1.92, 484 exact one false fork more (docs/localize-forkalong25.md)
+ALONG_CONFIRMS = False
+ALONG_NEAR_PX = 4.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -334,7 +350,7 @@ class ForkPlacing:
         # the child's outline where it leaves the parent, against the parent's line behind the
         # fork (the parent may bend at the fork) or else through both sides
         behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
-        xy, outline = None, None
+        xy, outline, along = None, None, False
         lines = ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)] if final else []
         for cl, el in lines:               # (before the final round a rough place will do)
             xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
@@ -350,6 +366,12 @@ class ForkPlacing:
                 ax[0], ax[1], c2, e2, ax[0] + np.dot(p - ax[0], ax[1]) * ax[1], r_par, rad[child])
             if xy2 is not None and np.hypot(*(xy2 - xy)) > SECTIONS_MIN_MOVE_PX:     # (within it: noise)
                 xy, outline = xy2, ax
+        if ALONG_FORK and final and (xy is None or ALONG_OVER_OUTLINE):
+            # a child lying along its parent: its outline parts from the parent's tens of px past the fork
+            # (where the junction formed); the merged silhouette's widening gives its axis (forkalong.py)
+            hit = along_fork(self.sm.left_mask, p0, e1, e2 if np.dot(c2 - p0, e2) >= 0 else -e2, r_par, rad[child])
+            if hit is not None:
+                xy, outline, along = hit[0], (hit[1], hit[2]), True
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further
@@ -501,6 +523,15 @@ class ForkPlacing:
         out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2      # (the child's direction away from the fork)
         if parents and not agree and outline is not None:     # the child's outline in the right view
             agree = self._outline_agrees(xy, outline[1], c2, e2, parents, r_par, rad[child], e_sides=e1)
+        if parents and not agree and along and ALONG_RIGHT:    # ... or its merged silhouette in the right view
+            agree = self._along_agrees(xy, p0, e1, out, d, r_par, rad[child])
+        elif parents and not agree and outline is not None and ALONG_CONFIRMS and final:
+            # a place from the child's outline that the merged silhouette places too (within ALONG_NEAR_PX), the
+            # child's depth from that construction in the right view
+            o_j = e2 if np.dot(c2 - p0, e2) >= 0 else -e2
+            hit = along_fork(self.sm.left_mask, p0, e1, o_j, r_par, rad[child])
+            agree = hit is not None and float(np.hypot(*(hit[0] - xy))) <= ALONG_NEAR_PX \
+                and self._along_agrees(hit[0], p0, e1, o_j, d, r_par, rad[child])
         if parents and not agree and outline is not None and child not in self.curves \
                 and abs(e2[1]) < FLAT_CHILD_SIN:      # a child along the rows: its bark texture (forkchild.py)
             agree = child_texture_agrees(self.sm.left_gray, self.sm.right_gray, xy, out,
@@ -773,6 +804,16 @@ class ForkPlacing:
         if np.hypot(*(xy_r - r1)) <= tol:
             return True
         return OUTLINE_SHALLOW and e_sides is not None and shallow_outline_agrees(xy_r - r1, er, e1, e_sides, e2, tol)
+
+    def _along_agrees(self, xy, p0, e1, out, d: float, r_par: float, r_child: float) -> bool:
+        """Whether the right view's merged silhouette places a child lying along its parent (``forkalong``) at
+        the left place ``xy`` moved by the fork's disparity ``d`` (within ``ALONG_RIGHT_PX``, or 0.9 % of
+        ``d``): a child at another depth leaves the parent's outline elsewhere in the right view, tens of px
+        away at these angles. ``p0``: the junction on the parent's line (direction ``e1``) in the left view;
+        ``out``: the child's direction away from the fork."""
+        shift = np.array([d, 0.0])
+        hit = along_fork(self.sm.right_mask, p0 - shift, e1, out, r_par, r_child)
+        return hit is not None and float(np.hypot(*(hit[0] - (xy - shift)))) <= max(ALONG_RIGHT_PX, 0.009 * d)
 
     def _flat_fork_disparity(self, xy, e1, c2, e2, d: float, r_par: float, r_child: float) -> float | None:
         """The disparity of a fork on a flat parent (axis direction ``e1`` within ~25 deg of the

@@ -226,10 +226,12 @@ CENTRE_MAX_RADIUS_PX = 30.0         # ... for a parent up to this radius (px; th
 # disparity by chance: -59 mm)
 CHILD_ELSEWHERE_WITHHELD = True
 # a fork with no child outline next to the parent (a child lying along its parent: the junction 40-130 px past the
-# fork) is placed from the merged silhouette's widening (forkalong.along_fork) where that is clear. Off: on, the
-# eleven sets gain 4 forks and no false one, but 612-643 colour's p95 goes 2.29 -> 2.38 mm (one added fork, seed
-# 616's fork 1, +0.42 px from its parent's curves): docs/localize-forkalong25.md
-ALONG_FORK = False
+# fork) is placed from the merged silhouette's widening (forkalong.along_fork) where that is clear; its parent's
+# sides read from their own crossings and weighed by their carry as any fork's (side_disparity_near,
+# weigh_bent_sides: seed 616's fork 1, colour masks, +0.42 px from its parent's curves at stop 25, +0.30 px now).
+# The twelve sets gain 4 forks and no false one, every p95 and max as before or better (612-643 colour 2.29 ->
+# 2.27 mm): docs/localize-forkalong25.md, docs/localize-forkread26.md
+ALONG_FORK = True
 ALONG_OVER_OUTLINE = False      # (... also over a place from the child's outline: measured, not kept)
 # ... and confirmed, where nothing else confirms its child, by the same construction in the right view placing it
 # at the left place moved by the fork's disparity, within this (px) or 0.9 % of the disparity

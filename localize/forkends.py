@@ -36,9 +36,9 @@ HIDDEN_ON_FEW_PATCHES = True
 # a hidden fork is placed with its parent's disparity read from its own row crossings on each side of the crotch, clear of it
 # (forkhidden.py, as ForkPlacing.fork's sides: forkdisp.side_disparity_near), not its fitted curve at the crossing,
 # which bends into the crotch's rows at a span's end (docs/localize-softfork25.md: fixture 00 T11 with soft masks,
-# +1.61 px); with HIDDEN_READ_AGREES the child's disparity is checked against that read too
+# +1.61 px); the child's disparity is checked against that read (against the curve instead: the same on the twelve
+# sets and the soft 60 scenes, docs/localize-forkread26.md)
 HIDDEN_SIDE_READ = True
-HIDDEN_READ_AGREES = False
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
@@ -984,10 +984,10 @@ class ForkPlacing:
         d_par = float(c2.d_at(_t_at(c2, xy))[0])
         d_child = float(c.d_at(_t_at(c, xy))[0])
         d_read = self._hidden_parent_read(c, c2, xy, e2, sin_t) if HIDDEN_SIDE_READ else None
-        if not _agree(d_child, d_read if d_read is not None and HIDDEN_READ_AGREES else d_par):
-            return False
         if d_read is not None:
             d_par = d_read
+        if not _agree(d_child, d_par):
+            return False
         self.uvd[node] = np.array([xy[0], xy[1], d_par])
         self.radius[node] = c.radius_px
         self.hidden.discard(int(node))

@@ -141,12 +141,19 @@ class Trace:
         xy = np.array([u, v])
         child = next(s for s in b.incident[node] if s in b.curves)
         cc = b.curves[child]
-        parent = None
+        parent, d_curve = None, None
         for s, c in b.curves.items():
             if s != child and abs(float(forkends._d_at(c, u, v)) - d) < 1e-9:
                 parent = int(s)
+        if parent is None:      # (read from the parent's crossings, forkhidden.py: the piece whose line passes there)
+            gaps = {int(s): float(np.hypot(*(c.uv_at(np.array([forkends._t_at(c, xy)]))[0] - xy)))
+                    for s, c in b.curves.items() if s != child}
+            if gaps:
+                parent = min(gaps, key=gaps.get)
+                d_curve = float(forkends._d_at(b.curves[parent], u, v))
         ends = cc.uv_at(np.array(cc.t_range, float))
-        self.hidden_forks[node] = dict(parent=parent, d=d, d_child=float(forkends._d_at(cc, u, v)), child=int(child),
+        self.hidden_forks[node] = dict(parent=parent, d=d, d_curve=d_curve, d_child=float(forkends._d_at(cc, u, v)),
+                                       child=int(child),
                                        carried_px=float(np.hypot(*(ends - xy).T).min()),
                                        parent_past_px=None if parent is None else float(b._carried_px(parent, xy)))
 
@@ -240,7 +247,8 @@ def describe(tr: Trace, node: int, kind: str, d_final: float, d_err: float) -> t
         h = tr.hidden_forks[node]
         slope = ("steep" if tr.placer.curves[h["parent"]].by_row else "flat") if h["parent"] is not None else "-"
         past = "" if h["parent_past_px"] is None else f" ({h['parent_past_px']:.1f} rows/cols past its span)"
-        return slope, "hidden-fork", (f"parent piece {h['parent']} {h['d'] - d_true:+.2f}{past}; child {h['child']} "
+        read = "" if h["d_curve"] is None else f" read (its curve {h['d_curve'] - d_true:+.2f})"
+        return slope, "hidden-fork", (f"parent piece {h['parent']} {h['d'] - d_true:+.2f}{read}{past}; child {h['child']} "
                                       f"{h['d_child'] - d_true:+.2f} carried {h['carried_px']:.0f}px")
     if node in tr.tips:
         t = tr.tips[node]

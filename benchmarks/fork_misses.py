@@ -65,7 +65,7 @@ from appliance.localize.skeleton import skeletonize  # noqa: E402
 from appliance.synth.evaluate import score_result  # noqa: E402
 from appliance.synth.truth import load_truth  # noqa: E402
 
-KEEP = ("xy", "outline", "parents", "child", "child_ok", "d", "agree", "c1", "e1", "c2", "e2", "r_par", "rad")
+KEEP = ("xy", "outline", "along", "parents", "child", "child_ok", "d", "agree", "c1", "e1", "c2", "e2", "r_par", "rad")
 
 
 class ForkTrace:

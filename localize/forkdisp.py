@@ -46,6 +46,14 @@ SIDE_GROWN_FRAC = 0.2
 SIDE_GROWN_PX = 2.5
 SIDE_GROWN_TOL_PX = 0.6
 SIDE_GROWN_MAX_W = 0.5
+# A read whose only row between the span and the fork is one crossing far from the span (LONE_GAP_ROW_MIN_PX
+# rows or more) is a line pivoted on that one row: carried from the span to the fork through it, its value is
+# that crossing's own error magnified (772 T9, colour masks: a right crossing the merging outline widened by
+# 1.1 px, still within the width check while its neighbours failed it, -1.12 px at the fork; its curve +1.26).
+# Such a read is replaced by the line through the span's rows alone, read at the fork (:func:`rests_on_lone_gap_row`,
+# :func:`span_rows_read`): a read still, carried from the span (the rules that weigh a read by its reach see it so).
+LONE_GAP_ROW_UNREAD = True
+LONE_GAP_ROW_MIN_PX = 6.0
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -95,9 +103,10 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if SIDE_WIDTH_PERSPECTIVE and f_px is not None and cx_px is not None:
         ratio *= perspective_width_ratio(s_end, d_end, f_px, cx_px, offset_px)
     tl, tr = runs_l._find_tables, runs_r._find_tables
-    args = (*tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px,
-            n_gap, int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
+    views = (*tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px)
+    line = (int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
             float(tol_d_px), float(width_tol_px), int(min_rows), 3.5)
+    args = (*views, n_gap, *line)
     ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0)
     if ok and nearest > SIDE_GROWN_SHORT_PX:     # (stops short of the fork: the crotch's widened rows with them)
         grown = kernels_forks.side_near(*args, float(SIDE_GROWN_FRAC), float(SIDE_GROWN_PX), float(SIDE_GROWN_TOL_PX),
@@ -107,7 +116,38 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if not ok or (n_gap_k == 0 and hi - lo < 2 * span_rows):
         # (no row past the span: a short span's fit is already a line through these rows)
         return None
-    return SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
+    v = SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
+    if LONE_GAP_ROW_UNREAD and rests_on_lone_gap_row(v):
+        return span_rows_read(views, line, n_gap)
+    return v
+
+
+def span_rows_read(views: tuple, line: tuple, n_gap: int) -> SideNear | None:
+    """The read of :func:`side_disparity_near` from the span's rows alone (no row between the span and the
+    fork: ``kernels_forks.side_near`` with no gap), read at the fork's row: what a read resting on a lone gap
+    row (:func:`rests_on_lone_gap_row`) is replaced by. ``views``: both views' runs as the kernel takes them;
+    ``line``: the kernel's arguments after ``n_gap``; ``n_gap``: the rows between the span and the fork. None
+    where too few of the span's rows are kept."""
+    ok, d, n_rows, _, nearest, mad, slope = kernels_forks.side_near(*views, 0, *line, 0.0, 0.0, 0.0, 0.0)
+    return SideNear(d, n_rows, 0, n_gap, nearest, mad, slope) if ok else None
+
+
+def rests_on_lone_gap_row(v: "SideNear", min_px: float = LONE_GAP_ROW_MIN_PX) -> bool:
+    """Whether a side read's line is pivoted on one crossing: its only row between the span and the fork lies
+    ``min_px`` rows or more from the span's end (``LONE_GAP_ROW_UNREAD``).
+
+    Parameters
+    ----------
+    v : SideNear
+        A read of :func:`side_disparity_near`.
+    min_px : float
+        Rows between the lone gap row and the span's end from which the row alone sets the line's carry.
+
+    Returns
+    -------
+    bool
+    """
+    return v.n_gap_rows == 1 and v.gap_px - v.nearest_px >= min_px
 
 
 def perspective_width_ratio(u_px: float, d_px: float, f_px: float, cx_px: float, offset_px: float = 0.0) -> float:

@@ -352,3 +352,41 @@ def test_a_flat_side_turning_in_depth_faster_than_a_patch_can_read_is_not_read(m
     gentle = BranchCurve(0, False, c.t_range, c.s_poly, Poly.fit(t, flat_d(t), 1), 8.0, len(t))
     monkeypatch.setattr(forkdisp, "FLAT_NEAR_MAX_SLOPE", 0.12)
     assert not forkdisp.turns_in_depth(gentle, 150.0)
+
+
+def test_a_read_pivoted_on_one_crossing_far_from_the_span_is_read_from_the_span_alone(monkeypatch):
+    # the right view shows the parent on its fitted rows (their middles scattered 0.3 px) and on one row
+    # between the span and the fork only, that row's middle 1 px off (772 T9, colour masks: a crossing the
+    # merging outline widened, still within the width check): the line is carried to the fork through it
+    noise = np.random.default_rng(5).normal(0.0, 0.3, H)
+
+    def pair(lone_row: int | None, shift_px: float = 0.0):
+        right = band(lambda v: d_axis(v) + noise[np.asarray(v, int)])
+        right[:200] = 0
+        if lone_row is not None:
+            right[lone_row] = band(lambda v: d_axis(v) + shift_px)[lone_row]
+        return find_runs(band(lambda v: 0.0 * v), soft=True), find_runs(right, soft=True)
+
+    c = curve(0.01)
+    span_only = side_disparity_near(c, *pair(None), FORK_ROW)           # no row in the gap at all
+    assert span_only is not None and span_only.n_gap_rows == 0
+    monkeypatch.setattr(forkdisp, "LONE_GAP_ROW_UNREAD", False)
+    off = [side_disparity_near(c, *pair(170, sh), FORK_ROW) for sh in (1.0, -1.0)]
+    assert all(v.n_gap_rows == 1 and v.gap_px - v.nearest_px >= 6.0 for v in off)
+    assert abs(off[0].d_px - d_axis(FORK_ROW)) >= 0.5                 # pivoted: the row's error carried 20 rows on
+    assert abs(off[0].d_px - off[1].d_px) >= 0.5
+    monkeypatch.setattr(forkdisp, "LONE_GAP_ROW_UNREAD", True)
+    for row, sh in ((170, 1.0), (170, -1.0), (160, 1.0)):
+        on = side_disparity_near(c, *pair(row, sh), FORK_ROW)
+        assert on is not None and on.n_gap_rows == 0 and on.nearest_px == span_only.nearest_px
+        assert on.d_px == pytest.approx(span_only.d_px, abs=1e-9)     # the lone row's error no longer counts
+    # a lone row next to the span's end (4 rows) is one of the span's rows: read as before
+    near = side_disparity_near(c, *pair(196, 1.0), FORK_ROW)
+    assert near is not None and near.n_gap_rows == 1
+
+
+def test_a_lone_gap_row_is_told_by_its_distance_from_the_span():
+    lone = forkdisp.SideNear(190.0, 15, 1, 20, 6.8, 0.2, 0.0)
+    assert forkdisp.rests_on_lone_gap_row(lone)                     # 13 rows from the span's end
+    assert not forkdisp.rests_on_lone_gap_row(forkdisp.SideNear(190.0, 15, 1, 20, 16.0, 0.2, 0.0))
+    assert not forkdisp.rests_on_lone_gap_row(forkdisp.SideNear(190.0, 15, 3, 20, 6.8, 0.2, 0.0))

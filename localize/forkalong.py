@@ -66,12 +66,15 @@ ANGLE_TOL_DEG = 8.0
 
 def _read(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.ndarray, s: np.ndarray, t: np.ndarray
           ) -> np.ndarray:
-    """``mask`` (0-255) bilinear at ``base + s e + t n`` for every ``s`` (rows) and ``t`` (columns)."""
-    uv = (base[None, None, :] + s[:, None, None] * e[None, None, :] + t[None, :, None] * n[None, None, :])
-    m = uv.astype(np.float32)
-    if m.shape[0] * m.shape[1] > 32767 * 32767 or m.shape[1] > 32767:
+    """``mask`` (uint8, 0-255) bilinear at ``base + s e + t n`` for every ``s`` (rows) and ``t`` (columns), as
+    float32 (the remapped uint8 values, exact); the coordinates' two maps computed per axis (one 2-D array
+    each, not a 3-D one: a third of the time, the same values)."""
+    if len(t) > 32767 or len(s) * len(t) > 32767 * 32767:
         raise ValueError("too many samples")
-    return cv2.remap(mask, m, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float64)
+    mx = (base[0] + s[:, None] * e[0]) + t[None, :] * n[0]
+    my = (base[1] + s[:, None] * e[1]) + t[None, :] * n[1]
+    return cv2.remap(mask, mx.astype(np.float32), my.astype(np.float32), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float32)
 
 
 def _crossing(val: np.ndarray, t: np.ndarray, i_off: np.ndarray, step: int) -> np.ndarray:
@@ -79,7 +82,7 @@ def _crossing(val: np.ndarray, t: np.ndarray, i_off: np.ndarray, step: int) -> n
     rows = np.arange(len(val))
     i_on = np.clip(i_off - step, 0, val.shape[1] - 1)
     i_off = np.clip(i_off, 0, val.shape[1] - 1)
-    v_off, v_on = val[rows, i_off], val[rows, i_on]
+    v_off, v_on = val[rows, i_off].astype(np.float64), val[rows, i_on].astype(np.float64)
     f = (v_on - 128.0) / np.maximum(v_on - v_off, 1e-9)
     return t[i_on] + f * (t[i_off] - t[i_on])
 

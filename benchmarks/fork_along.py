@@ -18,7 +18,6 @@ pickles every call's arguments (a look at one junction); ``--set`` as ``fork_mis
 from __future__ import annotations
 
 import argparse
-import importlib
 import pickle
 import sys
 from collections import Counter
@@ -28,12 +27,10 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fork_misses import scene_list  # noqa: E402
-from localize_accuracy import REPO, _seed_range, rectified_points  # noqa: E402
+from fork_misses import improved_localizer, scene_list  # noqa: E402
+from localize_accuracy import _seed_range, rectified_points  # noqa: E402
 
-from appliance.calibrate.model import load_calibration  # noqa: E402
-from appliance.config import load_config  # noqa: E402
-from appliance.localize import Localizer, forkalong, forkends  # noqa: E402
+from appliance.localize import forkalong, forkends  # noqa: E402
 from appliance.synth.evaluate import score_result  # noqa: E402
 from appliance.synth.truth import load_truth  # noqa: E402
 
@@ -46,12 +43,8 @@ def main() -> int:
     ap.add_argument("--dump", type=Path, help="pickle every call's arguments (the mask cropped) and diag here")
     ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
     a = ap.parse_args()
-    for kv in a.set:
-        key, value = kv.split("=", 1)
-        mod, name = key.rsplit(".", 1)
-        setattr(importlib.import_module(f"appliance.localize.{mod}"), name, eval(value))
-    calib = load_calibration(REPO / "fixtures" / "rig.yaml")
-    loc = Localizer(calib, load_config().localize, "improved")
+    loc = improved_localizer(a.set)
+    calib = loc.calib
     calls: list = []
     right = [None]              # (the right view's mask: calls there confirm a left place)
     inner = forkalong.along_fork

@@ -391,6 +391,16 @@ def scene_list(extra: int, seeds) -> list:
     return out
 
 
+
+def improved_localizer(sets: list[str]) -> Localizer:
+    """The improved localizer on the fixtures' rig, after ``--set MODULE.NAME=VALUE`` options (``sets``) set
+    those module constants of ``appliance.localize`` (the value a Python expression)."""
+    for kv in sets:
+        key, value = kv.split("=", 1)
+        mod, name = key.rsplit(".", 1)
+        setattr(importlib.import_module(f"appliance.localize.{mod}"), name, eval(value))
+    return Localizer(load_calibration(REPO / "fixtures" / "rig.yaml"), load_config().localize, "improved")
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--extra", type=int, default=56)
@@ -403,12 +413,8 @@ def main() -> int:
                     help="split the forks without a junction by cause (junction_split; slower: also skeletons of "
                          "the right mask and a full-size thinning)")
     a = ap.parse_args()
-    for kv in a.set:
-        key, value = kv.split("=", 1)
-        mod, name = key.rsplit(".", 1)
-        setattr(importlib.import_module(f"appliance.localize.{mod}"), name, eval(value))
-    calib = load_calibration(REPO / "fixtures" / "rig.yaml")
-    loc = Localizer(calib, load_config().localize, "improved")
+    loc = improved_localizer(a.set)
+    calib = loc.calib
     trace = ForkTrace()
     stages = StageTrace() if a.junctions else None
     split, split_rows = Counter(), []

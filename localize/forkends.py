@@ -19,13 +19,14 @@ from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
-                                         weigh_bent_sides, weigh_sides)
+                                         turns_in_depth, weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
-                                          scattered_read_contradicted, short_side_unconfirmed, vouched_by_span)
+                                          scattered_read_contradicted, short_side_unconfirmed, short_turning_flat_side,
+                                          vouched_by_span)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -152,6 +153,10 @@ SHORT_SIDE_NOT_KNOWN = True
 # steep side read 3 rows from the fork +0.03 px; both counted as known, the median of three took the child carried
 # 41 px, -0.87 px, +4.3 mm)
 FLOOR_SIDE_UNKNOWN_BY_READ = True
+# a flat parent side fitted on fewer than forkvouch.SHORT_FLAT_COLS columns, carried past half its span to the fork
+# and turning in depth there (forkdisp.turns_in_depth), its texture not read, leaves the mean of the two sides: the
+# other side alone (seed 772 T9, colour masks: a 7-column side, 1.24 px per px, carried 10.7 px, -1.79 px)
+SHORT_FLAT_OUT = True
 # ... and a fork whose two steep sides clearly disagree (the median of three taken) is withheld where none of the
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
@@ -437,6 +442,9 @@ class ForkPlacing:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        if SHORT_FLAT_OUT and final:
+            # a flat side fitted on a few columns, carried past them and turning in depth: no reading (forkvouch.py)
+            d_par = [at(s) for s in self._mean_sides(parents, xy, side_near)]
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -630,6 +638,17 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _mean_sides(self, parents: list, xy: np.ndarray, side_near: dict) -> list:
+        """The parent sides whose disparities at the fork ``xy`` (2,) enter its mean: both of two sides but a
+        flat one not read next to the fork (``side_near``: {piece: :class:`forkdisp.SideNear`}) that is no reading
+        there (:func:`forkvouch.short_turning_flat_side`: fitted on a few columns, carried past half of them,
+        turning in depth at the fork), where the other side is not such a side too; ``parents`` otherwise."""
+        if len(parents) != 2:
+            return parents
+        short = [s for s in parents if not self.curves[s].by_row and s not in side_near and short_turning_flat_side(
+            self.curves[s].t_range, _t_at(self.curves[s], xy), turns_in_depth(self.curves[s], _t_at(self.curves[s], xy)))]
+        return [s for s in parents if s not in short] if len(short) == 1 else parents
 
     def _sides_conflict(self, parents: list, xy: np.ndarray, d_par: list, side_near: dict) -> bool:
         """Whether a fork's two steep parent sides, both known at ``xy`` (2,) from their own rows there,

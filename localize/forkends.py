@@ -18,14 +18,15 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
-from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
-                                         weigh_bent_sides, weigh_sides)
+from appliance.localize.forkdisp import (FLAT_NEAR_PX, bent_sides_apply, flat_side_near, side_disparity_near,
+                                         taper_radius, turns_in_depth, weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
 from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_consensus, few_patch_constant,
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
-                                          scattered_read_contradicted, short_side_unconfirmed, vouched_by_span)
+                                          scattered_read_contradicted, short_side_unconfirmed, short_turning_flat_side,
+                                          vouched_by_span)
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -39,6 +40,8 @@ HIDDEN_ON_FEW_PATCHES = True
 # +1.61 px); the child's disparity is checked against that read (against the curve instead: the same on the twelve
 # sets and the soft 60 scenes, docs/localize-forkread26.md)
 HIDDEN_SIDE_READ = True
+# ... and a flat parent's from its bark texture next to a crossing at its span's end (off: not measured to pass)
+HIDDEN_FLAT_READ = False
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
@@ -152,6 +155,10 @@ SHORT_SIDE_NOT_KNOWN = True
 # steep side read 3 rows from the fork +0.03 px; both counted as known, the median of three took the child carried
 # 41 px, -0.87 px, +4.3 mm)
 FLOOR_SIDE_UNKNOWN_BY_READ = True
+# a flat parent side fitted on fewer than forkvouch.SHORT_FLAT_COLS columns, carried past half its span to the fork
+# and turning in depth there (forkdisp.turns_in_depth), its texture not read, leaves the mean of the two sides: the
+# other side alone (seed 772 T9, colour masks: a 7-column side, 1.24 px per px, carried 10.7 px, -1.79 px)
+SHORT_FLAT_OUT = True
 # ... and a fork whose two steep sides clearly disagree (the median of three taken) is withheld where none of the
 # three pieces is known at it by its own span and no side was read next to it (forkvouch.none_vouched: seed 512's
 # fork 9, both mask sources, -3.7 mm after the rule above)
@@ -437,6 +444,9 @@ class ForkPlacing:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
         d_par = [at(s) for s in parents]
+        if SHORT_FLAT_OUT and final:
+            # a flat side fitted on a few columns, carried past them and turning in depth: no reading (forkvouch.py)
+            d_par = [at(s) for s in self._mean_sides(parents, xy, side_near)]
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -630,6 +640,18 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _mean_sides(self, parents: list, xy: np.ndarray, side_near: dict) -> list:
+        """The parent sides whose disparities at the fork ``xy`` (2,) enter its mean: both of two sides but a
+        flat one not read next to the fork (``side_near``: {piece: :class:`forkdisp.SideNear`}) that is no reading
+        there (:func:`forkvouch.short_turning_flat_side`: fitted on a few columns, carried past half of them,
+        turning in depth at the fork), where the other side is not such a side too; ``parents`` otherwise."""
+        if len(parents) != 2:
+            return parents
+        short = [s for s in parents if not self.curves[s].by_row and s not in side_near and short_turning_flat_side(
+            self.curves[s].t_range, _t_at(self.curves[s], xy), turns_in_depth(self.curves[s], _t_at(self.curves[s], xy))
+        )]
+        return [s for s in parents if s not in short] if len(short) == 1 else parents
 
     def _sides_conflict(self, parents: list, xy: np.ndarray, d_par: list, side_near: dict) -> bool:
         """Whether a fork's two steep parent sides, both known at ``xy`` (2,) from their own rows there,
@@ -1020,12 +1042,27 @@ class ForkPlacing:
         parent's and the angle's sine ``sin_t``, in rows along the parent's direction ``e2``); None where no
         side is read (a flat parent, short or unread sides: its curve stands)."""
         if not c2.by_row:
-            return None
+            return self._hidden_flat_read(c2, xy) if HIDDEN_FLAT_READ else None
         rows_per_px = abs(float(e2[1])) / max(float(np.hypot(*e2)), 1e-9)
         clear_t = crotch_half_px(c.radius_px, c2.radius_px, sin_t) * rows_per_px
         reads = hidden_side_reads(c2, self.runs_l, self.runs_r, _t_at(c2, xy), clear_t, f_px=self.sm.f_px,
                                   cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
         return hidden_parent_disparity(reads)
+
+    def _hidden_flat_read(self, c2: BranchCurve, xy: np.ndarray) -> float | None:
+        """A hidden fork's flat parent ``c2``'s disparity (px) at ``xy`` (2,) from its bark texture next to the
+        crossing (:func:`forkdisp.flat_side_near`, as :meth:`fork` reads a flat side), where the crossing lies
+        within ``forkdisp.FLAT_NEAR_PX`` of the span's end or past it (mid-span the curve stands, as a steep
+        parent's: forkhidden.SPAN_END_ONLY) and the read moves it by more than ``FLAT_NEAR_MIN_PX``; else None."""
+        t = _t_at(c2, xy)
+        lo, hi = c2.t_range
+        if min(t - lo, hi - t) > FLAT_NEAR_PX:
+            return None
+        v = flat_side_near(c2, self.sm.left_gray, self.sm.right_gray, t, self.sm.f_px, self.sm.offset_px,
+                           left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
+        if v is None or abs(v.d_px - float(c2.d_at(t)[0])) <= FLAT_NEAR_MIN_PX:
+            return None
+        return v.d_px
 
     def _curve_table(self) -> tuple[dict, list, tuple]:
         """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves

@@ -168,3 +168,20 @@ def short_side_unconfirmed(side_range: tuple[float, float], d_child: float, d_ch
     carried 41 rows across 0 px, right within 0.3 px)."""
     lo, hi = side_range
     return hi - lo < SHORT_SIDE_ROWS and abs(d_child - d_child_end) > CARRIED_ACROSS_PX
+
+
+# a flat parent side fitted on fewer columns than this, carried past half its span to the fork and turning in depth
+# there faster than forkdisp.FLAT_NEAR_MAX_SLOPE (px of disparity per px), is no reading of the fork's disparity
+SHORT_FLAT_COLS = 12.0
+
+
+def short_turning_flat_side(t_range: tuple[float, float], t_fork: float, turning: bool) -> bool:
+    """Whether a flat parent side fitted on ``t_range`` (lo, hi columns) and carried to the fork's column
+    ``t_fork`` (px) is no reading of the fork's disparity: fitted on fewer than ``SHORT_FLAT_COLS`` columns,
+    carried past half that span (:func:`vouched_by_span` False) and ``turning`` in depth at the fork
+    (:func:`forkdisp.turns_in_depth`: its end slope carried, as its texture is not read there). Such a side does
+    not enter the mean of the fork's two parent sides (:meth:`forkends.ForkPlacing.fork`, ``SHORT_FLAT_OUT``).
+    Seed 772's fork T9 (colour masks): a side fitted on 7 columns with a disparity slope of 1.24 px per px,
+    carried 10.7 px, 1.79 px low; the steep side -0.68 px; their mean -1.24 px (+6.1 mm)."""
+    lo, hi = t_range
+    return hi - lo < SHORT_FLAT_COLS and not vouched_by_span(t_range, t_fork) and turning

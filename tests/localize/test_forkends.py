@@ -51,3 +51,34 @@ def test_a_side_read_next_to_the_fork_stands_alone_against_one_known_only_by_the
     # a side known by its own span stays known with the read one: both known, the fork keeps its disparity
     fp.curves[2] = BranchCurve(2, False, (430.0, 453.0), flat.s_poly, flat.d_poly, 8.9, 24)
     assert fp._known_disparity([1, 2], 3, True, xy, 189.29, values.get, near) is None
+
+
+@pytest.mark.parametrize("slope", [0.0, 1.24])
+@pytest.mark.parametrize("span", [(446.0, 453.0), (430.0, 453.0)])
+def test_a_short_flat_side_turning_in_depth_leaves_the_mean_of_the_sides(slope, span):
+    # seed 772 T9 (colour masks): a steep side (rows 140-162) and a flat side fitted on columns 446-453 with a
+    # disparity slope of 1.24 px per px, carried 10.7 columns to the fork at (436.3, 182.8): its end slope carried,
+    # 1.79 px low; their plain mean took half of that (+6.1 mm). Such a side leaves the mean; a side flat in depth
+    # or fitted on 23 columns (vouched for by its span) stays, and so does any side read next to the fork.
+    from appliance.localize import forkends
+    from appliance.localize.forkdisp import SideNear
+    fp = forkends.ForkPlacing.__new__(forkends.ForkPlacing)
+    t = np.linspace(0.0, 1.0, 5)
+    steep = BranchCurve(1, True, (140.0, 162.0), Poly.fit(140.0 + 22 * t, 420.0 + 0 * t, 1),
+                        Poly.fit(140.0 + 22 * t, 191.0 + 0 * t, 1), 8.6, 23)
+    cols = span[0] + (span[1] - span[0]) * t
+    flat = BranchCurve(2, False, span, Poly.fit(cols, 185.0 + 0 * t, 1),
+                       Poly.fit(cols, 201.8 + slope * (cols - 446.0), 1), 8.9, 8)
+    fp.curves = {1: steep, 2: flat}
+    xy = np.array([436.3, 182.8])
+    out = fp._mean_sides([1, 2], xy, {})
+    assert out == ([1] if slope > 0 and span[0] == 446.0 else [1, 2])
+    # read next to the fork by its texture: it stays
+    assert fp._mean_sides([1, 2], xy, {2: SideNear(188.4, 5, 0, 5, 0.0, 0.3, 0.0)}) == [1, 2]
+    # two such sides: nothing tells which, both stay; one side: unchanged
+    if out != [1]:
+        return
+    fp.curves[1] = BranchCurve(1, False, (425.0, 432.0), flat.s_poly, Poly.fit(425.0 + 7 * t, 180.0 - 1.24 * 7 * t, 1),
+                               8.6, 8)
+    assert fp._mean_sides([1, 2], xy, {}) == [1, 2]
+    assert fp._mean_sides([2], xy, {}) == [2]

@@ -93,3 +93,14 @@ def test_a_short_side_is_unconfirmed_by_a_child_carried_across_a_px_of_disparity
     # a side fitted on SHORT_SIDE_ROWS rows or more stands on such a child (the rule of sides carried far decides)
     assert not short_side_unconfirmed((505.0, 505.0 + SHORT_SIDE_ROWS), 170.92, 162.47)
     assert short_side_unconfirmed((505.0, 505.0 + SHORT_SIDE_ROWS - 0.5), 170.92, 162.47)
+
+
+def test_a_short_flat_side_carried_past_its_span_and_turning_is_no_reading():
+    from appliance.localize.forkvouch import SHORT_FLAT_COLS, short_turning_flat_side
+    # seed 772 T9 (colour masks): fitted on columns 446-453, the fork at column 435.3 (10.7 px past), turning
+    assert short_turning_flat_side((446.0, 453.0), 435.3, True)
+    assert not short_turning_flat_side((446.0, 453.0), 435.3, False)       # flat in depth: its constant stands
+    assert not short_turning_flat_side((446.0, 453.0), 443.0, True)        # within half its span of the fork
+    lo = 453.0 - SHORT_FLAT_COLS                                            # as long as the limit: a reading
+    assert not short_turning_flat_side((lo, 453.0), lo - 20.0, True)
+    assert short_turning_flat_side((lo + 0.5, 453.0), lo - 20.0, True)

@@ -18,8 +18,8 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
-from appliance.localize.forkdisp import (FLAT_NEAR_PX, bent_sides_apply, flat_side_near, side_disparity_near,
-                                         taper_radius, turns_in_depth, weigh_bent_sides, weigh_sides)
+from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
+                                         turns_in_depth, weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
@@ -40,8 +40,6 @@ HIDDEN_ON_FEW_PATCHES = True
 # +1.61 px); the child's disparity is checked against that read (against the curve instead: the same on the twelve
 # sets and the soft 60 scenes, docs/localize-forkread26.md)
 HIDDEN_SIDE_READ = True
-# ... and a flat parent's from its bark texture next to a crossing at its span's end (off: not measured to pass)
-HIDDEN_FLAT_READ = False
 
 # the right view's outline of a child must tell its disparity from the parent's to this (px)
 OUTLINE_MAX_D_PX = 4.0
@@ -1042,27 +1040,12 @@ class ForkPlacing:
         parent's and the angle's sine ``sin_t``, in rows along the parent's direction ``e2``); None where no
         side is read (a flat parent, short or unread sides: its curve stands)."""
         if not c2.by_row:
-            return self._hidden_flat_read(c2, xy) if HIDDEN_FLAT_READ else None
+            return None
         rows_per_px = abs(float(e2[1])) / max(float(np.hypot(*e2)), 1e-9)
         clear_t = crotch_half_px(c.radius_px, c2.radius_px, sin_t) * rows_per_px
         reads = hidden_side_reads(c2, self.runs_l, self.runs_r, _t_at(c2, xy), clear_t, f_px=self.sm.f_px,
                                   cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
         return hidden_parent_disparity(reads)
-
-    def _hidden_flat_read(self, c2: BranchCurve, xy: np.ndarray) -> float | None:
-        """A hidden fork's flat parent ``c2``'s disparity (px) at ``xy`` (2,) from its bark texture next to the
-        crossing (:func:`forkdisp.flat_side_near`, as :meth:`fork` reads a flat side), where the crossing lies
-        within ``forkdisp.FLAT_NEAR_PX`` of the span's end or past it (mid-span the curve stands, as a steep
-        parent's: forkhidden.SPAN_END_ONLY) and the read moves it by more than ``FLAT_NEAR_MIN_PX``; else None."""
-        t = _t_at(c2, xy)
-        lo, hi = c2.t_range
-        if min(t - lo, hi - t) > FLAT_NEAR_PX:
-            return None
-        v = flat_side_near(c2, self.sm.left_gray, self.sm.right_gray, t, self.sm.f_px, self.sm.offset_px,
-                           left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
-        if v is None or abs(v.d_px - float(c2.d_at(t)[0])) <= FLAT_NEAR_MIN_PX:
-            return None
-        return v.d_px
 
     def _curve_table(self) -> tuple[dict, list, tuple]:
         """The fitted pieces as :func:`kernels_forks.hidden_crossings`' arrays (cached while the curves

@@ -441,10 +441,8 @@ class ForkPlacing:
         if side_near:
             at_curve = at
             at = lambda s: side_near[s].d_px if s in side_near else at_curve(s)
-        d_par = [at(s) for s in parents]
-        if SHORT_FLAT_OUT and final:
-            # a flat side fitted on a few columns, carried past them and turning in depth: no reading (forkvouch.py)
-            d_par = [at(s) for s in self._mean_sides(parents, xy, side_near)]
+        # (SHORT_FLAT_OUT: a flat side fitted on a few columns, carried past them and turning in depth is no reading)
+        d_par = [at(s) for s in (self._mean_sides(parents, xy, side_near) if SHORT_FLAT_OUT and final else parents)]
         sides = None                    # (the two sides' disparities where they clearly disagree)
         if len(d_par) == 2 and child_ok and abs(d_par[0] - d_par[1]) > max(2.0, 0.012 * abs(d_par[0])):
             # the parent's two sides clearly disagree at the fork (one side's fit is off there):
@@ -646,9 +644,10 @@ class ForkPlacing:
         turning in depth at the fork), where the other side is not such a side too; ``parents`` otherwise."""
         if len(parents) != 2:
             return parents
-        short = [s for s in parents if not self.curves[s].by_row and s not in side_near and short_turning_flat_side(
-            self.curves[s].t_range, _t_at(self.curves[s], xy), turns_in_depth(self.curves[s], _t_at(self.curves[s], xy))
-        )]
+        def no_reading(c: BranchCurve) -> bool:
+            t = _t_at(c, xy)
+            return short_turning_flat_side(c.t_range, t, turns_in_depth(c, t))
+        short = [s for s in parents if not self.curves[s].by_row and s not in side_near and no_reading(self.curves[s])]
         return [s for s in parents if s not in short] if len(short) == 1 else parents
 
     def _sides_conflict(self, parents: list, xy: np.ndarray, d_par: list, side_near: dict) -> bool:

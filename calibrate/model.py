@@ -12,6 +12,7 @@ Conventions are OpenCV's ``stereoCalibrate``: ``X_right = R @ X_left + T`` (mm).
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -156,8 +157,13 @@ def load_calibration(path: str | Path, alpha: float = 0.0) -> StereoCalibration:
         raise CalibrationError(f"{path}: calibration file not found")
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error:
-        raise CalibrationError(f"{path}: not an OpenCV FileStorage file") from None
+    except (cv2.error, SystemError) as e:
+        # (OpenCV 5's binding raises SystemError, its cause the parser's cv2.error, whose `func` holds
+        # "FILE(LINE): what is wrong")
+        where = str(getattr(e.__cause__, "func", "") or "")
+        m = re.fullmatch(r".*\((\d+)\): (.+)", where.strip())
+        why = f" (line {m[1]}: {m[2]})" if m else ""
+        raise CalibrationError(f"{path}: not an OpenCV FileStorage file{why}") from None
     if not fs.isOpened():
         raise CalibrationError(f"{path}: not an OpenCV FileStorage file")
     try:

@@ -74,3 +74,14 @@ def test_missing_node_is_one_line_error(tmp_path):
     fs.release()
     with pytest.raises(CalibrationError, match=r"broken.yaml: node D1 missing"):
         load_calibration(path)
+
+
+@pytest.mark.parametrize("text, why", [
+    ("%YAML:1.0\nK1: [1, 2\n", r"line \d+: "),   # a hand edit that breaks the YAML
+    ("just words", r"line 1: "),
+])
+def test_malformed_file_is_one_line_error(tmp_path, text, why):
+    path = tmp_path / "hand_edited.yaml"
+    path.write_text(text)
+    with pytest.raises(CalibrationError, match=rf"hand_edited.yaml: not an OpenCV FileStorage file \({why}"):
+        load_calibration(path)

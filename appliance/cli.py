@@ -1,7 +1,8 @@
 """The `appliance` command: parses, calls one function per command, prints.
 
 Every command lives in its own module under :mod:`appliance.commands`. Errors a user
-can act on (:class:`~appliance.errors.ApplianceError`) become one line on stderr,
+can act on (:class:`~appliance.errors.ApplianceError`, and an operating-system error on a named file: an
+output folder that cannot be made, a file that cannot be written) become one line on stderr,
 ``error: <message>``, and exit status 1.
 """
 
@@ -39,6 +40,11 @@ def main() -> None:
         app()
     except ApplianceError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        sys.exit(1)
+    except OSError as exc:
+        if exc.filename is None:
+            raise
+        print(f"error: {exc.filename}: {exc.strerror or exc}", file=sys.stderr)
         sys.exit(1)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -76,7 +76,7 @@ def test_a_grey_level_mask_file_is_a_probability_not_non_zero(tmp_path):
     assert np.mean(np.array(same) <= 3.0) >= 0.8
 
 
-@pytest.mark.parametrize("case", ["size", "unreadable", "missing", "empty-mask"])
+@pytest.mark.parametrize("case", ["size", "unreadable", "missing", "empty-mask", "unwritable"])
 def test_bad_input_is_one_clear_line(tmp_path, case):
     args = ["localize", "--calib", RIG, LEFT, RIGHT, "--json", tmp_path / "r.json"]
     if case == "size":
@@ -89,12 +89,15 @@ def test_bad_input_is_one_clear_line(tmp_path, case):
         args[4], expect = bad, ["bad.png", "not a readable image"]
     elif case == "missing":
         args[4], expect = tmp_path / "nope.png", ["nope.png", "not found"]
-    else:
+    elif case == "empty-mask":
         empty, full = tmp_path / "empty.png", tmp_path / "full.png"
         cv2.imwrite(str(empty), np.zeros((960, 1280), np.uint8))
         cv2.imwrite(str(full), np.full((960, 1280), 255, np.uint8))
         args += ["--mask-left", empty, "--mask-right", full]
         expect = ["empty.png", "empty"]
+    elif case == "unwritable":
+        (tmp_path / "a_file").write_text("")   # a file where the output's folder should be
+        args[6], expect = tmp_path / "a_file" / "r.json", ["a_file", "File exists"]
     p = run(*args)
     assert p.returncode == 1
     lines = p.stderr.strip().splitlines()

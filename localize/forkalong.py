@@ -21,8 +21,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 from appliance.localize import kernels_walks
+
+_EPS = float(np.finfo(np.float64).eps)
 
 # sections from this far behind the junction (px) to this far ahead of it
 BACK_PX = 170.0
@@ -83,15 +86,32 @@ def sections(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.ndarray, s
     return {"ok": ok, "lo": lo, "hi": hi, "child": child, "cl": cl, "ch": ch}
 
 
+def polyfit_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """``np.polyfit(x, y, 1)`` (slope, intercept) of float64 1-D arrays: numpy's own steps (the scaled
+    Vandermonde matrix [x, 1], LAPACK's least squares through ``_umath_linalg.lstsq`` with polyfit's rcond,
+    the scale divided out), the same values without its and ``lstsq``'s argument handling (~4x faster);
+    ``np.polyfit`` itself where LAPACK gives no finite answer (its error or warning then)."""
+    n = len(x)
+    lhs = np.empty((n, 2))
+    lhs[:, 0] = x
+    lhs[:, 1] = 1.0
+    scale = np.sqrt((lhs * lhs).sum(axis=0))
+    lhs /= scale
+    c = _umath_linalg.lstsq(lhs, y[:, None], n * _EPS, signature="ddd->ddid")[0][:, 0] / scale
+    if not np.isfinite(c).all():
+        return tuple(np.polyfit(x, y, 1).tolist())
+    return float(c[0]), float(c[1])
+
+
 def _line_fit(x: np.ndarray, y: np.ndarray, off_px: float) -> tuple[float, float, np.ndarray] | None:
     """Least-squares line y = a + k x; points further than ``off_px`` left out once. (a, k, kept)."""
     if len(x) < 3:
         return None
-    k, a = np.polyfit(x, y, 1)
+    k, a = polyfit_line(x, y)
     keep = np.abs(y - (a + k * x)) <= off_px
     if keep.sum() >= max(3, len(x) // 2) and not keep.all():
-        k, a = np.polyfit(x[keep], y[keep], 1)
-    return float(a), float(k), keep
+        k, a = polyfit_line(x[keep], y[keep])
+    return a, k, keep
 
 
 def _no(diag: dict | None, why: str) -> None:

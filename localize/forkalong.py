@@ -24,6 +24,7 @@ import numpy as np
 from numpy.linalg import _umath_linalg
 
 from appliance.localize import kernels_walks
+from appliance.localize.curves import median
 
 _EPS = float(np.finfo(np.float64).eps)
 
@@ -167,7 +168,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
     n2 = np.array([-e2[1], e2[0]])
     if np.dot(n2, n) < 0:
         n2 = -n2
-    w0 = float(np.median((sec["hi"] - sec["lo"])[ok & sec["child"]])) if (ok & sec["child"]).any() else 2.0 * r_par
+    w0 = float(median((sec["hi"] - sec["lo"])[ok & sec["child"]])) if (ok & sec["child"]).any() else 2.0 * r_par
     base = p + (a_lo + 0.5 * w0) * n         # the parent's axis near the junction
     e, n = e2, n2
     sin_a = float(abs(e[0] * out[1] - e[1] * out[0]))
@@ -196,7 +197,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
     lo_line = lo_fit[0] + lo_fit[1] * s
     width = sec["hi"] - lo_line
     # the parent's own width: the parted sections', and the merged ones behind that are not wider (a line: taper)
-    w_par = float(np.median(width[parted]))
+    w_par = float(median(width[parted]))
     alone = parted.copy()
     merged = ok & ~parted
     alone |= merged & (np.abs(width - w_par) <= WIDEN_PX)
@@ -239,7 +240,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
         return _no(diag, "no child line past the parting")
     if abs(math.degrees(math.atan(mf[1])) - ang_out) > ANGLE_TOL_DEG:
         return _no(diag, "the child past the parting not along the outer outline")
-    r_c = float(np.median(0.5 * (sec["ch"] - sec["cl"])[parted])) * math.cos(math.atan(mf[1]))
+    r_c = float(median(0.5 * (sec["ch"] - sec["cl"])[parted])) * math.cos(math.atan(mf[1]))
     if abs(r_c - r_child) > CHILD_WIDTH_TOL * r_child + 0.5 * CHILD_WIDTH_TOL_PX:
         return _no(diag, "the child's width")
     b_in = a_out - 2.0 * r_c / math.cos(math.atan(k_out))

@@ -231,7 +231,8 @@ def section_runs(mask, base, e, n, s, t, i0, gap_px):
     along ``n``; NaN where none), the further run kept where it starts within ``gap_px`` of ``hi``. The same
     values: the sample points in float64 rounded to float32 (``_read``'s maps), the reads
     :func:`bilinear_u8` (cv2.remap's); each section read only from its first sample off the mask before
-    ``i0`` to the further run's end."""
+    ``i0`` to the further run's end, or to ``gap_px`` (+ 1) past the run's end where no further run starts
+    within it."""
     ns, nt = len(s), len(t)
     ok = np.zeros(ns, np.bool_)
     child = np.zeros(ns, np.bool_)
@@ -264,13 +265,21 @@ def section_runs(mask, base, e, n, s, t, i0, gap_px):
         ok[i] = True
         lo[i] = _crossing_at(row, t, lo_off, lo_off + 1)
         hi[i] = _crossing_at(row, t, hi_off, hi_off - 1)
+        # the further run: its start's crossing lies past t[c_on - 1], so the scan stops where that is further
+        # than gap_px (+ 1 px of margin for rounding) past hi: no run starting there could be kept
         c_on = nt
+        far = hi[i] + gap_px + 1.0
         for j in range(hi_off + 1, nt):
+            if t[j - 1] > far:
+                break
             row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
             if row[j] >= 128.0:
                 c_on = j
                 break
         if c_on >= nt:
+            continue
+        c_l = _crossing_at(row, t, c_on - 1, c_on)
+        if not c_l - hi[i] <= gap_px:
             continue
         c_off = nt
         for j in range(c_on + 1, nt):
@@ -278,10 +287,7 @@ def section_runs(mask, base, e, n, s, t, i0, gap_px):
             if not row[j] >= 128.0:
                 c_off = j
                 break
-        if c_off >= nt:
-            continue
-        c_l = _crossing_at(row, t, c_on - 1, c_on)
-        if c_l - hi[i] <= gap_px:
+        if c_off < nt:
             child[i] = True
             cl[i] = c_l
             ch[i] = _crossing_at(row, t, c_off, c_off - 1)

@@ -20,8 +20,13 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
+from numpy.linalg import _umath_linalg
+
+from appliance.localize import kernels_walks
+from appliance.localize.curves import median
+
+_EPS = float(np.finfo(np.float64).eps)
 
 # sections from this far behind the junction (px) to this far ahead of it
 BACK_PX = 170.0
@@ -64,69 +69,51 @@ BEHIND_MARGIN_PX = 10.0
 ANGLE_TOL_DEG = 8.0
 
 
-def _read(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.ndarray, s: np.ndarray, t: np.ndarray
-          ) -> np.ndarray:
-    """``mask`` (uint8, 0-255) bilinear at ``base + s e + t n`` for every ``s`` (rows) and ``t`` (columns), as
-    float32 (the remapped uint8 values, exact); the coordinates' two maps computed per axis (one 2-D array
-    each, not a 3-D one: a third of the time, the same values)."""
-    if len(t) > 32767 or len(s) * len(t) > 32767 * 32767:
-        raise ValueError("too many samples")
-    mx = (base[0] + s[:, None] * e[0]) + t[None, :] * n[0]
-    my = (base[1] + s[:, None] * e[1]) + t[None, :] * n[1]
-    return cv2.remap(mask, mx.astype(np.float32), my.astype(np.float32), cv2.INTER_LINEAR,
-                     borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float32)
-
-
-def _crossing(val: np.ndarray, t: np.ndarray, i_off: np.ndarray, step: int) -> np.ndarray:
-    """Where the coverage crosses 128 between sample ``i_off`` (off) and ``i_off - step`` (on) per row."""
-    rows = np.arange(len(val))
-    i_on = np.clip(i_off - step, 0, val.shape[1] - 1)
-    i_off = np.clip(i_off, 0, val.shape[1] - 1)
-    v_off, v_on = val[rows, i_off].astype(np.float64), val[rows, i_on].astype(np.float64)
-    f = (v_on - 128.0) / np.maximum(v_on - v_off, 1e-9)
-    return t[i_on] + f * (t[i_off] - t[i_on])
-
-
 def sections(mask: np.ndarray, base: np.ndarray, e: np.ndarray, n: np.ndarray, s: np.ndarray, t: np.ndarray,
              gap_px: float) -> dict:
     """The runs on sections square to a line (``base`` + s ``e``), ``t`` along ``n`` (toward the child).
 
-    Returns arrays over ``s``: ``ok`` (the line's point on the mask), ``lo`` / ``hi`` (the ends of the run
-    through t = 0, px along n, sub-pixel), ``child`` (a further run starting within ``gap_px`` of ``hi``),
+    ``mask`` (uint8, 0-255) is read bilinear (cv2.remap's value) at ``base + s e + t n``, each section only as
+    far as its runs go (compiled: :func:`kernels_walks.section_runs`). Returns arrays over ``s``: ``ok`` (the
+    line's point on the mask), ``lo`` / ``hi`` (the ends of the run through t = 0, px along n, sub-pixel: where
+    the coverage crosses 128 between samples), ``child`` (a further run starting within ``gap_px`` of ``hi``),
     ``cl`` / ``ch`` (its ends; NaN where none).
     """
-    val = _read(mask, base, e, n, s, t)
-    on = val >= 128.0
-    nt = len(t)
-    j = np.arange(nt)[None, :]
-    i0 = int(np.argmin(np.abs(t)))
-    ok = on[:, i0]
-    off = ~on
-    lo_off = np.where(off & (j < i0), j, -1).max(1)
-    hi_off = np.where(off & (j > i0), j, nt).min(1)
-    ok &= (lo_off >= 0) & (hi_off < nt)
-    lo = _crossing(val, t, lo_off, -1)
-    hi = _crossing(val, t, hi_off, 1)
-    c_on = np.where(on & (j > hi_off[:, None]), j, nt).min(1)
-    c_off = np.where(off & (j > c_on[:, None]), j, nt).min(1)
-    child = ok & (c_on < nt) & (c_off < nt)
-    cl = _crossing(val, t, c_on - 1, -1)
-    ch = _crossing(val, t, c_off, 1)
-    child &= (cl - hi) <= gap_px
-    nan = np.full(len(s), np.nan)
-    return {"ok": ok, "lo": np.where(ok, lo, nan), "hi": np.where(ok, hi, nan),
-            "child": child, "cl": np.where(child, cl, nan), "ch": np.where(child, ch, nan)}
+    i0 = int(np.abs(t).argmin())
+    ok, lo, hi, child, cl, ch = kernels_walks.section_runs(
+        mask, np.ascontiguousarray(base, np.float64), np.ascontiguousarray(e, np.float64),
+        np.ascontiguousarray(n, np.float64), np.ascontiguousarray(s, np.float64),
+        np.ascontiguousarray(t, np.float64), i0, float(gap_px))
+    return {"ok": ok, "lo": lo, "hi": hi, "child": child, "cl": cl, "ch": ch}
+
+
+def polyfit_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """``np.polyfit(x, y, 1)`` (slope, intercept) of float64 1-D arrays: numpy's own steps (the scaled
+    Vandermonde matrix [x, 1], LAPACK's least squares through ``_umath_linalg.lstsq`` with polyfit's rcond,
+    the scale divided out), the same values without its and ``lstsq``'s argument handling (~30 % faster: the
+    SVD dominates; no RankWarning for a rank-deficient fit, whose values are polyfit's); ``np.polyfit`` itself
+    where LAPACK gives no finite answer (its error or warning then)."""
+    n = len(x)
+    lhs = np.empty((n, 2))
+    lhs[:, 0] = x
+    lhs[:, 1] = 1.0
+    scale = np.sqrt((lhs * lhs).sum(axis=0))
+    lhs /= scale
+    c = _umath_linalg.lstsq(lhs, y[:, None], n * _EPS, signature="ddd->ddid")[0][:, 0] / scale
+    if not np.isfinite(c).all():
+        return tuple(np.polyfit(x, y, 1).tolist())
+    return float(c[0]), float(c[1])
 
 
 def _line_fit(x: np.ndarray, y: np.ndarray, off_px: float) -> tuple[float, float, np.ndarray] | None:
     """Least-squares line y = a + k x; points further than ``off_px`` left out once. (a, k, kept)."""
     if len(x) < 3:
         return None
-    k, a = np.polyfit(x, y, 1)
+    k, a = polyfit_line(x, y)
     keep = np.abs(y - (a + k * x)) <= off_px
     if keep.sum() >= max(3, len(x) // 2) and not keep.all():
-        k, a = np.polyfit(x[keep], y[keep], 1)
-    return float(a), float(k), keep
+        k, a = polyfit_line(x[keep], y[keep])
+    return a, k, keep
 
 
 def _no(diag: dict | None, why: str) -> None:
@@ -182,7 +169,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
     n2 = np.array([-e2[1], e2[0]])
     if np.dot(n2, n) < 0:
         n2 = -n2
-    w0 = float(np.median((sec["hi"] - sec["lo"])[ok & sec["child"]])) if (ok & sec["child"]).any() else 2.0 * r_par
+    w0 = float(median((sec["hi"] - sec["lo"])[ok & sec["child"]])) if (ok & sec["child"]).any() else 2.0 * r_par
     base = p + (a_lo + 0.5 * w0) * n         # the parent's axis near the junction
     e, n = e2, n2
     sin_a = float(abs(e[0] * out[1] - e[1] * out[0]))
@@ -211,7 +198,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
     lo_line = lo_fit[0] + lo_fit[1] * s
     width = sec["hi"] - lo_line
     # the parent's own width: the parted sections', and the merged ones behind that are not wider (a line: taper)
-    w_par = float(np.median(width[parted]))
+    w_par = float(median(width[parted]))
     alone = parted.copy()
     merged = ok & ~parted
     alone |= merged & (np.abs(width - w_par) <= WIDEN_PX)
@@ -254,7 +241,7 @@ def along_fork(mask: np.ndarray, p: np.ndarray, e_par: np.ndarray, out: np.ndarr
         return _no(diag, "no child line past the parting")
     if abs(math.degrees(math.atan(mf[1])) - ang_out) > ANGLE_TOL_DEG:
         return _no(diag, "the child past the parting not along the outer outline")
-    r_c = float(np.median(0.5 * (sec["ch"] - sec["cl"])[parted])) * math.cos(math.atan(mf[1]))
+    r_c = float(median(0.5 * (sec["ch"] - sec["cl"])[parted])) * math.cos(math.atan(mf[1]))
     if abs(r_c - r_child) > CHILD_WIDTH_TOL * r_child + 0.5 * CHILD_WIDTH_TOL_PX:
         return _no(diag, "the child's width")
     b_in = a_out - 2.0 * r_c / math.cos(math.atan(k_out))

@@ -34,13 +34,20 @@ def bilinear_u8(img, x, y):
     fx, fy = np.floor(x), np.floor(y)
     a, b = np.float32(x - fx), np.float32(y - fy)
     x0, y0 = int(fx), int(fy)
-    p = np.zeros(4, np.float32)
-    for k in range(4):
-        yy, xx = y0 + k // 2, x0 + k % 2
-        if 0 <= yy < h and 0 <= xx < w:
-            p[k] = np.float32(img[yy, xx])
-    top = _fma32(a, p[1] - p[0], p[0])
-    bottom = _fma32(a, p[3] - p[2], p[2])
+    # the four pixels (0 outside the image) as scalars: no array allocated per read (speed27)
+    zero = np.float32(0.0)
+    if 0 <= x0 and x0 + 1 < w and 0 <= y0 and y0 + 1 < h:
+        p0, p1 = np.float32(img[y0, x0]), np.float32(img[y0, x0 + 1])
+        p2, p3 = np.float32(img[y0 + 1, x0]), np.float32(img[y0 + 1, x0 + 1])
+    else:
+        in0, in1 = 0 <= y0 < h, 0 <= y0 + 1 < h
+        l_in, r_in = 0 <= x0 < w, 0 <= x0 + 1 < w
+        p0 = np.float32(img[y0, x0]) if in0 and l_in else zero
+        p1 = np.float32(img[y0, x0 + 1]) if in0 and r_in else zero
+        p2 = np.float32(img[y0 + 1, x0]) if in1 and l_in else zero
+        p3 = np.float32(img[y0 + 1, x0 + 1]) if in1 and r_in else zero
+    top = _fma32(a, p1 - p0, p0)
+    bottom = _fma32(a, p3 - p2, p2)
     return min(max(np.rint(_fma32(b, bottom - top, top)), np.float32(0.0)), np.float32(255.0))
 
 
@@ -206,6 +213,87 @@ def last_on(mask, starts, directions, s, n_s):
     return out
 
 
+@numba.njit(**_JIT)
+def _crossing_at(row, t, i_off, i_on):
+    """Where the coverage crosses 128 between samples ``i_off`` (off) and ``i_on`` (on) of ``row``
+    (float32 values), in ``t`` (float64): ``forkalong._crossing``'s arithmetic, in float64."""
+    v_off, v_on = np.float64(row[i_off]), np.float64(row[i_on])
+    f = (v_on - 128.0) / max(v_on - v_off, 1e-9)
+    return t[i_on] + f * (t[i_off] - t[i_on])
+
+
+@numba.njit(**_JIT)
+def section_runs(mask, base, e, n, s, t, i0, gap_px):
+    """``forkalong.sections``: per section ``s[i]`` (the samples ``base + s[i] e + t[j] n``, float64 (2,)
+    vectors, ``t`` increasing with ``t[i0]`` its value nearest 0) the run through sample ``i0`` on ``mask``
+    (uint8, at or above 128) and the next run beyond it. Returns ``ok``, ``lo``, ``hi``, ``child``, ``cl``,
+    ``ch`` (S,) as ``sections``' dict: the run's ends and the further run's (sub-pixel crossings of 128, px
+    along ``n``; NaN where none), the further run kept where it starts within ``gap_px`` of ``hi``. The same
+    values: the sample points in float64 rounded to float32 (``_read``'s maps), the reads
+    :func:`bilinear_u8` (cv2.remap's); each section read only from its first sample off the mask before
+    ``i0`` to the further run's end, or to ``gap_px`` (+ 1) past the run's end where no further run starts
+    within it."""
+    ns, nt = len(s), len(t)
+    ok = np.zeros(ns, np.bool_)
+    child = np.zeros(ns, np.bool_)
+    lo = np.full(ns, np.nan)
+    hi = np.full(ns, np.nan)
+    cl = np.full(ns, np.nan)
+    ch = np.full(ns, np.nan)
+    row = np.zeros(nt, np.float32)
+    for i in range(ns):
+        bx, by = base[0] + s[i] * e[0], base[1] + s[i] * e[1]
+        row[i0] = bilinear_u8(mask, np.float32(bx + t[i0] * n[0]), np.float32(by + t[i0] * n[1]))
+        if not row[i0] >= 128.0:
+            continue
+        lo_off = -1
+        for j in range(i0 - 1, -1, -1):
+            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
+            if not row[j] >= 128.0:
+                lo_off = j
+                break
+        if lo_off < 0:
+            continue
+        hi_off = nt
+        for j in range(i0 + 1, nt):
+            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
+            if not row[j] >= 128.0:
+                hi_off = j
+                break
+        if hi_off >= nt:
+            continue
+        ok[i] = True
+        lo[i] = _crossing_at(row, t, lo_off, lo_off + 1)
+        hi[i] = _crossing_at(row, t, hi_off, hi_off - 1)
+        # the further run: its start's crossing lies past t[c_on - 1], so the scan stops where that is further
+        # than gap_px (+ 1 px of margin for rounding) past hi: no run starting there could be kept
+        c_on = nt
+        far = hi[i] + gap_px + 1.0
+        for j in range(hi_off + 1, nt):
+            if t[j - 1] > far:
+                break
+            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
+            if row[j] >= 128.0:
+                c_on = j
+                break
+        if c_on >= nt:
+            continue
+        c_l = _crossing_at(row, t, c_on - 1, c_on)
+        if not c_l - hi[i] <= gap_px:
+            continue
+        c_off = nt
+        for j in range(c_on + 1, nt):
+            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
+            if not row[j] >= 128.0:
+                c_off = j
+                break
+        if c_off < nt:
+            child[i] = True
+            cl[i] = c_l
+            ch[i] = _crossing_at(row, t, c_off, c_off - 1)
+    return ok, lo, hi, child, cl, ch
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) this module's kernels for the argument types callers pass."""
     f = np.zeros(4)
@@ -213,3 +301,4 @@ def warm_up() -> None:
     child_outline_pairs(np.zeros((4, 4), np.uint8), np.zeros((4, 2)), f, f[:2], 5.0, 1.0, 1.0)
     near_points(_readonly(np.zeros((4, 2))), 0.0, 0.0, 1.0, 2.0)
     last_on(np.zeros((4, 4), np.uint8), np.zeros((1, 2)), np.zeros((1, 2)), np.arange(2.0), np.full(1, 2, np.int64))
+    section_runs(np.zeros((4, 4), np.uint8), f[:2], f[:2], f[:2], f, f, 0, 1.0)

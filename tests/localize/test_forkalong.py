@@ -151,3 +151,16 @@ def test_the_right_view_confirms_a_child_at_the_parents_depth_only(d_child, agre
     xy = along_fork(left, p, e_par, e_ch, 10.0, 6.0)[0]
     placer = SimpleNamespace(sm=SimpleNamespace(right_mask=_shifted_mask(angle, 20.0, d_child)))
     assert ForkPlacing._along_agrees(placer, xy, p, e_par, e_ch, 20.0, 10.0, 6.0) is agrees
+
+
+def test_polyfit_line_is_numpys_polyfit():
+    """The sections' line fits: np.polyfit's slope and intercept bit for bit (section indices and random
+    abscissae, noisy lines, 3-250 points)."""
+    from appliance.localize.forkalong import polyfit_line
+    rng = np.random.default_rng(3)
+    for i in range(400):
+        n = int(rng.integers(3, 250))
+        x = np.arange(n, dtype=float) - float(rng.integers(0, 200)) if i % 2 else rng.uniform(-200, 200, n)
+        y = rng.normal(0, 5, n) + rng.uniform(-1, 1) * x + rng.uniform(-100, 100)
+        k, a = np.polyfit(x, y, 1)
+        assert polyfit_line(x, y) == (float(k), float(a))

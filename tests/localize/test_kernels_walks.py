@@ -127,3 +127,82 @@ def test_last_on_is_the_remap_of_all_lines():
         n_lines += k
         n_found += int(np.isfinite(got).sum())
     assert n_found > 0.2 * n_lines                 # many lines do cross the outline
+
+
+def _crossing_np(val, t, i_off, step):
+    """Where the coverage crosses 128 between sample ``i_off`` (off) and ``i_off - step`` (on) per row."""
+    rows = np.arange(len(val))
+    i_on = np.clip(i_off - step, 0, val.shape[1] - 1)
+    i_off = np.clip(i_off, 0, val.shape[1] - 1)
+    v_off, v_on = val[rows, i_off].astype(np.float64), val[rows, i_on].astype(np.float64)
+    f = (v_on - 128.0) / np.maximum(v_on - v_off, 1e-9)
+    return t[i_on] + f * (t[i_off] - t[i_on])
+
+
+def _sections_numpy(mask, base, e, n, s, t, gap_px):
+    """``forkalong.sections`` before the kernel: one cv2.remap of every section's samples, then the runs
+    by numpy (the reference of :func:`kernels_walks.section_runs`)."""
+    mx = (base[0] + s[:, None] * e[0]) + t[None, :] * n[0]
+    my = (base[1] + s[:, None] * e[1]) + t[None, :] * n[1]
+    val = cv2.remap(mask, mx.astype(np.float32), my.astype(np.float32), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(np.float32)
+    on = val >= 128.0
+    nt = len(t)
+    j = np.arange(nt)[None, :]
+    i0 = int(np.argmin(np.abs(t)))
+    ok = on[:, i0]
+    off = ~on
+    lo_off = np.where(off & (j < i0), j, -1).max(1)
+    hi_off = np.where(off & (j > i0), j, nt).min(1)
+    ok &= (lo_off >= 0) & (hi_off < nt)
+    lo = _crossing_np(val, t, lo_off, -1)
+    hi = _crossing_np(val, t, hi_off, 1)
+    c_on = np.where(on & (j > hi_off[:, None]), j, nt).min(1)
+    c_off = np.where(off & (j > c_on[:, None]), j, nt).min(1)
+    child = ok & (c_on < nt) & (c_off < nt)
+    cl = _crossing_np(val, t, c_on - 1, -1)
+    ch = _crossing_np(val, t, c_off, 1)
+    child &= (cl - hi) <= gap_px
+    nan = np.full(len(s), np.nan)
+    return {"ok": ok, "lo": np.where(ok, lo, nan), "hi": np.where(ok, hi, nan),
+            "child": child, "cl": np.where(child, cl, nan), "ch": np.where(child, ch, nan)}
+
+
+def test_section_runs_is_one_remap_of_every_section():
+    """The along-parent fork's sections (forkalong.sections): soft bars crossing and touching, sections in all
+    directions, partly off the image, with gaps large and small: the same runs and crossings (NaN included),
+    bit for bit, as one cv2.remap of every sample and numpy's scans."""
+    from appliance.localize.forkalong import sections
+    rng = np.random.default_rng(11)
+    n_ok = n_child = n_all = 0
+    for _ in range(40):
+        # a parent bar, a child bar beside it at a small angle (touching it or apart), a third bar anywhere
+        mask = np.zeros((120, 160), np.uint8)
+        a = rng.uniform(0, 2 * np.pi)
+        e = np.array([np.cos(a), np.sin(a)])
+        n = np.array([-e[1], e[0]])
+        c = rng.uniform(30, 130, 2)
+        w_par, w_ch = rng.uniform(4, 24), rng.uniform(3, 12)
+        b = np.radians(rng.uniform(-15, 15))
+        e_ch = np.cos(b) * e + np.sin(b) * n
+        c_ch = c + (0.5 * (w_par + w_ch) + rng.uniform(-3, 12)) * n
+        for (p, d), w in (((c, e), w_par), ((c_ch, e_ch), w_ch)):
+            cv2.line(mask, tuple(int(v) for v in p - 200 * d), tuple(int(v) for v in p + 200 * d), 255,
+                     int(round(w)), cv2.LINE_AA)
+        cv2.line(mask, tuple(int(v) for v in rng.integers(0, 160, 2)), tuple(int(v) for v in rng.integers(0, 160, 2)),
+                 255, int(rng.integers(3, 25)), cv2.LINE_AA)
+        mask = cv2.GaussianBlur(mask, (5, 5), rng.uniform(0.3, 1.5))
+        base = c + rng.normal(0, 1.0, 2)
+        r = np.radians(rng.uniform(-10, 10))
+        e, n = np.cos(r) * e + np.sin(r) * n, np.cos(r) * n - np.sin(r) * e
+        s = np.arange(-rng.uniform(10, 80), rng.uniform(0, 60), 1.0)
+        t = np.arange(np.floor(-rng.uniform(5, 40)), rng.uniform(5, 80), 1.0) + rng.uniform(-0.5, 0.5)
+        gap = rng.uniform(2, 40)
+        got = sections(mask, base, e, n, s, t, gap)
+        want = _sections_numpy(mask, base, e, n, s, t, gap)
+        for k in want:
+            assert got[k].dtype == want[k].dtype and np.array_equal(got[k], want[k], equal_nan=k not in ("ok", "child"))
+        n_ok += int(want["ok"].sum())
+        n_child += int(want["child"].sum())
+        n_all += len(s)
+    assert n_ok > 0.5 * n_all and n_child > 0.15 * n_all      # runs and further runs found, not only NaN

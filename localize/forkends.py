@@ -18,8 +18,9 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
-from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
-                                         turns_in_depth, weigh_bent_sides, weigh_sides)
+from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_side_near,
+                                         side_disparity_near, side_through_fork, taper_radius, turns_in_depth,
+                                         weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
@@ -258,6 +259,18 @@ ALONG_RIGHT_PX = 2.0
 # 1.92, 484 exact one false fork more (docs/localize-forkalong25.md)
 ALONG_CONFIRMS = False
 ALONG_NEAR_PX = 4.0
+
+# a fork that took its lone steep parent side's value (the other parent piece without a curve through the fork), the
+# side read more than forkdisp.THROUGH_SHORT_PX short of the fork or carried there unread, takes the side read again
+# with the parent's crossings past the fork as far as the other piece runs on (forkdisp.side_through_fork): the fork
+# between the line's rows, not past them (seed 620 T1, exact masks: a trunk side read 33 rows short, +0.63 px,
+# -4.6 mm; -0.17 px read through it). After every decision (which forks fork() reports is unchanged); the feature check
+# then withholds one correct fork of the fifteen sets (seed 751 T5, colour masks; docs/localize-forkp27.md)
+THROUGH_FORK = True
+# ... and two steep sides both read short of the fork, each read through it over the other's span (measured, off)
+THROUGH_TWO = False
+THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
+                                # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -625,6 +638,22 @@ class ForkPlacing:
                     and not vouched_by_span(self.curves[child].t_range, _t_at(self.curves[child], xy)))):
             # (a flat parent: d_out is set only there; the fork's disparity still the side's own, no rule took another)
             self.uvd[node][2] = lone_carried_median(d, float(at(child)), d_out)
+        if THROUGH_FORK and final and agree and outline is not None and len(parents) == 1 \
+                and self.curves[parents[0]].by_row and float(self.uvd[node][2]) == float(at(parents[0])):
+            # (after every decision, so which forks are reported is unchanged: the lone side's value replaced)
+            v = self._through_fork(parents[0], pb if parents[0] == pa else pa, xy, side_near.get(parents[0]))
+            if v is not None:
+                self.uvd[node][2] = v.d_px
+                side_near[parents[0]] = v
+        elif THROUGH_TWO and final and agree and outline is not None and len(parents) == 2 and sides is None \
+                and d_known is None and not from_outline and all(self.curves[s].by_row for s in parents):
+            # (experiment: two steep sides both read short of the fork, each read through it over the other's rows)
+            vs = [self._through_fork(s, parents[1 - k], xy, side_near.get(s), other_curve=True)
+                  for k, s in enumerate(parents)]
+            if all(v is not None for v in vs) and all(s in side_near for s in parents):
+                self.uvd[node][2] = float((vs[0].d_px + vs[1].d_px) / 2)
+                for s, v in zip(parents, vs):
+                    side_near[s] = v
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):
@@ -636,6 +665,30 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _through_fork(self, s: int, other: int, xy: np.ndarray, v0, other_curve: bool = False) -> "SideNear | None":
+        """A lone steep parent side ``s``'s read through the fork ``xy`` (2,) (``THROUGH_FORK``): where its own read
+        ``v0`` (a :class:`forkdisp.SideNear`, or None: carried unread) stops more than ``THROUGH_SHORT_PX`` short of
+        the fork, the parent's crossings past the fork, as far as the other parent piece ``other`` (no curve through
+        the fork) runs on in rows, read with its own (:func:`forkdisp.side_through_fork`); taken where its kept
+        rows come within ``SIDE_KNOWN_PX`` of the fork and nearer than ``v0``'s, moving the side's value (``v0``'s, or
+        its curve's) by at most ``THROUGH_MAX_MOVE_PX``. None: ``v0`` stands."""
+        c = self.curves[s]
+        t = _t_at(c, xy)
+        lo, hi = c.t_range
+        if lo - THROUGH_SHORT_PX < t < hi + THROUGH_SHORT_PX or (v0 is not None and v0.nearest_px <= THROUGH_SHORT_PX):
+            return None
+        if other_curve:
+            rows = np.array(self.curves[other].t_range, float)
+        else:
+            rows = self.seg_points(other)[:, 1]
+        past = float(t - rows.min()) if t < lo else float(rows.max() - t)
+        v = side_through_fork(c, self.runs_l, self.runs_r, t, past, self.sm.left_mask.shape[0], f_px=self.sm.f_px,
+                              cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
+        if v is None or v.nearest_px > SIDE_KNOWN_PX or (v0 is not None and v.nearest_px >= v0.nearest_px):
+            return None
+        d0 = v0.d_px if v0 is not None else float(_d_at(c, float(xy[0]), float(xy[1])))
+        return v if abs(v.d_px - d0) <= THROUGH_MAX_MOVE_PX else None
 
     def _mean_sides(self, parents: list, xy: np.ndarray, side_near: dict) -> list:
         """The parent sides whose disparities at the fork ``xy`` (2,) enter its mean: both of two sides but a

@@ -269,6 +269,15 @@ ALONG_NEAR_PX = 4.0
 THROUGH_FORK = True
 # ... and two steep sides both read short of the fork, each read through it over the other's span (measured, off)
 THROUGH_TWO = False
+# a fork on a flat parent (a side of it flat: its disparity from bark texture, ~0.2 px rms at 750-1500 mm) with a
+# steep child whose own row crossings, read as a parent side's (forkdisp.side_disparity_near), come within
+# FLAT_CHILD_READ_PX of the fork takes the mean of its disparity and that read: the child's rows clear of a flat
+# parent are at the fork's depth a few px from it (13 sets, 750-1500 mm, both masks: 59 such forks, rms 0.224 ->
+# 0.136 px, p95 0.448 -> 0.253 on paper; seed 378 T11, colour masks, -0.74 px, +6.6 mm -> +1.4 mm). Reads 10-12 px
+# off count no more (104 forks to 12 px: rms 0.218 -> 0.172; seed 458 T11 read 12 px off, +0.71 px, -1.6 -> -3.0 mm).
+# After every decision, as THROUGH_FORK (docs/localize-forkp27.md)
+FLAT_CHILD_READ = True
+FLAT_CHILD_READ_PX = 10.0
 THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
                                 # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
 
@@ -654,6 +663,12 @@ class ForkPlacing:
                 self.uvd[node][2] = float((vs[0].d_px + vs[1].d_px) / 2)
                 for s, v in zip(parents, vs):
                     side_near[s] = v
+        if FLAT_CHILD_READ and final and agree and outline is not None and parents and child_ok \
+                and self.curves[child].by_row and not all(self.curves[s].by_row for s in parents):
+            # (after every decision: a flat parent's fork and its steep child's own rows next to it, the mean)
+            v = self._child_read(child, xy)
+            if v is not None:
+                self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):
@@ -665,6 +680,16 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _child_read(self, child: int, xy: np.ndarray) -> "SideNear | None":
+        """A steep child's own disparity at the fork ``xy`` (2,) from its crossings nearest it, read as a parent side's
+        (:func:`forkdisp.side_disparity_near`: its rows clear of the crotch, as wide as its span's, and its span's
+        next to them, a line read at the fork's row), where its kept rows come within ``FLAT_CHILD_READ_PX`` of the
+        fork (``FLAT_CHILD_READ``); None otherwise."""
+        c = self.curves[child]
+        v = side_disparity_near(c, self.runs_l, self.runs_r, _t_at(c, xy), f_px=self.sm.f_px, cx_px=self.sm.cx_px,
+                                offset_px=self.sm.offset_px)
+        return v if v is not None and v.nearest_px <= FLAT_CHILD_READ_PX else None
 
     def _through_fork(self, s: int, other: int, xy: np.ndarray, v0, other_curve: bool = False) -> "SideNear | None":
         """A lone steep parent side ``s``'s read through the fork ``xy`` (2,) (``THROUGH_FORK``): where its own read

@@ -275,8 +275,11 @@ THROUGH_TWO = False
 # parent are at the fork's depth a few px from it (13 sets, 750-1500 mm, both masks: 59 such forks, rms 0.224 ->
 # 0.136 px, p95 0.448 -> 0.253 on paper; seed 378 T11, colour masks, -0.74 px, +6.6 mm -> +1.4 mm). Reads 10-12 px
 # off count no more (104 forks to 12 px: rms 0.218 -> 0.172; seed 458 T11 read 12 px off, +0.71 px, -1.6 -> -3.0 mm).
-# After every decision, as THROUGH_FORK (docs/localize-forkp27.md)
-FLAT_CHILD_READ = True
+# After every decision, as THROUGH_FORK. Off: on the fifteen sets it moves some forks the other way (484-515 exact
+# 1000-1250 mm 1.55 -> 1.66, 548-579 exact p95 1.77 -> 1.83) and the feature check then passes a fork 5.8 mm off
+# (676-707 colour max 2.20 -> 5.84), against 356-387 colour max 6.58 -> 3.16, 452-483 exact 4.22 -> 3.68
+# (docs/localize-forkp27.md)
+FLAT_CHILD_READ = False
 FLAT_CHILD_READ_PX = 10.0
 THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
                                 # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)

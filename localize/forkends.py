@@ -267,8 +267,6 @@ ALONG_NEAR_PX = 4.0
 # -4.6 mm; -0.17 px read through it). After every decision (which forks fork() reports is unchanged); the feature check
 # then withholds one correct fork of the fifteen sets (seed 751 T5, colour masks; docs/localize-forkp27.md)
 THROUGH_FORK = True
-# ... and two steep sides both read short of the fork, each read through it over the other's span (measured, off)
-THROUGH_TWO = False
 # a fork on a flat parent (a side of it flat: its disparity from bark texture, ~0.2 px rms at 750-1500 mm) with a
 # steep child whose own row crossings, read as a parent side's (forkdisp.side_disparity_near), come within
 # FLAT_CHILD_READ_PX of the fork takes the mean of its disparity and that read: the child's rows clear of a flat
@@ -657,15 +655,6 @@ class ForkPlacing:
             if v is not None:
                 self.uvd[node][2] = v.d_px
                 side_near[parents[0]] = v
-        elif THROUGH_TWO and final and agree and outline is not None and len(parents) == 2 and sides is None \
-                and d_known is None and not from_outline and all(self.curves[s].by_row for s in parents):
-            # (experiment: two steep sides both read short of the fork, each read through it over the other's rows)
-            vs = [self._through_fork(s, parents[1 - k], xy, side_near.get(s), other_curve=True)
-                  for k, s in enumerate(parents)]
-            if all(v is not None for v in vs) and all(s in side_near for s in parents):
-                self.uvd[node][2] = float((vs[0].d_px + vs[1].d_px) / 2)
-                for s, v in zip(parents, vs):
-                    side_near[s] = v
         if FLAT_CHILD_READ and final and agree and outline is not None and parents and child_ok \
                 and self.curves[child].by_row and not all(self.curves[s].by_row for s in parents):
             # (after every decision: a flat parent's fork and its steep child's own rows next to it, the mean)
@@ -694,7 +683,7 @@ class ForkPlacing:
                                 offset_px=self.sm.offset_px)
         return v if v is not None and v.nearest_px <= FLAT_CHILD_READ_PX else None
 
-    def _through_fork(self, s: int, other: int, xy: np.ndarray, v0, other_curve: bool = False) -> "SideNear | None":
+    def _through_fork(self, s: int, other: int, xy: np.ndarray, v0) -> "SideNear | None":
         """A lone steep parent side ``s``'s read through the fork ``xy`` (2,) (``THROUGH_FORK``): where its own read
         ``v0`` (a :class:`forkdisp.SideNear`, or None: carried unread) stops more than ``THROUGH_SHORT_PX`` short of
         the fork, the parent's crossings past the fork, as far as the other parent piece ``other`` (no curve through
@@ -706,10 +695,7 @@ class ForkPlacing:
         lo, hi = c.t_range
         if lo - THROUGH_SHORT_PX < t < hi + THROUGH_SHORT_PX or (v0 is not None and v0.nearest_px <= THROUGH_SHORT_PX):
             return None
-        if other_curve:
-            rows = np.array(self.curves[other].t_range, float)
-        else:
-            rows = self.seg_points(other)[:, 1]
+        rows = self.seg_points(other)[:, 1]
         past = float(t - rows.min()) if t < lo else float(rows.max() - t)
         v = side_through_fork(c, self.runs_l, self.runs_r, t, past, self.sm.left_mask.shape[0], f_px=self.sm.f_px,
                               cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)

@@ -267,6 +267,8 @@ ALONG_NEAR_PX = 4.0
 # -4.6 mm; -0.17 px read through it). After every decision (which forks fork() reports is unchanged); the feature check
 # then withholds one correct fork of the fifteen sets (seed 751 T5, colour masks; docs/localize-forkp27.md)
 THROUGH_FORK = True
+THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
+                                # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
 # a fork on a flat parent (a side of it flat: its disparity from bark texture, ~0.2 px rms at 750-1500 mm) with a
 # steep child whose own row crossings, read as a parent side's (forkdisp.side_disparity_near), come within
 # FLAT_CHILD_READ_PX of the fork takes the mean of its disparity and that read: the child's rows clear of a flat
@@ -279,8 +281,6 @@ THROUGH_FORK = True
 # (docs/localize-forkp27.md)
 FLAT_CHILD_READ = False
 FLAT_CHILD_READ_PX = 10.0
-THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
-                                # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -51,6 +51,7 @@ from localize_accuracy import REPO, _seed_range  # noqa: E402
 from appliance.calibrate.model import load_calibration  # noqa: E402
 from appliance.config import load_config  # noqa: E402
 from appliance.localize import Localizer, dense, forkends, localizer, tipends  # noqa: E402
+from appliance.localize.forkdisp import side_disparity_near  # noqa: E402
 from appliance.synth.evaluate import score_result  # noqa: E402
 from appliance.synth.truth import load_truth  # noqa: E402
 
@@ -206,10 +207,19 @@ class Trace:
             rule = {0: "none", 1: "one", 2: "mean2"}[len(parents)]
         child = loc.get("child")
         d_child = float(forkends._d_at(b.curves[child], xu, xv)) if loc.get("child_ok") else None
+        child_read = None       # (diagnostic: the child's own crossings nearest the fork, read as a side's)
+        if child is not None and child in b.curves and b.curves[child].by_row:
+            cr = side_disparity_near(b.curves[child], b.runs_l, b.runs_r, forkends._t_at(b.curves[child], xy),
+                                     f_px=b.sm.f_px, cx_px=b.sm.cx_px, offset_px=b.sm.offset_px)
+            if cr is not None:
+                child_read = dict(d=float(cr.d_px), nearest_px=float(cr.nearest_px), n_rows=int(cr.n_rows),
+                                  mad=float(cr.mad_px), gap_px=int(cr.gap_px))
         self.forks[node] = dict(rule=rule, axis=any(ln in self.axis_lines for ln in lines), sides=sides,
                                 d_child=d_child, d_out=loc.get("d_out"), d=float(b.uvd[node][2]) if node in b.uvd else None,
                                 r_par=float(loc.get("r_par", np.nan)), hidden=node in b.hidden,
-                                child_carried=None if d_child is None else float(b._carried_px(child, xy)))
+                                child_carried=None if d_child is None else float(b._carried_px(child, xy)),
+                                child_read=child_read, xy=(xu, xv), child_radius=None if child not in b.curves
+                                else float(b.curves[child].radius_px))
 
     def _tip_return(self, b, node, loc, lines):
         c = loc.get("c")
@@ -240,6 +250,9 @@ def describe(tr: Trace, node: int, kind: str, d_final: float, d_err: float) -> t
                  for s in f["sides"]]
         if f["d_child"] is not None:
             parts.append(f"child {f['d_child'] - d_true:+.2f} carried {f['child_carried']:.0f}px")
+        if f.get("child_read") is not None:
+            cr = f["child_read"]
+            parts.append(f"child-read {cr['d'] - d_true:+.2f} @{cr['nearest_px']:.0f}px n{cr['n_rows']}")
         if f["d_out"] is not None:
             parts.append(f"outline {f['d_out'] - d_true:+.2f}")
         return slope, rule, "; ".join(parts) + f"; r_par {f['r_par']:.1f}px"

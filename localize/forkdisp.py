@@ -59,7 +59,7 @@ LONE_GAP_ROW_MIN_PX = 6.0
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
                         span_rows: int = SIDE_SPAN_ROWS, tol_d_px: float = 2.5, width_tol_px: float = 1.2,
                         min_rows: int = 12, max_gap_px: int = 300, f_px: float | None = None,
-                        cx_px: float | None = None, offset_px: float = 0.0) -> SideNear | None:
+                        cx_px: float | None = None, offset_px: float = 0.0, past_rows: int = 0) -> SideNear | None:
     """A steep parent side's disparity at a fork from its own crossings nearest the fork.
 
     A piece's fit leaves out the rows near its junction (the crotch's blob) and is carried to the
@@ -81,6 +81,10 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         The rectified focal length, the left view's principal-point column and ``cx_left - cx_right``:
         the right crossing's width is expected at :func:`perspective_width_ratio` times the left's
         (``SIDE_WIDTH_PERSPECTIVE``; without ``f_px`` and ``cx_px``, at the slopes' ratio alone).
+    past_rows : int, optional
+        Rows past the fork (on the far side from the span) read too, along the same carried tangent: where the
+        parent runs on past the fork, its crossings there put the fork between the line's rows
+        (:func:`side_through_fork`); 0: the rows from the fork to the span only.
 
     Returns
     -------
@@ -106,7 +110,7 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     views = (*tl, runs_l.width, runs_l.span_px, runs_l.centre_px, *tr, runs_r.width, runs_r.span_px, runs_r.centre_px)
     line = (int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
             float(tol_d_px), float(width_tol_px), int(min_rows), 3.5)
-    args = (*views, n_gap, *line)
+    args = (*views, n_gap + int(past_rows), *line)
     ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0)
     if ok and nearest > SIDE_GROWN_SHORT_PX:     # (stops short of the fork: the crotch's widened rows with them)
         grown = kernels_forks.side_near(*args, float(SIDE_GROWN_FRAC), float(SIDE_GROWN_PX), float(SIDE_GROWN_TOL_PX),
@@ -117,9 +121,55 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         # (no row past the span: a short span's fit is already a line through these rows)
         return None
     v = SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
-    if LONE_GAP_ROW_UNREAD and rests_on_lone_gap_row(v):
+    if LONE_GAP_ROW_UNREAD and not past_rows and rests_on_lone_gap_row(v):
         return span_rows_read(views, line, n_gap)
     return v
+
+
+# a lone steep parent side whose read stops short of the fork (or that is carried there unread) is read again with
+# the parent's crossings past the fork, on the far side from its span, as far as the other parent piece (without a
+# curve through the fork) reaches, at most THROUGH_MAX_ROWS: the fork then lies between the line's rows (seed 620
+# T1: a trunk side read 33 rows short, +0.63 px; docs/localize-forkp27.md)
+THROUGH_MAX_ROWS = 40
+THROUGH_SHORT_PX = 6.0
+
+
+def side_through_fork(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, past_rows: float,
+                      height_px: int, **kw) -> SideNear | None:
+    """A steep parent side read through the fork: :func:`side_disparity_near` with the parent's crossings up to
+    ``past_rows`` rows past the fork (at most ``THROUGH_MAX_ROWS``, inside the image's ``height_px`` rows) read
+    with those between the fork and the span, along the span's carried tangent.
+
+    Parameters
+    ----------
+    c : BranchCurve
+        The side's curve (steep; a flat one gives None).
+    runs_l, runs_r : Runs
+        Both views' row crossings.
+    t_fork : float
+        The fork's row.
+    past_rows : float
+        How far (rows) the parent runs on past the fork in the image (the other parent piece's reach).
+    height_px : int
+        The image's height (rows past it are not read).
+    **kw
+        :func:`side_disparity_near`'s other arguments (``f_px``, ``cx_px``, ``offset_px``).
+
+    Returns
+    -------
+    SideNear or None
+        The read (its ``nearest_px`` the kept row nearest the fork on either side), or None (as
+        :func:`side_disparity_near`; no row past the fork to read).
+    """
+    if not c.by_row or not math.isfinite(t_fork):
+        return None
+    lo, _ = c.t_range
+    # (the rows past the fork run away from the span: up the image when the span lies below the fork)
+    room = int(t_fork) if t_fork < lo else int(height_px - 1 - math.ceil(t_fork))
+    past = int(min(past_rows, THROUGH_MAX_ROWS, max(room - 1, 0)))
+    if past <= 0:
+        return None
+    return side_disparity_near(c, runs_l, runs_r, t_fork, past_rows=past, **kw)
 
 
 def span_rows_read(views: tuple, line: tuple, n_gap: int) -> SideNear | None:

@@ -18,8 +18,9 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
-from appliance.localize.forkdisp import (bent_sides_apply, flat_side_near, side_disparity_near, taper_radius,
-                                         turns_in_depth, weigh_bent_sides, weigh_sides)
+from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_side_near,
+                                         side_disparity_near, side_through_fork, taper_radius, turns_in_depth,
+                                         weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
@@ -258,6 +259,28 @@ ALONG_RIGHT_PX = 2.0
 # 1.92, 484 exact one false fork more (docs/localize-forkalong25.md)
 ALONG_CONFIRMS = False
 ALONG_NEAR_PX = 4.0
+
+# a fork that took its lone steep parent side's value (the other parent piece without a curve through the fork), the
+# side read more than forkdisp.THROUGH_SHORT_PX short of the fork or carried there unread, takes the side read again
+# with the parent's crossings past the fork as far as the other piece runs on (forkdisp.side_through_fork): the fork
+# between the line's rows, not past them (seed 620 T1, exact masks: a trunk side read 33 rows short, +0.63 px,
+# -4.6 mm; -0.17 px read through it). After every decision (which forks fork() reports is unchanged); the feature check
+# then withholds one correct fork of the fifteen sets (seed 751 T5, colour masks; docs/localize-forkp27.md)
+THROUGH_FORK = True
+THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
+                                # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
+# a fork on a flat parent (a side of it flat: its disparity from bark texture, ~0.2 px rms at 750-1500 mm) with a
+# steep child whose own row crossings, read as a parent side's (forkdisp.side_disparity_near), come within
+# FLAT_CHILD_READ_PX of the fork takes the mean of its disparity and that read: the child's rows clear of a flat
+# parent are at the fork's depth a few px from it (13 sets, 750-1500 mm, both masks: 59 such forks, rms 0.224 ->
+# 0.136 px, p95 0.448 -> 0.253 on paper; seed 378 T11, colour masks, -0.74 px, +6.6 mm -> +1.4 mm). Reads 10-12 px
+# off count no more (104 forks to 12 px: rms 0.218 -> 0.172; seed 458 T11 read 12 px off, +0.71 px, -1.6 -> -3.0 mm).
+# After every decision, as THROUGH_FORK. Off: on the fifteen sets it moves some forks the other way (484-515 exact
+# 1000-1250 mm 1.55 -> 1.66, 548-579 exact p95 1.77 -> 1.83) and the feature check then passes a fork 5.8 mm off
+# (676-707 colour max 2.20 -> 5.84), against 356-387 colour max 6.58 -> 3.16, 452-483 exact 4.22 -> 3.68
+# (docs/localize-forkp27.md)
+FLAT_CHILD_READ = False
+FLAT_CHILD_READ_PX = 10.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -625,6 +648,19 @@ class ForkPlacing:
                     and not vouched_by_span(self.curves[child].t_range, _t_at(self.curves[child], xy)))):
             # (a flat parent: d_out is set only there; the fork's disparity still the side's own, no rule took another)
             self.uvd[node][2] = lone_carried_median(d, float(at(child)), d_out)
+        if THROUGH_FORK and final and agree and outline is not None and len(parents) == 1 \
+                and self.curves[parents[0]].by_row and float(self.uvd[node][2]) == float(at(parents[0])):
+            # (after every decision, so which forks are reported is unchanged: the lone side's value replaced)
+            v = self._through_fork(parents[0], pb if parents[0] == pa else pa, xy, side_near.get(parents[0]))
+            if v is not None:
+                self.uvd[node][2] = v.d_px
+                side_near[parents[0]] = v
+        if FLAT_CHILD_READ and final and agree and outline is not None and parents and child_ok \
+                and self.curves[child].by_row and not all(self.curves[s].by_row for s in parents):
+            # (after every decision: a flat parent's fork and its steep child's own rows next to it, the mean)
+            v = self._child_read(child, xy)
+            if v is not None:
+                self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):
@@ -636,6 +672,37 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _child_read(self, child: int, xy: np.ndarray) -> "SideNear | None":
+        """A steep child's own disparity at the fork ``xy`` (2,) from its crossings nearest it, read as a parent side's
+        (:func:`forkdisp.side_disparity_near`: its rows clear of the crotch, as wide as its span's, and its span's
+        next to them, a line read at the fork's row), where its kept rows come within ``FLAT_CHILD_READ_PX`` of the
+        fork (``FLAT_CHILD_READ``); None otherwise."""
+        c = self.curves[child]
+        v = side_disparity_near(c, self.runs_l, self.runs_r, _t_at(c, xy), f_px=self.sm.f_px, cx_px=self.sm.cx_px,
+                                offset_px=self.sm.offset_px)
+        return v if v is not None and v.nearest_px <= FLAT_CHILD_READ_PX else None
+
+    def _through_fork(self, s: int, other: int, xy: np.ndarray, v0) -> "SideNear | None":
+        """A lone steep parent side ``s``'s read through the fork ``xy`` (2,) (``THROUGH_FORK``): where its own read
+        ``v0`` (a :class:`forkdisp.SideNear`, or None: carried unread) stops more than ``THROUGH_SHORT_PX`` short of
+        the fork, the parent's crossings past the fork, as far as the other parent piece ``other`` (no curve through
+        the fork) runs on in rows, read with its own (:func:`forkdisp.side_through_fork`); taken where its kept
+        rows come within ``SIDE_KNOWN_PX`` of the fork and nearer than ``v0``'s, moving the side's value (``v0``'s, or
+        its curve's) by at most ``THROUGH_MAX_MOVE_PX``. None: ``v0`` stands."""
+        c = self.curves[s]
+        t = _t_at(c, xy)
+        lo, hi = c.t_range
+        if lo - THROUGH_SHORT_PX < t < hi + THROUGH_SHORT_PX or (v0 is not None and v0.nearest_px <= THROUGH_SHORT_PX):
+            return None
+        rows = self.seg_points(other)[:, 1]
+        past = float(t - rows.min()) if t < lo else float(rows.max() - t)
+        v = side_through_fork(c, self.runs_l, self.runs_r, t, past, self.sm.left_mask.shape[0], f_px=self.sm.f_px,
+                              cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
+        if v is None or v.nearest_px > SIDE_KNOWN_PX or (v0 is not None and v.nearest_px >= v0.nearest_px):
+            return None
+        d0 = v0.d_px if v0 is not None else float(_d_at(c, float(xy[0]), float(xy[1])))
+        return v if abs(v.d_px - d0) <= THROUGH_MAX_MOVE_PX else None
 
     def _mean_sides(self, parents: list, xy: np.ndarray, side_near: dict) -> list:
         """The parent sides whose disparities at the fork ``xy`` (2,) enter its mean: both of two sides but a

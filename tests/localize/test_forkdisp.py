@@ -390,3 +390,43 @@ def test_a_lone_gap_row_is_told_by_its_distance_from_the_span():
     assert forkdisp.rests_on_lone_gap_row(lone)                     # 13 rows from the span's end
     assert not forkdisp.rests_on_lone_gap_row(forkdisp.SideNear(190.0, 15, 1, 20, 16.0, 0.2, 0.0))
     assert not forkdisp.rests_on_lone_gap_row(forkdisp.SideNear(190.0, 15, 3, 20, 6.8, 0.2, 0.0))
+
+
+def bent_d(v):                          # the parent bends in depth about the fork: 0.0002 px per row^2
+    return 40.0 + 0.01 * v + 0.0002 * (v - FORK_ROW) ** 2
+
+
+def test_a_lone_side_read_through_the_fork_puts_the_fork_between_its_rows():
+    # the child widens the rows within 15 of the fork by 8 px (left out): the plain read's rows lie on one side
+    # of the fork and its line, carried 15 rows, misses the parent's bend; the parent's crossings past the fork
+    # (up to 40 rows) put the fork between the line's rows
+    left = band(lambda v: 0.0 * v, child_px=8.0)
+    right = band(bent_d, child_px=8.0)
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    c = curve(0.0)
+    plain = side_disparity_near(c, runs_l, runs_r, FORK_ROW)
+    through = forkdisp.side_through_fork(c, runs_l, runs_r, FORK_ROW, 60.0, H)
+    assert plain is not None and through is not None
+    assert plain.nearest_px >= 15.0 and through.nearest_px >= 15.0      # (the crotch's rows left out on both sides)
+    e_plain, e_through = abs(plain.d_px - bent_d(FORK_ROW)), abs(through.d_px - bent_d(FORK_ROW))
+    assert e_plain >= 0.1
+    assert e_through <= 0.5 * e_plain
+    assert through.n_rows >= plain.n_rows + 20      # (THROUGH_MAX_ROWS = 40 past the fork, 15 of them the crotch's)
+    assert through.gap_px == plain.gap_px           # (the rows between the span and the fork, as before)
+
+
+def test_a_read_through_the_fork_needs_rows_past_it_inside_the_image():
+    runs_l, runs_r = find_runs(band(lambda v: 0.0 * v), soft=True), find_runs(band(d_axis), soft=True)
+    c = curve(0.0)
+    assert forkdisp.side_through_fork(c, runs_l, runs_r, FORK_ROW, 0.0, H) is None        # no piece past the fork
+    assert forkdisp.side_through_fork(c, runs_l, runs_r, 1.5, 40.0, H) is None            # the image's first row
+    flat = BranchCurve(0, False, c.t_range, c.s_poly, c.d_poly, 10.0, 101)
+    assert forkdisp.side_through_fork(flat, runs_l, runs_r, FORK_ROW, 40.0, H) is None
+    # the parent ends at the fork in both views: nothing past it, the read is the plain one
+    left, right = band(lambda v: 0.0 * v), band(d_axis)
+    left[:int(FORK_ROW)] = 0
+    right[:int(FORK_ROW)] = 0
+    ends = [find_runs(m, soft=True) for m in (left, right)]
+    through = forkdisp.side_through_fork(c, *ends, FORK_ROW, 40.0, H)
+    plain = side_disparity_near(c, *ends, FORK_ROW)
+    assert through is not None and plain is not None and through.n_rows == plain.n_rows

@@ -82,3 +82,76 @@ def test_a_short_flat_side_turning_in_depth_leaves_the_mean_of_the_sides(slope, 
                                8.6, 8)
     assert fp._mean_sides([1, 2], xy, {}) == [1, 2]
     assert fp._mean_sides([2], xy, {}) == [2]
+
+
+def _bent_pair(h: int = 400, w: int = 320, fork_row: float = 150.0, above: int = 3, below: int = 15):
+    """A steep parent (half width 10 px, centre column 150 + 0.1 v) as coverage in both views, its disparity
+    40 + 0.01 v + 0.0002 (v - fork_row)^2 (bending in depth about the fork), the rows from ``above`` above the fork to
+    ``below`` below it widened 8 px on the left in both views (a child leaving down there, or the parent's outline
+    joining a child's): the two views' runs and the disparity."""
+    from appliance.localize.edges import find_runs
+    v = np.arange(h, dtype=float)[:, None]
+    u = np.arange(w, dtype=float)[None, :]
+    d = lambda r: 40.0 + 0.01 * r + 0.0002 * (r - fork_row) ** 2
+    runs = []
+    for shift in (0.0 * v, d(v)):
+        c = 150.0 + 0.1 * v - shift
+        lo = c - 10.0 - np.where((v >= fork_row - above) & (v <= fork_row + below), 8.0, 0.0)
+        cov = np.clip(np.minimum(u - lo, c + 10.0 - u) + 0.5, 0.0, 1.0)
+        runs.append(find_runs(np.rint(255 * cov).astype(np.uint8), soft=True))
+    return runs, d
+
+
+@pytest.mark.parametrize("other_rows", [0.0, 60.0])
+def test_a_lone_side_short_of_the_fork_is_read_through_it_where_the_parent_runs_on(monkeypatch, other_rows):
+    # a lone steep side fitted on rows 200-300, its own read stopping 15 rows short of the fork at row 150 (the
+    # crotch's widened rows left out), the parent bending in depth there: where the other parent piece (no curve)
+    # runs on 60 rows past the fork, the side is read through it, its crossings 4+ rows past it too (forkdisp.
+    # side_through_fork); a piece ending at the fork leaves the side's own read
+    from types import SimpleNamespace
+
+    from appliance.localize import forkends
+    from appliance.localize.forkdisp import side_disparity_near
+    (runs_l, runs_r), d = _bent_pair()
+    t = np.arange(200.0, 301.0)
+    c = BranchCurve(1, True, (200.0, 300.0), Poly.fit(t, 150.0 + 0.1 * t, 1), Poly.fit(t, d(t), 1), 10.0, len(t))
+    fp = forkends.ForkPlacing.__new__(forkends.ForkPlacing)
+    fp.curves, fp.runs_l, fp.runs_r = {1: c}, runs_l, runs_r
+    fp.sm = SimpleNamespace(left_mask=np.zeros((400, 320), np.uint8), f_px=1450.0, cx_px=160.0, offset_px=0.0)
+    fp.seg_points = lambda s: np.array([[135.0, 150.0 - other_rows], [150.0, 150.0]])
+    xy = np.array([165.0, 150.0])
+    v0 = side_disparity_near(c, runs_l, runs_r, 150.0, f_px=1450.0, cx_px=160.0, offset_px=0.0)
+    assert v0 is not None and v0.nearest_px >= 15.0 and abs(v0.d_px - d(150.0)) >= 0.1
+    v = fp._through_fork(1, 2, xy, v0)
+    if other_rows == 0.0:
+        assert v is None
+        return
+    assert v is not None and abs(v.d_px - d(150.0)) <= 0.5 * abs(v0.d_px - d(150.0))
+    # ... but not where it would move the side's value by more than THROUGH_MAX_MOVE_PX (another branch's rows)
+    monkeypatch.setattr(forkends, "THROUGH_MAX_MOVE_PX", 0.5 * abs(v.d_px - v0.d_px))
+    assert fp._through_fork(1, 2, xy, v0) is None
+    # ... nor where the side's own read reaches the fork
+    assert fp._through_fork(1, 2, xy, v0.__class__(v0.d_px, v0.n_rows, v0.n_gap_rows, v0.gap_px, 2.0, 0.1, 0.0)) \
+        is None
+
+
+@pytest.mark.parametrize("crotch_rows", [4, 15])
+def test_a_steep_childs_own_rows_next_to_the_fork_are_read_where_they_come_near_it(crotch_rows):
+    # a steep child fitted on rows 200-300, its fork at row 150 on a flat parent whose outline widens the child's
+    # crossings on the rows within `crotch_rows` of the fork: its own rows clear of them, read as a parent side's,
+    # give its disparity at the fork where they come within FLAT_CHILD_READ_PX (12) of it; from further, none
+    from types import SimpleNamespace
+
+    from appliance.localize import forkends
+    (runs_l, runs_r), d = _bent_pair(above=crotch_rows, below=crotch_rows)
+    t = np.arange(200.0, 301.0)
+    c = BranchCurve(1, True, (200.0, 300.0), Poly.fit(t, 150.0 + 0.1 * t, 1), Poly.fit(t, d(t), 1), 10.0, len(t))
+    fp = forkends.ForkPlacing.__new__(forkends.ForkPlacing)
+    fp.curves, fp.runs_l, fp.runs_r = {1: c}, runs_l, runs_r
+    fp.sm = SimpleNamespace(f_px=1450.0, cx_px=160.0, offset_px=0.0)
+    v = fp._child_read(1, np.array([165.0, 150.0]))
+    if crotch_rows > forkends.FLAT_CHILD_READ_PX:
+        assert v is None
+    else:
+        assert v is not None and v.nearest_px <= crotch_rows + 1.0
+        assert abs(v.d_px - d(150.0)) < abs(float(c.d_at(np.array([150.0]))[0]) - d(150.0))   # nearer than its fit

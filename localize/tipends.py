@@ -59,6 +59,16 @@ CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that medi
 OWN_CAP_ROWS = 4
 OWN_CAP_PX = 0.6
 
+# failing that, a steep tip's cap at least this many of whose rows with an edge on the cap (one or both: a piece
+# oblique to the rows shows one edge of the cap per row) lie within OWN_EDGE_PX of those rows' median, this share of
+# them at least, has their median as its depth: the cap's outline seen alike in both views outvotes a prior carried
+# along a piece mismatched in the right view (seed 881's tip 13, exact masks: a piece 30 deg off the rows crossing a
+# branch behind it in the right view, matched 256 -> 286 px over 60 px; 18 of its 19 edge rows within 1 px of 276.81,
+# the truth 276.84; the prior 286.17 stood, -20.6 mm). A single edge is noisier than a whole row's middle: 1 px
+OWN_EDGE_ROWS = 8
+OWN_EDGE_PX = 1.0
+OWN_EDGE_SHARE = 0.8
+
 # a piece with a tip at both ends whose two end edges lie less than this many piece radii apart is a
 # blob (a branch's end seen nearly end-on): each end's outline is the silhouette of the branch behind
 # it, not a cap at the tip's depth; both are withheld (seed 327's tip 11, exact masks: a 16-row stub of
@@ -409,7 +419,8 @@ class TipPlacing:
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
                                                h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                               OWN_CAP_ROWS, OWN_CAP_PX)
+                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS,
+                                               OWN_EDGE_PX, OWN_EDGE_SHARE)
         if status != 1:
             return None if status == 0 else float(d)
         return self._cap_slope_corrected(c, float(d), t_edge, uv_edge, out, sign, r)

@@ -64,7 +64,9 @@ OWN_CAP_PX = 0.6
 # them at least, has their median as its depth: the cap's outline seen alike in both views outvotes a prior carried
 # along a piece mismatched in the right view (seed 881's tip 13, exact masks: a piece 30 deg off the rows crossing a
 # branch behind it in the right view, matched 256 -> 286 px over 60 px; 18 of its 19 edge rows within 1 px of 276.81,
-# the truth 276.84; the prior 286.17 stood, -20.6 mm). A single edge is noisier than a whole row's middle: 1 px
+# the truth 276.84; the prior 286.17 stood, -20.6 mm). A single edge is noisier than a whole row's middle: 1 px.
+# Not where the right view runs on past the cap into something wider (WIDER_RIGHT_NEEDS_CAP's case: the rows' edges
+# may be that thing's; seed 464, exact masks: a trunk's straight side, 13 rows within 0.4 px, no tip there)
 OWN_EDGE_ROWS = 8
 OWN_EDGE_PX = 1.0
 OWN_EDGE_SHARE = 0.8
@@ -81,6 +83,14 @@ BLOB_STUB_RADII = 2.8
 # the tip reads it rather than the piece's level (tipbark.bark_backs_run_end; seed 686's tip 15, colour masks: the
 # right cap touching an apple on 3 of 13 rows, the level 259.13 px, the run end 264.94, the truth 264.50)
 TIP_BARK = True
+
+# an end whose walk out along its piece's centre line never leaves the left mask within its reach (3 radii and more:
+# walks.Walks._walk_out) is no tip: the branch runs on past where its skeleton piece ended, and a cap placed one
+# radius back from the walk's last sample is a point on the branch's body (seed 890, exact masks: a trunk's skeleton
+# piece ending on row 188 with the trunk running on down the mask, its end walked the whole reach, 81 px; the point
+# placed lay 3 px from the true tip of a branch hidden behind the trunk: scored as that tip, -18.95 mm; on 868-899
+# the rule withheld 4 false tips besides)
+TIP_MASK_RUNS_ON = True
 
 # a steep tip whose right view runs on past its cap into something wider (the end-shift check waived:
 # TipPlacing._wider_on_right) and none of whose cap rows reads a depth (TipPlacing._cap_disparity None) is hidden:
@@ -227,6 +237,9 @@ class TipPlacing:
         u, v = ex - ox * b, ey - oy * b
         self.uvd[node] = np.array([u, v, c.d_at(v if c.by_row else u)[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
+        if TIP_MASK_RUNS_ON and self._walk_runs_on(c, node):
+            self.hidden.add(int(node))          # the mask runs on past the walk's reach: no end seen (the piece's
+            return None                         # end stays where placed, on the branch)
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
@@ -279,7 +292,8 @@ class TipPlacing:
                 self.uvd[node] = uvd
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
-            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
+            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r,
+                                        own_edges=not runs_on_right)
             if d_cap is not None and np.isnan(d_cap):
                 self.hidden.add(int(node))
                 return None
@@ -385,7 +399,7 @@ class TipPlacing:
         return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
 
     def _cap_disparity(self, c: BranchCurve, t_edge: float, uv_edge: np.ndarray, out: np.ndarray, sign: float,
-                       d_prior: float, r: float) -> float | None:
+                       d_prior: float, r: float, own_edges: bool = True) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.
 
         Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
@@ -403,7 +417,9 @@ class TipPlacing:
         of ``d_prior``; with fewer than 3 such rows, the median of the rows with both edges on the
         cap where they agree among themselves (``OWN_CAP_ROWS``, ``OWN_CAP_PX``: the cap's own depth,
         off a prior carried along a short piece inclined in depth); else None. ``uv_edge``, ``out``: where the centre line
-        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
+        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s). Failing those, the
+        cap's edge rows agreeing among themselves (``OWN_EDGE_ROWS``) where ``own_edges`` (not where the right view
+        runs on past the cap into something wider: its rows' edges may be that thing's).
         """
         sm = self.sm
         h, w = sm.left_mask.shape
@@ -419,7 +435,7 @@ class TipPlacing:
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
                                                h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS,
+                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS if own_edges else 0,
                                                OWN_EDGE_PX, OWN_EDGE_SHARE)
         if status != 1:
             return None if status == 0 else float(d)

@@ -333,9 +333,14 @@ def test_an_end_whose_walk_never_leaves_the_mask_is_no_tip():
                           incident=[[0], [0]], curves={0: c}, hidden=set(), uvd={}, radius={})
         return p
 
-    ends, runs_on = placer(170), placer(390)
+    ends, runs_on, cap_past_reach = placer(170), placer(390), placer(174)
     assert not EndPlacer._walk_runs_on(ends, c, 0)
     assert EndPlacer._walk_runs_on(runs_on, c, 0)
+    # a cap whose end lies just past the walk's reach (28 rows: 3 r + 3 graph px + 4; seed 554's tip 17, exact masks):
+    # the walk ends on the cap, but the mask ends within a radius past it: a tip
+    t_cap, _ = EndPlacer._walk_out(cap_past_reach, c, 0)
+    assert t_cap == EndPlacer._walk_t(cap_past_reach._walk_cache[0, id(c)][1], 1.0, 111, False)   # (no crossing)
+    assert not EndPlacer._walk_runs_on(cap_past_reach, c, 0)
     assert abs(EndPlacer._walk_out(ends, c, 0)[0] - 170 - r) <= 1.0        # (the rod's cap: its last row + r)
     assert EndPlacer._tip_place(runs_on, 0) is None and runs_on.hidden == {0}
     assert abs(runs_on.uvd[0][1] - (150.0 + 3 * r + 6 + 4 - r)) <= 1.0     # (the piece's end: the walk's reach, less r)

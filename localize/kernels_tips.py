@@ -279,7 +279,7 @@ def _split_rows(mid, e_lo, e_hi, n, d_prior, split_px, out):
 
 @numba.njit(**_JIT)
 def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_prior, f_px, h, w,
-                  cap_edge_back, split_px, split_lo, split_hi, split_share, own_rows, own_px, edge_rows, edge_px, edge_share):
+                  cap_edge_back, split_px, split_lo, split_hi, split_share, own_rows, own_px, edge_rows, edge_px, edge_share, edge_width):
     """``ends.EndPlacer._cap_disparity`` from its candidate rows on: the disparity of a steep tip from
     the rows across its round cap.
 
@@ -308,6 +308,9 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         ``tipends.OWN_EDGE_ROWS``, ``OWN_EDGE_PX`` and ``OWN_EDGE_SHARE``: failing that, the rows with an edge on
         the cap (one or both) give the median of those within ``edge_px`` of all their median where at least
         ``edge_rows`` rows do so and they are at least ``edge_share`` of them (0 rows: never).
+    edge_width : float
+        ``tipends.OWN_EDGE_WIDTH``: only rows both of whose left edges lie within this many radii (and 1 px) of
+        the centre line through the cap's centre count there (a row whose run is the piece's, not something wider).
 
     Returns
     -------
@@ -381,7 +384,10 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         else:
             dk = e_lo[k] if cap_lo[k] else e_hi[k]
         dk = dk * scale
-        if cap_lo[k] or cap_hi[k]:
+        # (the row's left edges' distances from the centre line: (e - P) . (-oy, ox))
+        dv = rw[k] - py
+        if (cap_lo[k] or cap_hi[k]) and abs(dv * ox - (lo_l[k] - px) * oy) <= edge_width * r + 1.0 \
+                and abs(dv * ox - (hi_l[k] - px) * oy) <= edge_width * r + 1.0:
             d_edge[n_edge] = dk
             n_edge += 1
         if (cap_lo[k] or cap_hi[k]) and abs(dk - d_prior) <= 2.5:
@@ -544,7 +550,7 @@ def warm_up() -> None:
     rt = (i, i, i, f, f, i, f, f, 4)
     valid = _readonly(np.zeros((0, 0), np.bool_))
     cap_disparity(np.zeros(1, np.int64), np.zeros(1), rt, rt, valid, valid, *(0.0,) * 6, 1.0, 4, 4,
-                  0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6, 8, 1.0, 0.8)
+                  0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6, 8, 1.0, 0.8, 1.5)
     end_outline_agrees(rt, rt, 0.0, 0.0, 1.0, 0.0, 1.0, 4)
     end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0, True)
 

@@ -65,11 +65,14 @@ OWN_CAP_PX = 0.6
 # along a piece mismatched in the right view (seed 881's tip 13, exact masks: a piece 30 deg off the rows crossing a
 # branch behind it in the right view, matched 256 -> 286 px over 60 px; 18 of its 19 edge rows within 1 px of 276.81,
 # the truth 276.84; the prior 286.17 stood, -20.6 mm). A single edge is noisier than a whole row's middle: 1 px.
-# Not where the right view runs on past the cap into something wider (WIDER_RIGHT_NEEDS_CAP's case: the rows' edges
-# may be that thing's; seed 464, exact masks: a trunk's straight side, 13 rows within 0.4 px, no tip there)
+# Only rows whose two left edges lie within OWN_EDGE_WIDTH radii (and 1 px) of the centre line count: a row whose run
+# is something wider than the piece reads that thing's outline (seed 464, exact masks: a piece ending inside a trunk
+# twice its width, its rows' one side the trunk's straight side, 13 rows within 0.4 px of the trunk's depth, no tip
+# there: it was reported; 881 T13's rows, 30 deg off the piece, lie within 1.13 radii)
 OWN_EDGE_ROWS = 8
 OWN_EDGE_PX = 1.0
 OWN_EDGE_SHARE = 0.8
+OWN_EDGE_WIDTH = 1.5
 
 # a piece with a tip at both ends whose two end edges lie less than this many piece radii apart is a
 # blob (a branch's end seen nearly end-on): each end's outline is the silhouette of the branch behind
@@ -292,8 +295,7 @@ class TipPlacing:
                 self.uvd[node] = uvd
             return None
         if c.by_row:        # the cap's own rows, rather than the fitted line carried to the tip
-            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r,
-                                        own_edges=not runs_on_right)
+            d_cap = self._cap_disparity(c, t_edge, uv_edge, out, sign, self.uvd[node][2], r)
             if d_cap is not None and np.isnan(d_cap):
                 self.hidden.add(int(node))
                 return None
@@ -399,7 +401,7 @@ class TipPlacing:
         return 1.0 + float(np.sqrt(r * r - 0.25 * chord * chord))
 
     def _cap_disparity(self, c: BranchCurve, t_edge: float, uv_edge: np.ndarray, out: np.ndarray, sign: float,
-                       d_prior: float, r: float, own_edges: bool = True) -> float | None:
+                       d_prior: float, r: float) -> float | None:
         """Disparity of a steep piece's tip from the rows across its round cap.
 
         Each rectified row cuts the cap (a sphere around the centre ``P``, one radius back from
@@ -418,8 +420,7 @@ class TipPlacing:
         cap where they agree among themselves (``OWN_CAP_ROWS``, ``OWN_CAP_PX``: the cap's own depth,
         off a prior carried along a short piece inclined in depth); else None. ``uv_edge``, ``out``: where the centre line
         leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s). Failing those, the
-        cap's edge rows agreeing among themselves (``OWN_EDGE_ROWS``) where ``own_edges`` (not where the right view
-        runs on past the cap into something wider: its rows' edges may be that thing's).
+        median of the cap's edge rows agreeing among themselves (``OWN_EDGE_ROWS``: rows of the piece's own width).
         """
         sm = self.sm
         h, w = sm.left_mask.shape
@@ -435,8 +436,8 @@ class TipPlacing:
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
                                                h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS if own_edges else 0,
-                                               OWN_EDGE_PX, OWN_EDGE_SHARE)
+                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                               OWN_EDGE_WIDTH)
         if status != 1:
             return None if status == 0 else float(d)
         return self._cap_slope_corrected(c, float(d), t_edge, uv_edge, out, sign, r)

@@ -13,7 +13,8 @@ from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_ROWS_OUTVOTE, END_RUN_CUT_PX, OWN_CAP_PX,
-                                       OWN_CAP_ROWS, OWN_EDGE_PX, OWN_EDGE_ROWS, OWN_EDGE_SHARE, cap_row_scale)
+                                       OWN_CAP_ROWS, OWN_EDGE_PX, OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH,
+                                       cap_row_scale)
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
                                      split_row_disparity)
 
@@ -135,7 +136,8 @@ def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r
     scale = cap_row_scale(rows, p[1], 0.5 * (h - 1), F_PX)
     d = d * scale
     own = (0.5 * (d_lo + d_hi) * scale)[both]               # (the rows' middles: none split below)
-    edge = d[cap_lo | cap_hi]
+    off = lambda e: np.abs(dv * out[0] - (e - p[0]) * out[1])           # (a left edge's distance from the centre line)
+    edge = d[(cap_lo | cap_hi) & (off(lo_l) <= OWN_EDGE_WIDTH * r + 1.0) & (off(hi_l) <= OWN_EDGE_WIDTH * r + 1.0)]
     d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
     if len(d) < 3:
         if len(own) >= OWN_CAP_ROWS and not (np.abs(e_lo[both] - e_hi[both]) > tips.SPLIT_ROW_PX).any():
@@ -342,7 +344,7 @@ def test_cap_disparity_kernel_is_the_numpy_rows_at_rounding_level():
                                                          out[1], r, prior, F_PX, h, w, CAP_EDGE_BACK,
                                                          tips.SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
                                                          OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX,
-                                                         OWN_EDGE_SHARE)
+                                                         OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
                 if want is None:
                     assert status == 0
                     n_none += 1

@@ -191,7 +191,7 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
     from appliance.localize import kernels_tips
     from appliance.localize.edges import find_runs
     from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS, OWN_EDGE_PX,
-                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE)
+                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
     from appliance.localize.tips import CAP_EDGE_BACK, SPLIT_ROW_PX
 
     d, r, f_px = 150.0, 6.0, 3000.0
@@ -211,7 +211,7 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
         rr = kernels_tips.runs_tables(find_runs(mask_r, soft=True))
         return kernels_tips.cap_disparity(rows, s, rl, rr, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 3.0,
                                           f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                          own_rows, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE)
+                                          own_rows, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
 
     status, got = read(right, OWN_CAP_ROWS)
     assert status == 1 and abs(got - d) <= 0.1
@@ -220,7 +220,8 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
     status, got = kernels_tips.cap_disparity(rows, s, rl, kernels_tips.runs_tables(find_runs(right, soft=True)), valid,
                                              valid, tip[0], tip[1], out[0], out[1], r, d + 1.0, f_px, h, w,
                                              CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                             OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE)
+                                             OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                             OWN_EDGE_WIDTH)
     assert status == 1 and abs(got - d) <= 0.1               # within the window: as before
 
 
@@ -234,7 +235,7 @@ def test_an_oblique_caps_edge_rows_agreeing_among_themselves_outvote_a_far_prior
     from appliance.localize import kernels_tips
     from appliance.localize.edges import find_runs
     from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS, OWN_EDGE_PX,
-                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE)
+                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
     from appliance.localize.tips import CAP_EDGE_BACK, SPLIT_ROW_PX
 
     d, r, f_px = 150.0, 10.0, 3000.0
@@ -256,7 +257,7 @@ def test_an_oblique_caps_edge_rows_agreeing_among_themselves_outvote_a_far_prior
         rr = kernels_tips.runs_tables(find_runs(mask_r, soft=True))
         return kernels_tips.cap_disparity(rows, s, rl, rr, valid, valid, tip[0], tip[1], out[0], out[1], r, d_prior,
                                           f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                          OWN_CAP_ROWS, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE)
+                                          OWN_CAP_ROWS, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
 
     status, got = read(right, OWN_EDGE_ROWS)
     assert status == 1 and abs(got - d) <= 0.3
@@ -265,22 +266,22 @@ def test_an_oblique_caps_edge_rows_agreeing_among_themselves_outvote_a_far_prior
     status, got = read(right, 0, d + 1.0)                      # within the window: as before, the rule aside
     assert status == 1 and abs(got - d) <= 0.3
 
-    # the placer's reading (TipPlacing._cap_disparity): the rule where the right view ends where the left does, not
-    # where it runs on past the cap into something wider (own_edges False: its rows' edges may be that thing's)
-    from types import SimpleNamespace
-
-    from appliance.localize.curves import BranchCurve, Poly
-    from appliance.localize.ends import EndPlacer
-    p = EndPlacer.__new__(EndPlacer)
-    p.__dict__.update(sm=SimpleNamespace(left_mask=left, right_mask=right, valid_left=None, valid_right=None, f_px=f_px),
-                      runs_l=find_runs(left, soft=True), runs_r=find_runs(right, soft=True))
-    t = np.arange(20.0, 61.0)
-    c = BranchCurve(0, True, (20.0, 60.0), Poly.fit(t, tip[0] + (t - tip[1]) * out[0] / out[1], 1), Poly.constant(d + 9.0),
-                    r, 40)
-    uv_edge = tip + r * out
-    got = EndPlacer._cap_disparity(p, c, float(uv_edge[1]), uv_edge, out, 1.0, d + 9.0, r)
-    assert got is not None and abs(got - d) <= 0.3
-    assert EndPlacer._cap_disparity(p, c, float(uv_edge[1]), uv_edge, out, 1.0, d + 9.0, r, own_edges=False) is None
+    # a piece ending inside something twice its width, alike in both views (seed 464: a piece inside a trunk): its
+    # rows' edges, one side's straight and agreeing among themselves, are that thing's outline, not the cap's: none
+    wide_l, wide_r = left.copy(), right.copy()
+    for img, shift in ((wide_l, 0.0), (wide_r, d)):
+        cv2.rectangle(img, (int(tip[0] - shift - 3 * r), int(tip[1] - 2 * r)), (int(tip[0] - shift + 3 * r), int(tip[1] + 4)),
+                      255, -1)
+    rl_w = kernels_tips.runs_tables(find_runs(wide_l, soft=True))
+    rr_w = kernels_tips.runs_tables(find_runs(wide_r, soft=True))
+    status, _ = kernels_tips.cap_disparity(rows, s, rl_w, rr_w, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 9.0,
+                                           f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                           OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE, 100.0)
+    assert status == 1                                        # (without the width's bound its edges gave a depth)
+    assert kernels_tips.cap_disparity(rows, s, rl_w, rr_w, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 9.0,
+                                      f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                      OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                      OWN_EDGE_WIDTH)[0] == 0
 
 
 @pytest.mark.parametrize("rule", [True, False])

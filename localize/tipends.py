@@ -88,11 +88,13 @@ BLOB_STUB_RADII = 2.8
 TIP_BARK = True
 
 # an end whose walk out along its piece's centre line never leaves the left mask within its reach (3 radii and more:
-# walks.Walks._walk_out) is no tip: the branch runs on past where its skeleton piece ended, and a cap placed one
-# radius back from the walk's last sample is a point on the branch's body (seed 890, exact masks: a trunk's skeleton
-# piece ending on row 188 with the trunk running on down the mask, its end walked the whole reach, 81 px; the point
-# placed lay 3 px from the true tip of a branch hidden behind the trunk: scored as that tip, -18.95 mm; on 868-899
-# the rule withheld 4 false tips besides)
+# walks.Walks._walk_out), the mask running on a radius and 1 px further (walks.Walks._walk_runs_on), is no tip: the
+# branch runs on past where its skeleton piece ended, and a cap placed one radius back from the walk's last sample is
+# a point on the branch's body (seed 890, exact masks: a trunk's skeleton piece ending on row 188 with the trunk
+# running on down the mask, its end walked the whole reach, 81 px; the point placed lay 3 px from the true tip of a
+# branch hidden behind the trunk: scored as that tip, -18.95 mm). It withheld 4 more false tips on seeds 868-899 and
+# 7 / 11 (exact / colour masks) on the fifteen sets before them, no true one; without the further radius it hid seed
+# 554's tip 17 (exact masks), whose cap ended half a pixel past the walk's reach
 TIP_MASK_RUNS_ON = True
 
 # a steep tip whose right view runs on past its cap into something wider (the end-shift check waived:

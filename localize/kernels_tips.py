@@ -279,7 +279,7 @@ def _split_rows(mid, e_lo, e_hi, n, d_prior, split_px, out):
 
 @numba.njit(**_JIT)
 def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_prior, f_px, h, w,
-                  cap_edge_back, split_px, split_lo, split_hi, split_share, own_rows, own_px):
+                  cap_edge_back, split_px, split_lo, split_hi, split_share, own_rows, own_px, edge_rows, edge_px, edge_share, edge_width):
     """``ends.EndPlacer._cap_disparity`` from its candidate rows on: the disparity of a steep tip from
     the rows across its round cap.
 
@@ -304,6 +304,13 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         of ``d_prior`` still gives its rows' median where at least ``own_rows`` rows have both edges on
         the cap, none of them split, and all of them lie within ``own_px`` of their median (0 rows:
         never).
+    edge_rows, edge_px, edge_share : int, float, float
+        ``tipends.OWN_EDGE_ROWS``, ``OWN_EDGE_PX`` and ``OWN_EDGE_SHARE``: failing that, the rows with an edge on
+        the cap (one or both) give the median of those within ``edge_px`` of all their median where at least
+        ``edge_rows`` rows do so and they are at least ``edge_share`` of them (0 rows: never).
+    edge_width : float
+        ``tipends.OWN_EDGE_WIDTH``: only rows both of whose left edges lie within this many radii (and 1 px) of
+        the centre line through the cap's centre count there (a row whose run is the piece's, not something wider).
 
     Returns
     -------
@@ -361,8 +368,8 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         if split_lo < m <= split_hi and n_alike / n_b >= split_share:
             return 2, np.nan
     v_c = (py - cy) / f_px
-    d, d_own = np.empty(n), np.empty(n)
-    n_d, j, n_own, n_own_split = 0, 0, 0, 0
+    d, d_own, d_edge = np.empty(n), np.empty(n), np.empty(n)
+    n_d, j, n_own, n_own_split, n_edge = 0, 0, 0, 0, 0
     for k in range(n):
         v = (rw[k] - cy) / f_px                     # (ends.cap_row_scale)
         scale = 1.0 - v * (v - v_c) / (1.0 + v * v)
@@ -377,19 +384,38 @@ def cap_disparity(rows, s_px, rl, rr, valid_l, valid_r, px, py, ox, oy, r, d_pri
         else:
             dk = e_lo[k] if cap_lo[k] else e_hi[k]
         dk = dk * scale
+        # (the row's left edges' distances from the centre line: (e - P) . (-oy, ox))
+        dv = rw[k] - py
+        if (cap_lo[k] or cap_hi[k]) and abs(dv * ox - (lo_l[k] - px) * oy) <= edge_width * r + 1.0 \
+                and abs(dv * ox - (hi_l[k] - px) * oy) <= edge_width * r + 1.0:
+            d_edge[n_edge] = dk
+            n_edge += 1
         if (cap_lo[k] or cap_hi[k]) and abs(dk - d_prior) <= 2.5:
             d[n_d] = dk
             n_d += 1
     if n_d >= 3:
         return 1, _median(d[:n_d])
     # the cap's own depth (tipends.OWN_CAP_ROWS): its whole rows agree among themselves, not with the prior
-    if own_rows <= 0 or n_own < own_rows or n_own_split > 0:
+    if own_rows > 0 and n_own >= own_rows and n_own_split == 0:
+        m = _median(d_own[:n_own])
+        ok = True
+        for k in range(n_own):
+            if not abs(d_own[k] - m) <= own_px:
+                ok = False
+        if ok:
+            return 1, m
+    # ... or its edge rows, most of them alike (tipends.OWN_EDGE_ROWS)
+    if edge_rows <= 0 or n_edge < edge_rows:
         return 0, 0.0
-    m = _median(d_own[:n_own])
-    for k in range(n_own):
-        if not abs(d_own[k] - m) <= own_px:
-            return 0, 0.0
-    return 1, m
+    m = _median(d_edge[:n_edge])
+    n_in = 0
+    for k in range(n_edge):
+        if abs(d_edge[k] - m) <= edge_px:
+            d[n_in] = d_edge[k]
+            n_in += 1
+    if n_in < edge_rows or n_in < edge_share * n_edge:
+        return 0, 0.0
+    return 1, _median(d[:n_in])
 
 
 @numba.njit(**_JIT)
@@ -524,7 +550,7 @@ def warm_up() -> None:
     rt = (i, i, i, f, f, i, f, f, 4)
     valid = _readonly(np.zeros((0, 0), np.bool_))
     cap_disparity(np.zeros(1, np.int64), np.zeros(1), rt, rt, valid, valid, *(0.0,) * 6, 1.0, 4, 4,
-                  0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6)
+                  0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6, 8, 1.0, 0.8, 1.5)
     end_outline_agrees(rt, rt, 0.0, 0.0, 1.0, 0.0, 1.0, 4)
     end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0, True)
 

@@ -59,6 +59,21 @@ CAP_SPLIT_SHARE = 0.7                    # (of the rows within 1 px of that medi
 OWN_CAP_ROWS = 4
 OWN_CAP_PX = 0.6
 
+# failing that, a steep tip's cap at least this many of whose rows with an edge on the cap (one or both: a piece
+# oblique to the rows shows one edge of the cap per row) lie within OWN_EDGE_PX of those rows' median, this share of
+# them at least, has their median as its depth: the cap's outline seen alike in both views outvotes a prior carried
+# along a piece mismatched in the right view (seed 881's tip 13, exact masks: a piece 30 deg off the rows crossing a
+# branch behind it in the right view, matched 256 -> 286 px over 60 px; 18 of its 19 edge rows within 1 px of 276.81,
+# the truth 276.84; the prior 286.17 stood, -20.6 mm). A single edge is noisier than a whole row's middle: 1 px.
+# Only rows whose two left edges lie within OWN_EDGE_WIDTH radii (and 1 px) of the centre line count: a row whose run
+# is something wider than the piece reads that thing's outline (seed 464, exact masks: a piece ending inside a trunk
+# twice its width, its rows' one side the trunk's straight side, 13 rows within 0.4 px of the trunk's depth, no tip
+# there: it was reported; 881 T13's rows, 30 deg off the piece, lie within 1.13 radii)
+OWN_EDGE_ROWS = 8
+OWN_EDGE_PX = 1.0
+OWN_EDGE_SHARE = 0.8
+OWN_EDGE_WIDTH = 1.5
+
 # a piece with a tip at both ends whose two end edges lie less than this many piece radii apart is a
 # blob (a branch's end seen nearly end-on): each end's outline is the silhouette of the branch behind
 # it, not a cap at the tip's depth; both are withheld (seed 327's tip 11, exact masks: a 16-row stub of
@@ -71,6 +86,16 @@ BLOB_STUB_RADII = 2.8
 # the tip reads it rather than the piece's level (tipbark.bark_backs_run_end; seed 686's tip 15, colour masks: the
 # right cap touching an apple on 3 of 13 rows, the level 259.13 px, the run end 264.94, the truth 264.50)
 TIP_BARK = True
+
+# an end whose walk out along its piece's centre line never leaves the left mask within its reach (3 radii and more:
+# walks.Walks._walk_out), the mask running on a radius and 1 px further (walks.Walks._walk_runs_on), is no tip: the
+# branch runs on past where its skeleton piece ended, and a cap placed one radius back from the walk's last sample is
+# a point on the branch's body (seed 890, exact masks: a trunk's skeleton piece ending on row 188 with the trunk
+# running on down the mask, its end walked the whole reach, 81 px; the point placed lay 3 px from the true tip of a
+# branch hidden behind the trunk: scored as that tip, -18.95 mm). It withheld 4 more false tips on seeds 868-899 and
+# 7 / 11 (exact / colour masks) on the fifteen sets before them, no true one; without the further radius it hid seed
+# 554's tip 17 (exact masks), whose cap ended half a pixel past the walk's reach
+TIP_MASK_RUNS_ON = True
 
 # a steep tip whose right view runs on past its cap into something wider (the end-shift check waived:
 # TipPlacing._wider_on_right) and none of whose cap rows reads a depth (TipPlacing._cap_disparity None) is hidden:
@@ -217,6 +242,9 @@ class TipPlacing:
         u, v = ex - ox * b, ey - oy * b
         self.uvd[node] = np.array([u, v, c.d_at(v if c.by_row else u)[0]])   # (c.t_of's t)
         self.radius[node] = c.radius_px
+        if TIP_MASK_RUNS_ON and self._walk_runs_on(c, node):
+            self.hidden.add(int(node))          # the mask runs on past the walk's reach: no end seen (the piece's
+            return None                         # end stays where placed, on the branch)
         cap_behind = False
         if not c.by_row:
             # a flat piece's disparity comes from its texture: the tip stands only if the end of
@@ -393,7 +421,8 @@ class TipPlacing:
         of ``d_prior``; with fewer than 3 such rows, the median of the rows with both edges on the
         cap where they agree among themselves (``OWN_CAP_ROWS``, ``OWN_CAP_PX``: the cap's own depth,
         off a prior carried along a short piece inclined in depth); else None. ``uv_edge``, ``out``: where the centre line
-        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s).
+        leaves the mask (at ``t_edge``) and its unit direction there (:meth:`_tip_place`'s). Failing those, the
+        median of the cap's edge rows agreeing among themselves (``OWN_EDGE_ROWS``: rows of the piece's own width).
         """
         sm = self.sm
         h, w = sm.left_mask.shape
@@ -409,7 +438,8 @@ class TipPlacing:
         status, d = kernels_tips.cap_disparity(rows, c.s_at(rows), rl, rr, valid_l, valid_r, float(p[0]), float(p[1]),
                                                float(out[0]), float(out[1]), float(r), float(d_prior), float(sm.f_px),
                                                h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                               OWN_CAP_ROWS, OWN_CAP_PX)
+                                               OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                               OWN_EDGE_WIDTH)
         if status != 1:
             return None if status == 0 else float(d)
         return self._cap_slope_corrected(c, float(d), t_edge, uv_edge, out, sign, r)

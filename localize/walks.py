@@ -135,6 +135,19 @@ class Walks:
         done[(offset_px, right, True) if whole else (offset_px, right)] = res
         return res
 
+    def _walk_runs_on(self, c: BranchCurve, node: int) -> bool:
+        """Whether :meth:`_walk_out`'s plain walk never leaves the left mask (:func:`walk_edges` finds no
+        crossing and its last sample, the walk's reach, is still on the mask: the edge it gives is that
+        sample's, half a step on) and the mask runs on for the piece's radius and 1 px past that sample along
+        the centre line (a reach ending just inside a round cap does not)."""
+        t_edge, sign = self._walk_out(c, node)
+        t = self._walk_cache[node, id(c)][1]
+        if len(t) < 2 or t_edge != self._walk_t(t, sign, len(t) - 1, False):
+            return False
+        on = t[-1] + sign * np.arange(0.0, c.radius_px + 1.0, 0.25)
+        _, crosses = walk_edges(self.sm.left_mask, c.uv_at(on), np.array([0, len(on)]))
+        return not crosses[0]
+
     def _walk_sides(self, c: BranchCurve, node: int, offset_px: float) -> tuple[float, float]:
         """:meth:`_walk_out`'s parameters of the parallels ``offset_px`` and ``-offset_px`` to either
         side (left view, sub-pixel), both walks read by one :func:`walk_edges` call (each walk's

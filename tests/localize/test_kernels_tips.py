@@ -13,7 +13,8 @@ from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
 from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_ROWS_OUTVOTE, END_RUN_CUT_PX, OWN_CAP_PX,
-                                       OWN_CAP_ROWS, cap_row_scale)
+                                       OWN_CAP_ROWS, OWN_EDGE_PX, OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH,
+                                       cap_row_scale)
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
                                      split_row_disparity)
 
@@ -95,8 +96,10 @@ def _ref_cap_disparity(sm, centre_xy, half_px, out, min_margin=caps.MIN_FIT_MARG
     return float(x0 - (s0 + k + off))
 
 
-def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r, d_prior, h, w):
-    """ends.EndPlacer._cap_disparity before the pass, from its candidate rows on."""
+def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r, d_prior, h, w,
+                            edge_rows=OWN_EDGE_ROWS):
+    """ends.EndPlacer._cap_disparity before the pass, from its candidate rows on (``edge_rows``:
+    tipends.OWN_EDGE_ROWS, 0: the rule off)."""
     il = runs_l.find(rows, s)
     rows, il = rows[il >= 0], il[il >= 0]
     if len(rows) < 3 or not len(runs_r.row):
@@ -133,12 +136,20 @@ def _ref_cap_disparity_rows(rows, s, runs_l, runs_r, valid_l, valid_r, p, out, r
     scale = cap_row_scale(rows, p[1], 0.5 * (h - 1), F_PX)
     d = d * scale
     own = (0.5 * (d_lo + d_hi) * scale)[both]               # (the rows' middles: none split below)
+    off = lambda e: np.abs(dv * out[0] - (e - p[0]) * out[1])           # (a left edge's distance from the centre line)
+    edge = d[(cap_lo | cap_hi) & (off(lo_l) <= OWN_EDGE_WIDTH * r + 1.0) & (off(hi_l) <= OWN_EDGE_WIDTH * r + 1.0)]
     d = d[(cap_lo | cap_hi) & (np.abs(d - d_prior) <= 2.5)]
     if len(d) < 3:
-        if len(own) < OWN_CAP_ROWS or (np.abs(e_lo[both] - e_hi[both]) > tips.SPLIT_ROW_PX).any():
+        if len(own) >= OWN_CAP_ROWS and not (np.abs(e_lo[both] - e_hi[both]) > tips.SPLIT_ROW_PX).any():
+            m = median(own)
+            if (np.abs(own - m) <= OWN_CAP_PX).all():
+                return float(m)
+        if edge_rows <= 0 or len(edge) < edge_rows:
             return None
-        m = median(own)
-        return float(m) if (np.abs(own - m) <= OWN_CAP_PX).all() else None
+        near = edge[np.abs(edge - median(edge)) <= OWN_EDGE_PX]
+        if len(near) < edge_rows or len(near) < OWN_EDGE_SHARE * len(edge):
+            return None
+        return float(median(near))
     return float(median(d))
 
 
@@ -306,7 +317,7 @@ def test_cap_disparity_kernel_is_the_numpy_rows_at_rounding_level():
     view, split rows): the same None / NaN, disparities within 1e-9 px (numpy's vectorised
     trigonometry against libm's)."""
     rng = np.random.default_rng(1)
-    n_val = n_none = 0
+    n_val = n_none = n_edge = 0
     for trial in range(150):
         left, right, d = _blob_pair(rng)
         h, w = left.shape
@@ -326,21 +337,26 @@ def test_cap_disparity_kernel_is_the_numpy_rows_at_rounding_level():
             rows = rows[(rows >= 0) & (rows < h)]
             s = p[0] + (rows - p[1]) * rng.uniform(-0.5, 0.5) + rng.normal(0, 0.5, len(rows))
             d_prior = d + float(rng.normal(0, 1.0))
-            want = _ref_cap_disparity_rows(rows, s, b.runs_l, b.runs_r, valid_l, valid_r, p, out, r, d_prior, h, w)
-            status, got = kernels_tips.cap_disparity(rows.astype(np.int64), s, rl, rr, vl, vr, p[0], p[1], out[0],
-                                                     out[1], r, d_prior, F_PX, h, w, CAP_EDGE_BACK,
-                                                     tips.SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                                     OWN_CAP_ROWS, OWN_CAP_PX)
-            if want is None:
-                assert status == 0
-                n_none += 1
-            elif np.isnan(want):
-                assert status == 2
-            else:
-                assert status == 1
-                np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)     # px
-                n_val += 1
-    assert n_val > 150 and n_none > 50
+            # (and a prior 3-10 px off: the cap's edge rows alone, tipends.OWN_EDGE_ROWS)
+            for prior in (d_prior, d + float(rng.choice([-1.0, 1.0]) * rng.uniform(3.0, 10.0))):
+                want = _ref_cap_disparity_rows(rows, s, b.runs_l, b.runs_r, valid_l, valid_r, p, out, r, prior, h, w)
+                status, got = kernels_tips.cap_disparity(rows.astype(np.int64), s, rl, rr, vl, vr, p[0], p[1], out[0],
+                                                         out[1], r, prior, F_PX, h, w, CAP_EDGE_BACK,
+                                                         tips.SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                                         OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX,
+                                                         OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
+                if want is None:
+                    assert status == 0
+                    n_none += 1
+                elif np.isnan(want):
+                    assert status == 2
+                else:
+                    assert status == 1
+                    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)     # px
+                    n_val += 1
+                    n_edge += _ref_cap_disparity_rows(rows, s, b.runs_l, b.runs_r, valid_l, valid_r, p, out, r, prior,
+                                                      h, w, edge_rows=0) is None
+    assert n_val > 150 and n_none > 50 and n_edge > 10
 
 
 def test_end_disparity_and_outline_kernels_are_the_numpy_steps():

@@ -190,7 +190,8 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
     # With one side of the cap widened in the right view on some rows (split rows) they do not: None
     from appliance.localize import kernels_tips
     from appliance.localize.edges import find_runs
-    from appliance.localize.tipends import CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS
+    from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS, OWN_EDGE_PX,
+                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
     from appliance.localize.tips import CAP_EDGE_BACK, SPLIT_ROW_PX
 
     d, r, f_px = 150.0, 6.0, 3000.0
@@ -206,11 +207,11 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
     rl = kernels_tips.runs_tables(find_runs(left, soft=True))
     valid = kernels_tips.valid_table(None)
 
-    def read(mask_r, own_rows):
+    def read(mask_r, own_rows, edge_rows=0):          # (the edge rows' rule, tipends.OWN_EDGE_ROWS, off)
         rr = kernels_tips.runs_tables(find_runs(mask_r, soft=True))
         return kernels_tips.cap_disparity(rows, s, rl, rr, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 3.0,
                                           f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                          own_rows, OWN_CAP_PX)
+                                          own_rows, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
 
     status, got = read(right, OWN_CAP_ROWS)
     assert status == 1 and abs(got - d) <= 0.1
@@ -219,8 +220,68 @@ def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_pri
     status, got = kernels_tips.cap_disparity(rows, s, rl, kernels_tips.runs_tables(find_runs(right, soft=True)), valid,
                                              valid, tip[0], tip[1], out[0], out[1], r, d + 1.0, f_px, h, w,
                                              CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
-                                             OWN_CAP_ROWS, OWN_CAP_PX)
+                                             OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                             OWN_EDGE_WIDTH)
     assert status == 1 and abs(got - d) <= 0.1               # within the window: as before
+
+
+def test_an_oblique_caps_edge_rows_agreeing_among_themselves_outvote_a_far_prior():
+    # a piece 30 deg off the rows ending in a round cap, drawn alike in both views 150 px apart: each row crosses
+    # one edge of the cap (the other is the body's), so no row has both edges on the cap; the prior (the piece's
+    # curve carried to the tip) reads 9 px nearer (seed 881's tip 13: the piece mismatched in the right view where
+    # it crosses a branch behind it). The cap's edge rows, agreeing among themselves, give its depth
+    # (tipends.OWN_EDGE_ROWS); without the rule none (the prior stood). A right cap cut by a straight edge across
+    # it (something in front in the right view only) reads a depth per row: none
+    from appliance.localize import kernels_tips
+    from appliance.localize.edges import find_runs
+    from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, OWN_CAP_PX, OWN_CAP_ROWS, OWN_EDGE_PX,
+                                            OWN_EDGE_ROWS, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
+    from appliance.localize.tips import CAP_EDGE_BACK, SPLIT_ROW_PX
+
+    d, r, f_px = 150.0, 10.0, 3000.0
+    out = np.array([np.cos(np.pi / 6), np.sin(np.pi / 6)])
+    tip = np.array([300.3, 60.4])                               # the cap's centre
+    base = tip - 80.0 * out
+    h, w = 120, 400
+    left = np.rint(255 * _capsule_cover((h, w), tip, base, r)).astype(np.uint8)
+    right = np.rint(255 * _capsule_cover((h, w), tip - (d, 0), base - (d, 0), r)).astype(np.uint8)
+    yy, xx = np.mgrid[0:h, 0:w]
+    cut = right.copy()
+    cut[(xx - (tip[0] - d)) + 0.7 * (yy - tip[1]) > -2.0] = 0     # a straight edge across the right cap
+    rows = np.arange(int(np.ceil(tip[1] - r)), int(np.floor(tip[1] + r)) + 1)
+    s = tip[0] + (rows - tip[1]) * out[0] / out[1]
+    rl = kernels_tips.runs_tables(find_runs(left, soft=True))
+    valid = kernels_tips.valid_table(None)
+
+    def read(mask_r, edge_rows, d_prior=d + 9.0):
+        rr = kernels_tips.runs_tables(find_runs(mask_r, soft=True))
+        return kernels_tips.cap_disparity(rows, s, rl, rr, valid, valid, tip[0], tip[1], out[0], out[1], r, d_prior,
+                                          f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                          OWN_CAP_ROWS, OWN_CAP_PX, edge_rows, OWN_EDGE_PX, OWN_EDGE_SHARE, OWN_EDGE_WIDTH)
+
+    status, got = read(right, OWN_EDGE_ROWS)
+    assert status == 1 and abs(got - d) <= 0.3
+    assert read(right, 0)[0] == 0                              # the rule off: no depth (the prior stood)
+    assert read(cut, OWN_EDGE_ROWS, d - 9.0)[0] == 0             # (a prior none of the cut rows lies near)
+    status, got = read(right, 0, d + 1.0)                      # within the window: as before, the rule aside
+    assert status == 1 and abs(got - d) <= 0.3
+
+    # a piece ending inside something twice its width, alike in both views (seed 464: a piece inside a trunk): its
+    # rows' edges, one side's straight and agreeing among themselves, are that thing's outline, not the cap's: none
+    wide_l, wide_r = left.copy(), right.copy()
+    for img, shift in ((wide_l, 0.0), (wide_r, d)):
+        cv2.rectangle(img, (int(tip[0] - shift - 3 * r), int(tip[1] - 2 * r)), (int(tip[0] - shift + 3 * r), int(tip[1] + 4)),
+                      255, -1)
+    rl_w = kernels_tips.runs_tables(find_runs(wide_l, soft=True))
+    rr_w = kernels_tips.runs_tables(find_runs(wide_r, soft=True))
+    status, _ = kernels_tips.cap_disparity(rows, s, rl_w, rr_w, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 9.0,
+                                           f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                           OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE, 100.0)
+    assert status == 1                                        # (without the width's bound its edges gave a depth)
+    assert kernels_tips.cap_disparity(rows, s, rl_w, rr_w, valid, valid, tip[0], tip[1], out[0], out[1], r, d + 9.0,
+                                      f_px, h, w, CAP_EDGE_BACK, SPLIT_ROW_PX, *CAP_SPLIT_PX, CAP_SPLIT_SHARE,
+                                      OWN_CAP_ROWS, OWN_CAP_PX, OWN_EDGE_ROWS, OWN_EDGE_PX, OWN_EDGE_SHARE,
+                                      OWN_EDGE_WIDTH)[0] == 0
 
 
 @pytest.mark.parametrize("rule", [True, False])
@@ -247,3 +308,40 @@ def test_a_cap_hidden_in_the_right_view_behind_something_wider_is_no_tip(monkeyp
         assert tips == []
     else:
         assert len(tips) == 1 and np.hypot(*np.subtract(tips[0].left_px, tip)) <= 2.0
+
+
+def test_an_end_whose_walk_never_leaves_the_mask_is_no_tip():
+    # a piece's skeleton ends on row 150 while its branch runs on down the mask (a trunk whose skeleton a leaf cut,
+    # seed 890): the walk out along its centre line reaches its end (3 radii and more) still on the mask, so a cap
+    # placed one radius back from there is a point on the body; it is hidden (tipends.TIP_MASK_RUNS_ON). A rod
+    # ending 20 px past the piece is walked off its cap as before
+    from types import SimpleNamespace
+
+    from appliance.localize import tipends
+    from appliance.localize.curves import BranchCurve, Poly
+    from appliance.localize.ends import EndPlacer
+
+    assert tipends.TIP_MASK_RUNS_ON
+    r = 6.0
+    c = BranchCurve(0, True, (60.0, 150.0), Poly.constant(300.0), Poly.constant(100.0), r, 40)
+
+    def placer(last_row):
+        mask = np.zeros((400, 600), np.uint8)
+        cv2.line(mask, (300, 50), (300, last_row), 255, int(2 * r))
+        p = EndPlacer.__new__(EndPlacer)
+        p.__dict__.update(_walk_cache={}, node_xy=np.array([[300.0, 150.0], [300.0, 60.0]]),
+                          g=SimpleNamespace(scale=2, seg_nodes=[(1, 0)]), sm=SimpleNamespace(left_mask=mask, valid_left=None),
+                          incident=[[0], [0]], curves={0: c}, hidden=set(), uvd={}, radius={})
+        return p
+
+    ends, runs_on, cap_past_reach = placer(170), placer(390), placer(174)
+    assert not EndPlacer._walk_runs_on(ends, c, 0)
+    assert EndPlacer._walk_runs_on(runs_on, c, 0)
+    # a cap whose end lies just past the walk's reach (28 rows: 3 r + 3 graph px + 4; seed 554's tip 17, exact masks):
+    # the walk ends on the cap, but the mask ends within a radius past it: a tip
+    t_cap, _ = EndPlacer._walk_out(cap_past_reach, c, 0)
+    assert t_cap == EndPlacer._walk_t(cap_past_reach._walk_cache[0, id(c)][1], 1.0, 111, False)   # (no crossing)
+    assert not EndPlacer._walk_runs_on(cap_past_reach, c, 0)
+    assert abs(EndPlacer._walk_out(ends, c, 0)[0] - 170 - r) <= 1.0        # (the rod's cap: its last row + r)
+    assert EndPlacer._tip_place(runs_on, 0) is None and runs_on.hidden == {0}
+    assert abs(runs_on.uvd[0][1] - (150.0 + 3 * r + 6 + 4 - r)) <= 1.0     # (the piece's end: the walk's reach, less r)

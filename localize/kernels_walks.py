@@ -223,6 +223,17 @@ def _crossing_at(row, t, i_off, i_on):
 
 
 @numba.njit(**_JIT)
+def _first_off(mask, row, bx, by, t, n, j0, j1, step):
+    """The first ``j`` of ``range(j0, j1, step)`` whose sample ``(bx, by) + t[j] n`` (read into ``row[j]``)
+    lies off ``mask`` (below 128); -1 when none does."""
+    for j in range(j0, j1, step):
+        row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
+        if not row[j] >= 128.0:
+            return j
+    return -1
+
+
+@numba.njit(**_JIT)
 def section_runs(mask, base, e, n, s, t, i0, gap_px):
     """``forkalong.sections``: per section ``s[i]`` (the samples ``base + s[i] e + t[j] n``, float64 (2,)
     vectors, ``t`` increasing with ``t[i0]`` its value nearest 0) the run through sample ``i0`` on ``mask``
@@ -246,21 +257,11 @@ def section_runs(mask, base, e, n, s, t, i0, gap_px):
         row[i0] = bilinear_u8(mask, np.float32(bx + t[i0] * n[0]), np.float32(by + t[i0] * n[1]))
         if not row[i0] >= 128.0:
             continue
-        lo_off = -1
-        for j in range(i0 - 1, -1, -1):
-            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
-            if not row[j] >= 128.0:
-                lo_off = j
-                break
+        lo_off = _first_off(mask, row, bx, by, t, n, i0 - 1, -1, -1)
         if lo_off < 0:
             continue
-        hi_off = nt
-        for j in range(i0 + 1, nt):
-            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
-            if not row[j] >= 128.0:
-                hi_off = j
-                break
-        if hi_off >= nt:
+        hi_off = _first_off(mask, row, bx, by, t, n, i0 + 1, nt, 1)
+        if hi_off < 0:
             continue
         ok[i] = True
         lo[i] = _crossing_at(row, t, lo_off, lo_off + 1)
@@ -281,13 +282,8 @@ def section_runs(mask, base, e, n, s, t, i0, gap_px):
         c_l = _crossing_at(row, t, c_on - 1, c_on)
         if not c_l - hi[i] <= gap_px:
             continue
-        c_off = nt
-        for j in range(c_on + 1, nt):
-            row[j] = bilinear_u8(mask, np.float32(bx + t[j] * n[0]), np.float32(by + t[j] * n[1]))
-            if not row[j] >= 128.0:
-                c_off = j
-                break
-        if c_off < nt:
+        c_off = _first_off(mask, row, bx, by, t, n, c_on + 1, nt, 1)
+        if c_off >= 0:
             child[i] = True
             cl[i] = c_l
             ch[i] = _crossing_at(row, t, c_off, c_off - 1)

@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from appliance.commands.common import ConfigOption, effective_config
+from appliance.commands.common import ConfigOption, effective_config, output_paths
 
 
 def read_image(path: Path, what: str, grey: bool = False):
@@ -80,17 +80,16 @@ def command(
 
     cfg = effective_config(config)
     cal, (img_l, img_r), (m_l, m_r) = load_inputs(calib, left, right, mask_left, mask_right)
+    output_paths(json_out, overlay)
     variant = "paper" if paper else "improved"
     result = Localizer(cal, cfg.localize, variant).localize(img_l, img_r, mask_left=m_l, mask_right=m_r)
     data = result.to_dict() | {"variant": variant}
-    json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(data, indent=1) + "\n")
     n_tip = sum(f.kind == "endpoint" for f in result.features)
     typer.echo(f"{len(result.features)} features ({n_tip} tips, {len(result.features) - n_tip} forks), "
                f"{len(result.branches)} branch pieces ({variant}, {result.timings_ms.get('total', 0.0):.0f} ms)")
     typer.echo(f"wrote {json_out}")
     if overlay is not None:
-        overlay.parent.mkdir(parents=True, exist_ok=True)
         img = draw_overlay(img_l, img_r, result, cal, tuple(cfg.localize.working_range_mm))
         if not cv2.imwrite(str(overlay), img):
             from appliance.localize.errors import LocalizeError

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
-from appliance.commands.common import ConfigOption
+from appliance.commands.common import ConfigOption, output_paths
 
 
 def command(
@@ -47,6 +47,7 @@ def command(
     variant = variant or meta["device_info"].get("variant", "improved")
     if variant not in ("improved", "paper"):
         raise ApplianceError(f"--variant: must be improved or paper, got {variant!r}")
+    output_paths(json_out)
     console = Console(stderr=True)
     with Progress(console=console, transient=True) as progress:
         task = progress.add_task(f"replaying {log.name}", total=None)

@@ -168,6 +168,10 @@ def test_a_log_replays_through_the_run_loop(tmp_path):
 def test_replay_with_other_settings_reports_the_differences(tmp_path):
     r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path), "-q")
     assert r.returncode == 0, r.stderr
+    (tmp_path / "a_file").write_text("")      # an output under a file: refused before any frame is replayed
+    r = appliance("replay", str(only_log(tmp_path)), "--json", str(tmp_path / "a_file" / "replay.json"))
+    assert r.returncode == 1 and "frames replayed" not in r.stdout
+    assert r.stderr.strip().startswith("error: ") and "replay.json: cannot make its folder" in r.stderr
     out = tmp_path / "replay.json"
     r = appliance("replay", str(only_log(tmp_path)), "--variant", "paper", "--json", str(out))
     assert r.returncode == 0, r.stderr

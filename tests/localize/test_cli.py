@@ -97,7 +97,7 @@ def test_bad_input_is_one_clear_line(tmp_path, case):
         expect = ["empty.png", "empty"]
     elif case == "unwritable":
         (tmp_path / "a_file").write_text("")   # a file where the output's folder should be
-        args[6], expect = tmp_path / "a_file" / "r.json", ["a_file", "File exists"]
+        args[6], expect = tmp_path / "a_file" / "r.json", ["r.json", "cannot make its folder", "File exists"]
     p = run(*args)
     assert p.returncode == 1
     lines = p.stderr.strip().splitlines()

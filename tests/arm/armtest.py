@@ -58,7 +58,7 @@ class SimProcess:
     def obstacles(self) -> list[dict]:
         return [e for e in self.events() if e.get("type") == "OBSTACLES"]
 
-    def wait_for(self, predicate, what: str, timeout_s: float = 10.0) -> None:
+    def wait_for(self, predicate, what: str, timeout_s: float = 60.0) -> None:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if predicate(self.events()):
@@ -69,6 +69,6 @@ class SimProcess:
 
     def stop(self) -> tuple[str, str]:
         self.proc.send_signal(signal.SIGTERM)
-        out, err = self.proc.communicate(timeout=10)
+        out, err = self.proc.communicate(timeout=60)     # generous: a loaded machine, not a slow sim, is the risk
         assert self.proc.returncode == 0, err
         return out, err

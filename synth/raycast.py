@@ -87,8 +87,9 @@ def sphere(o, d, centre, radius: float) -> np.ndarray:
     return np.where(h >= 0, t, np.inf)
 
 
-def plane_z(o, d, z_mm: float) -> np.ndarray:
-    """Hit of the plane ``Z = z_mm`` (left camera frame)."""
+def plane_z(o, d_z, z_mm: float) -> np.ndarray:
+    """Hit of the plane ``Z = z_mm`` (left camera frame) by the rays from ``o`` whose directions' Z components
+    are ``d_z`` (the other components do not matter)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = (z_mm - o[2]) / d[..., 2]
+        t = (z_mm - o[2]) / d_z
     return np.where(t > 0, t, np.inf)

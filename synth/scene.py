@@ -380,7 +380,7 @@ def _cast(scene: Scene, seg: _Segments, rig: Rig, side: str, ss: int) -> _Hits:
                                     scene.apple_radius[k]), pid)
         pid += 1
     bg = ids < 0
-    t_buf[bg] = raycast.plane_z(origin, dirs[bg].astype(np.float64), scene.background_mm)
+    t_buf[bg] = raycast.plane_z(origin, dirs[..., 2][bg].astype(np.float64), scene.background_mm)
     return _Hits(origin, dirs, t_buf, ids)
 
 
@@ -392,11 +392,14 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
     light = scene.light_dir
     flat_ids = hits.ids.ravel()
     t = hits.t.ravel()
-    d = hits.dirs.reshape(-1, 3).astype(np.float64)
+    d32 = hits.dirs.reshape(-1, 3)
     col = out.reshape(-1, 3)
 
+    def rays(idx, axis=None):   # the rays' directions (N, 3) float64, or one axis's (N,) (float32 -> float64: exact)
+        return (d32.take(idx, axis=0) if axis is None else d32[:, axis].take(idx)).astype(np.float64)
+
     def point(idx):             # (take: rows of a 5 M x 3 array ~5x sooner than fancy indexing, the same values)
-        return hits.origin + t.take(idx)[:, None] * d.take(idx, axis=0)
+        return hits.origin + t.take(idx)[:, None] * rays(idx)
 
     idx = np.nonzero((flat_ids >= 0) & (flat_ids < n_seg))[0]                      # bark
     if len(idx):
@@ -417,7 +420,7 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
         k = flat_ids[idx] - n_seg
         p = point(idx)
         nrm = scene.leaf_normal[k]
-        facing = np.where(((nrm * d.take(idx, axis=0)).sum(1) > 0)[:, None], -nrm, nrm)
+        facing = np.where(((nrm * rays(idx)).sum(1) > 0)[:, None], -nrm, nrm)
         rel = p - scene.leaf_centre[k]
         u = (rel * scene.leaf_u[k]).sum(1) / scene.leaf_size[k, 0]
         v = (rel * np.cross(nrm, scene.leaf_u[k])).sum(1) / scene.leaf_size[k, 1]
@@ -437,16 +440,31 @@ def _shade(scene: Scene, seg: _Segments, hits: _Hits, bark: np.ndarray, bg_tex: 
         base = red * np.array([0.12, 0.12, 0.70]) + (1 - red) * np.array([0.25, 0.65, 0.62])
         ndl = n @ light
         refl = light - 2 * ndl[:, None] * n
-        spec = 0.45 * np.clip((refl * d.take(idx, axis=0)).sum(1), 0, None) ** 25
+        spec = 0.45 * np.clip((refl * rays(idx)).sum(1), 0, None) ** 25
         lit = scene.ambient + (1 - scene.ambient) * np.clip(ndl, 0, None)
         col[idx] = base * lit[:, None] + spec[:, None]
 
     idx = np.nonzero(flat_ids < 0)[0]                                                # background
     if len(idx):
-        p = point(idx)
-        col[idx] = lookup(bg_tex, p[:, 0] / BACKGROUND_MM_PER_TEXEL + bg_tex.shape[1] / 2,
-                          p[:, 1] / BACKGROUND_MM_PER_TEXEL + bg_tex.shape[0] / 2)
+        ti = t.take(idx)                    # the hit's X and Y alone (point()'s values; Z is the plane's)
+        x, y = (hits.origin[a] + ti * rays(idx, a) for a in (0, 1))
+        col[idx] = lookup(bg_tex, x / BACKGROUND_MM_PER_TEXEL + bg_tex.shape[1] / 2,
+                          y / BACKGROUND_MM_PER_TEXEL + bg_tex.shape[0] / 2)
     return out
+
+
+def _box_mean(img: np.ndarray, ss: int) -> np.ndarray:
+    """The mean of each pixel's ``ss`` x ``ss`` supersamples of a float32 image (H*ss, W*ss, C) -> (H, W, C).
+
+    ``img.reshape(h, ss, w, ss, C).mean(axis=(1, 3))``'s values bit for bit (numpy adds a pixel's supersamples
+    in this order; checked for ss 1-8), ~5x sooner: the sum runs over whole (H, W, C) planes."""
+    a = img.reshape(img.shape[0] // ss, ss, img.shape[1] // ss, ss, -1)
+    acc = a[:, 0, :, 0]
+    for i in range(ss):
+        for j in range(ss):
+            if i or j:
+                acc = acc + a[:, i, :, j]
+    return acc / np.float32(ss * ss)
 
 
 def _sensor(img: np.ndarray, rng: np.random.Generator, gain: float, jpeg_quality: int | None) -> np.ndarray:
@@ -558,7 +576,7 @@ def render(scene: Scene, rig: Rig, seed: int = 0, ss: int = 2, jpeg_quality: int
     for side in ("left", "right"):
         hits[side] = hs = _cast(scene, seg, rig, side, ss)
         colour = _shade(scene, seg, hs, bark, bg_tex, spots)
-        img = colour.reshape(h, ss, w, ss, 3).mean(axis=(1, 3))
+        img = _box_mean(colour, ss)
         images[side] = _sensor(img, rng, gains[side], jpeg_quality)
         on_branch = (hs.ids >= 0) & (hs.ids < len(seg.a))
         cover[side] = on_branch.reshape(h, ss, w, ss).mean(axis=(1, 3))

@@ -43,4 +43,4 @@ def test_sphere_disc_and_plane():
     assert np.isclose(t[0], 960) and np.isinf(t[1])
     t, u, _ = raycast.ellipse_disc(o, d, [0, 0, 800], [0, 0, -1], [1, 0, 0], [0, 1, 0], 30, 10)
     assert np.isclose(t[0], 800) and abs(u[0]) < 1e-12 and np.isinf(t[1])
-    assert np.allclose(raycast.plane_z(o, d, 4000), [4000, 5000])
+    assert np.allclose(raycast.plane_z(o, d[:, 2], 4000), [4000, 5000])

@@ -245,7 +245,7 @@ def whole_pixel_share(gray, row: np.ndarray, x_px: np.ndarray, max_samples: int 
 
 def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
                 max_tan: float = STEEP_TAN, max_dev_px: float = 0.6, min_moved: int = 50, grey_sd_px: float = GREY_SD_PX,
-                **kw) -> Runs:
+                soft_only: bool = False, **kw) -> Runs | None:
     """``runs`` with their boundaries moved to the grey image's outline (:func:`refine_boundaries`).
 
     A segmenter's mask sits off the grey outline by some bias (its threshold, its cleaning): all
@@ -275,16 +275,19 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
         Runs to refine (the others only take the bias); all without it.
     grey_sd_px : float
         The grey step's own error (standard deviation, px) for :func:`grey_weight`.
+    soft_only : bool
+        None unless the mask's outline is soft (its boundaries mixed with the grey step rather than
+        moved to it whole: a binary mask's runs are the same whatever ``grey_sd_px``).
     **kw
         Passed to :func:`refine_boundaries`.
 
     Returns
     -------
-    Runs
+    Runs or None
     """
     n = len(runs.row)
     if n == 0:
-        return runs
+        return None if soft_only else runs
     # compiled: the numpy steps around the grey step, the same values (kernels_refine; the boundaries
     # refined, the moved ones' bias, whole_pixel_share, grey_weight's deviation, the mix and the runs)
     row, lp, rp = (np.ascontiguousarray(a, dt) for a, dt in ((runs.row, np.int64), (runs.left_px, float),
@@ -298,6 +301,8 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     sel, bias, share, mad = kernels_refine.refine_stats(row, lp, rp, todo, xr, mx, has_map, int(min_moved), 256)
     weight = 1.0
     moved = len(sel) >= min_moved
+    if soft_only and not (moved and share < WHOLE_PIXEL_SHARE):
+        return None
     if moved and share < WHOLE_PIXEL_SHARE:         # grey_weight's last steps (CPython's ** 2: libm's pow)
         var = (1.4826 * float(mad)) ** 2 if len(sel) else 0.0
         weight = max(var - grey_sd_px * grey_sd_px, 0.0) / var if var > 0 else 1.0

@@ -67,6 +67,31 @@ def test_no_step_keeps_the_masks_boundaries():
     assert np.array_equal(x, runs.left_px)
 
 
+def test_whole_dev_px_gives_a_soft_masks_runs_on_the_grey_step_and_none_for_a_binary_mask():
+    # a binary mask's outline goes to the grey step whole already (subpixel.WHOLE_PIXEL_SHARE): no second runs; a
+    # soft mask's (a bar's outline ~0.7 px out on both sides, every sub-pixel phase) is mixed with the step, and
+    # whole_dev_px gives its runs on the step (tipends.TIP_GREY_END's), nearer the outline than the mix; the first
+    # runs are those of a call without it
+    h, w = 200, 80
+    rows = np.arange(h)
+    left, right = 20.0 + 0.13 * rows, 45.6 + 0.11 * rows
+    grey, mask = bar(h, w, left, right)
+    binary = find_runs(mask, soft=True)
+    got, whole = refine_runs(binary, grey, mask, whole_dev_px=1.5)
+    assert whole is None and np.array_equal(got.right_px, refine_runs(binary, grey, mask).right_px)
+    cols = np.arange(w)[None, :]
+    soft = np.rint(255 * np.clip(cols - left[:, None] + 1.2, 0, 1) * np.clip(right[:, None] - cols + 0.7, 0, 1))
+    soft = soft.astype(np.uint8)
+    runs = find_runs(soft, soft=True)
+    mixed = refine_runs(runs, grey, soft)
+    got, whole = refine_runs(runs, grey, soft, whole_dev_px=1.5)
+    assert whole is not None
+    assert np.array_equal(got.left_px, mixed.left_px) and np.array_equal(got.right_px, mixed.right_px)
+    err_mixed = np.abs(np.r_[mixed.left_px - left, mixed.right_px - right])
+    err_whole = np.abs(np.r_[whole.left_px - left, whole.right_px - right])
+    assert np.median(err_whole) < 0.1 and np.median(err_whole) < 0.5 * np.median(err_mixed)
+
+
 def test_gather_from_a_lazily_rectified_colour_image_is_the_rectified_grey():
     w, h = 333, 251
     rect = Rectifier.from_calibration(distorted_rig(w, h))

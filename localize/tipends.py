@@ -104,12 +104,15 @@ TIP_MASK_RUNS_ON = True
 WIDER_RIGHT_NEEDS_CAP = True
 
 
-# a flat tip's run end (its disparity, _end_disparity) is read on a soft mask's runs moved to the grey image's step whole
-# where it is clear (within GREY_END_DEV_PX of the mask's outline; subpixel.refine_runs with no grey error), as a binary
-# mask's are, rather than on the runs mixed half-way between the two: the colour recogniser's outline at a cap's end
-# takes in part of the background behind it, and the background differs between the views (seed 942's tip 11, colour
-# masks: the right cap's end over a dark leaf stalk read 0.6-0.9 px out on every row, the left over sky not, -1.12 px,
-# +8.96 mm; seed 894's tip 13: the left cap's end over an apple read 1 px short). A binary mask's runs are the same.
+# a flat tip's run end (its disparity, _end_disparity) is also read on a soft mask's runs moved to the grey image's step
+# whole where it is clear (within GREY_END_DEV_PX of the mask's outline: subpixel.refine_runs' whole_dev_px), as a
+# binary mask's are, rather than mixed half-way between the two; that reading stands where it lies more than
+# GREY_END_MIN_PX from the mixed runs': the colour recogniser's outline at a cap's end takes in part of the background
+# behind it, the same way on every row of the end, and the background differs between the views (seed 942's tip 11,
+# colour masks: the right cap's end over a dark leaf stalk read 0.6-0.9 px out on every row, the left over sky not,
+# +1.12 px, +8.96 mm; seed 894's tip 13: the left cap's end over an apple read 1 px short). Always the grey runs' reading
+# moved 29 other colour tips of 932-963 by up to 0.24 px, more away from the truth than towards it (the step alone is
+# about as noisy as the colour outline: refine_runs' reason to mix them). A binary mask's runs are its own.
 TIP_GREY_END = True
 GREY_END_DEV_PX = 1.5
 GREY_END_MIN_PX = 0.5

@@ -60,6 +60,7 @@ from appliance.localize.single_edge import (
 )
 from appliance.localize.subpixel import near_points, refine_runs
 from appliance.localize.texture import surface_disparity_many
+from appliance.localize.tipends import GREY_END_DEV_PX, TIP_GREY_END
 
 SLANT = True           # flat pieces: the surface-to-axis step along the slanted line of sight
 STUB_TIPS = True        # tips of short isolated stubs (stubtips.py; searched from the block mask since stop 22:
@@ -560,9 +561,20 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
     # tips on the grey image's sub-pixel outline near the ends (measured: the fits above gain depth
     # with it too but lose a little recall and precision; forks gain nothing)
     ends_xy, ends_d = _ends_disparity(graph, curves, sm.d_range_px)
-    runs_l = refine_runs(runs_l, sm.left_gray, sm.left_mask, near_points(runs_l, ends_xy, END_REACH_PX))
-    runs_r = refine_runs(runs_r, sm.right_gray, sm.right_mask, near_points(runs_r, ends_xy, END_REACH_PX, ends_d))
+    # (with TIP_GREY_END also a soft mask's runs on the grey step whole: a flat tip's run end, tipends.TIP_GREY_END)
+    whole = GREY_END_DEV_PX if TIP_GREY_END else None
+    runs_l = refine_runs(runs_l, sm.left_gray, sm.left_mask, near_points(runs_l, ends_xy, END_REACH_PX),
+                         whole_dev_px=whole)
+    runs_r = refine_runs(runs_r, sm.right_gray, sm.right_mask, near_points(runs_r, ends_xy, END_REACH_PX, ends_d),
+                         whole_dev_px=whole)
+    grey_end = None
+    if TIP_GREY_END:
+        (runs_l, grey_l), (runs_r, grey_r) = runs_l, runs_r
+        if grey_l is not None or grey_r is not None:
+            grey_end = (runs_l if grey_l is None else grey_l, runs_r if grey_r is None else grey_r)
     b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
+    if grey_end is not None:
+        b.runs_grey_end = grey_end
     kinds = graph.node_kind
     flat_set = set(flat)
     needed = []

@@ -245,7 +245,7 @@ def whole_pixel_share(gray, row: np.ndarray, x_px: np.ndarray, max_samples: int 
 
 def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarray | None = None,
                 max_tan: float = STEEP_TAN, max_dev_px: float = 0.6, min_moved: int = 50, grey_sd_px: float = GREY_SD_PX,
-                **kw) -> Runs:
+                whole_dev_px: float | None = None, **kw) -> Runs | tuple[Runs, Runs | None]:
     """``runs`` with their boundaries moved to the grey image's outline (:func:`refine_boundaries`).
 
     A segmenter's mask sits off the grey outline by some bias (its threshold, its cleaning): all
@@ -275,16 +275,20 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
         Runs to refine (the others only take the bias); all without it.
     grey_sd_px : float
         The grey step's own error (standard deviation, px) for :func:`grey_weight`.
+    whole_dev_px : float, optional
+        With it, also the runs with the boundaries moved to the grey step whole (within this of the
+        mask's outline, px) where the mask's outline is soft (mixed with the grey step rather than moved
+        to it: :func:`grey_weight` below 1), else None (a binary mask's: the runs themselves).
     **kw
         Passed to :func:`refine_boundaries`.
 
     Returns
     -------
-    Runs
+    Runs, or (Runs, Runs or None) with ``whole_dev_px``
     """
     n = len(runs.row)
     if n == 0:
-        return runs
+        return runs if whole_dev_px is None else (runs, None)
     # compiled: the numpy steps around the grey step, the same values (kernels_refine; the boundaries
     # refined, the moved ones' bias, whole_pixel_share, grey_weight's deviation, the mix and the runs)
     row, lp, rp = (np.ascontiguousarray(a, dt) for a, dt in ((runs.row, np.int64), (runs.left_px, float),
@@ -301,8 +305,14 @@ def refine_runs(runs: Runs, gray, mask: np.ndarray | None = None, only: np.ndarr
     if moved and share < WHOLE_PIXEL_SHARE:         # grey_weight's last steps (CPython's ** 2: libm's pow)
         var = (1.4826 * float(mad)) ** 2 if len(sel) else 0.0
         weight = max(var - grey_sd_px * grey_sd_px, 0.0) / var if var > 0 else 1.0
-    x0, x1, left, right = kernels_refine.refine_apply(row, np.ascontiguousarray(runs.x0, np.int64),
-                                                      np.ascontiguousarray(runs.x1, np.int64), lp, rp,
-                                                      int(runs.width), todo, xr, sel, float(bias), moved,
-                                                      float(weight), float(max_dev_px))
-    return dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)
+    rx0, rx1 = np.ascontiguousarray(runs.x0, np.int64), np.ascontiguousarray(runs.x1, np.int64)
+    x0, x1, left, right = kernels_refine.refine_apply(row, rx0, rx1, lp, rp, int(runs.width), todo, xr, sel, float(bias),
+                                                      moved, float(weight), float(max_dev_px))
+    out = dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)
+    if whole_dev_px is None:
+        return out
+    if not (moved and share < WHOLE_PIXEL_SHARE):
+        return out, None
+    x0, x1, left, right = kernels_refine.refine_apply(row, rx0, rx1, lp, rp, int(runs.width), todo, xr, sel, float(bias),
+                                                      moved, 1.0, float(whole_dev_px))
+    return out, dataclasses.replace(runs, x0=x0, x1=x1, left_px=left, right_px=right)

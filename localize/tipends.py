@@ -104,6 +104,20 @@ TIP_MASK_RUNS_ON = True
 WIDER_RIGHT_NEEDS_CAP = True
 
 
+# a flat tip's run end (its disparity, _end_disparity) is also read on a soft mask's runs moved to the grey image's step
+# whole where it is clear (within GREY_END_DEV_PX of the mask's outline: subpixel.refine_runs' whole_dev_px), as a
+# binary mask's are, rather than mixed half-way between the two; that reading stands where it lies more than
+# GREY_END_MIN_PX from the mixed runs': the colour recogniser's outline at a cap's end takes in part of the background
+# behind it, the same way on every row of the end, and the background differs between the views (seed 942's tip 11,
+# colour masks: the right cap's end over a dark leaf stalk read 0.6-0.9 px out on every row, the left over sky not,
+# +1.12 px, +8.96 mm; seed 894's tip 13: the left cap's end over an apple read 1 px short). Always the grey runs' reading
+# moved 29 other colour tips of 932-963 by up to 0.24 px, more away from the truth than towards it (the step alone is
+# about as noisy as the colour outline: refine_runs' reason to mix them). A binary mask's runs are its own.
+TIP_GREY_END = True
+GREY_END_DEV_PX = 1.5
+GREY_END_MIN_PX = 0.5
+
+
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
     """Factor (N,) taking the disparity of the middle of a round cap's crossing of each rectified
     row in ``rows`` (N,) to the disparity of the cap's centre C, seen on row ``row_c``.
@@ -523,10 +537,18 @@ class TipPlacing:
         sm = self.sm
         h, w = sm.left_mask.shape
         rl, rr, _, valid_r = TipPlacing._tip_tables(self)
-        ok, d = kernels_tips.end_disparity(rl, rr, valid_r, float(uv_edge[0]), float(uv_edge[1]), float(out[0]),
-                                           float(out[1]), float(d_prior), float(r), float(inside_px),
-                                           float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
-                                           END_RUN_CUT_PX, END_ROWS_OUTVOTE)
+        args = (float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(out[1]), float(d_prior), float(r),
+                float(inside_px), float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
+                END_RUN_CUT_PX, END_ROWS_OUTVOTE)
+        ok, d = kernels_tips.end_disparity(rl, rr, valid_r, *args)
+        grey = self.__dict__.get("runs_grey_end")
+        if ok and grey is not None:         # (TIP_GREY_END: a soft mask's runs on the grey step)
+            hit = self.__dict__.get("_grey_k")
+            if hit is None or hit[0] is not grey:
+                hit = self._grey_k = (grey, (kernels_tips.runs_tables(grey[0]), kernels_tips.runs_tables(grey[1])))
+            ok_g, d_g = kernels_tips.end_disparity(*hit[1], valid_r, *args)
+            if ok_g and abs(d_g - d) > GREY_END_MIN_PX:
+                d = d_g
         return float(d) if ok else None
 
     def _end_outline_agrees(self, uv_edge: np.ndarray, out: np.ndarray, d: float, r: float) -> bool:

@@ -67,6 +67,32 @@ def test_no_step_keeps_the_masks_boundaries():
     assert np.array_equal(x, runs.left_px)
 
 
+def test_whole_dev_px_gives_a_soft_masks_runs_on_the_grey_step_and_none_for_a_binary_mask():
+    # a binary mask's outline goes to the grey step whole already (subpixel.WHOLE_PIXEL_SHARE): no second runs; a
+    # soft mask's (a bar's coverage, every sub-pixel phase; its right outline 0.9 px out on a third of the rows, as a
+    # colour outline over a dark background) is mixed with the step, and whole_dev_px gives its runs on the step
+    # (tipends.TIP_GREY_END's): on the outline there; the first runs are those of a call without it
+    h, w = 200, 80
+    rows = np.arange(h)
+    left, right = 20.0 + 0.13 * rows, 45.6 + 0.11 * rows
+    grey, mask = bar(h, w, left, right)
+    binary = find_runs(mask, soft=True)
+    got, whole = refine_runs(binary, grey, mask, whole_dev_px=1.5)
+    assert whole is None and np.array_equal(got.right_px, refine_runs(binary, grey, mask).right_px)
+    cols = np.arange(w)[None, :]
+    out = np.where(rows < 60, 0.9, 0.0)[:, None]         # rows 0-59: the right outline 0.9 px out (a background's)
+    soft = np.rint(255 * np.clip(cols - left[:, None] + 0.5, 0, 1) * np.clip(right[:, None] + out - cols + 0.5, 0, 1))
+    soft = soft.astype(np.uint8)
+    runs = find_runs(soft, soft=True)
+    mixed = refine_runs(runs, grey, soft)
+    got, whole = refine_runs(runs, grey, soft, whole_dev_px=1.5)
+    assert whole is not None
+    assert np.array_equal(got.left_px, mixed.left_px) and np.array_equal(got.right_px, mixed.right_px)
+    assert np.median(np.abs(mixed.right_px - right)[:60]) > 0.3           # the mix keeps part of the 0.9 px
+    assert np.abs(whole.right_px - right)[:60].max() < 0.15
+    assert np.median(np.abs(whole.right_px - right)[60:]) < 0.1
+
+
 def test_gather_from_a_lazily_rectified_colour_image_is_the_rectified_grey():
     w, h = 333, 251
     rect = Rectifier.from_calibration(distorted_rig(w, h))

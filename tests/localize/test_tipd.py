@@ -183,6 +183,38 @@ def test_a_flat_ends_rows_outvote_a_bulge_on_its_axis_row(monkeypatch):
         assert got is not None and abs(got - expect) <= 0.1, (rule, got, expect)
 
 
+def test_a_flat_ends_soft_outline_off_the_grey_step_takes_the_grey_steps_end():
+    # a flat branch ending in a round cap, alike in both views 150 px apart; the runs on the grey step whole (a soft
+    # mask's, tipends.TIP_GREY_END: dense.match_dense's placer.runs_grey_end) end 0.8 px further in on the right
+    # view's cap than the mixed runs (a colour outline taking in a dark background behind the cap in that view only:
+    # seed 942's tip 11): the end reads the grey runs' disparity; 0.3 px apart (GREY_END_MIN_PX 0.5), or no grey
+    # runs (a binary mask), the mixed runs' stands
+    import dataclasses
+    from types import SimpleNamespace
+
+    from appliance.localize.edges import find_runs
+    from appliance.localize.ends import EndPlacer
+    from appliance.localize.tipends import GREY_END_MIN_PX
+
+    d, r = 150.0, 8.0
+    left = np.zeros((200, 600), np.uint8)
+    cv2.line(left, (200, 100), (392, 100), 255, int(2 * r))
+    cv2.circle(left, (392, 100), int(r), 255, -1)
+    right = np.roll(left, -int(d), axis=1)
+    uv_edge, out = np.array([400.0, 100.0]), np.array([1.0, 0.0])
+    sm = SimpleNamespace(left_mask=left, f_px=3000.0, d_range_px=(50.0, 300.0), valid_right=None)
+    runs_l, runs_r = find_runs(left), find_runs(right)
+    plain = SimpleNamespace(sm=sm, runs_l=runs_l, runs_r=runs_r)
+    d_mix = EndPlacer._end_disparity(plain, uv_edge, out, d + 1.0, r)
+    assert d_mix is not None and abs(d_mix - d) <= 0.1
+    assert GREY_END_MIN_PX < 0.8
+    for shift, expect in ((0.8, d_mix + 0.8), (0.3, d_mix), (-0.8, d_mix - 0.8)):
+        grey_r = dataclasses.replace(runs_r, right_px=runs_r.right_px - shift)      # the right runs' ends moved in
+        placer = SimpleNamespace(sm=sm, runs_l=runs_l, runs_r=runs_r, runs_grey_end=(runs_l, grey_r))
+        got = EndPlacer._end_disparity(placer, uv_edge, out, d + 1.0, r)
+        assert got is not None and abs(got - expect) <= 1e-3, (shift, got, expect)
+
+
 def test_a_cap_whose_rows_agree_among_themselves_keeps_its_own_depth_off_the_prior():
     # an upright piece ending in a round cap, drawn alike in both views 150 px apart; the prior (the
     # piece's curve carried to the tip) reads 3 px nearer, beyond the rows' 2.5 px window: the cap's

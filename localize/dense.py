@@ -572,9 +572,7 @@ def match_dense(graph: SkeletonGraph, sm: StereoMasks, cfg: MatchConfig, border_
         (runs_l, grey_l), (runs_r, grey_r) = runs_l, runs_r
         if grey_l is not None or grey_r is not None:
             grey_end = (runs_l if grey_l is None else grey_l, runs_r if grey_r is None else grey_r)
-    b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r))
-    if grey_end is not None:
-        b.runs_grey_end = grey_end
+    b = EndPlacer(graph, sm, curves, cfg, (runs_l, runs_r), grey_end)
     kinds = graph.node_kind
     flat_set = set(flat)
     needed = []

@@ -32,10 +32,11 @@ class EndPlacer(ForkPlacing, TipPlacing, Walks):
     """
 
     def __init__(self, graph: SkeletonGraph, sm: StereoMasks, curves: dict, cfg: MatchConfig,
-                 runs: tuple[Runs, Runs] | None = None):
+                 runs: tuple[Runs, Runs] | None = None, runs_grey_end: tuple[Runs, Runs] | None = None):
         self.g, self.sm, self.curves, self.cfg = graph, sm, curves, cfg
         self.runs_l, self.runs_r = runs if runs is not None else (find_runs(sm.left_mask, soft=True),
                                                                   find_runs(sm.right_mask, soft=True))
+        self.runs_grey_end = runs_grey_end      # a soft mask's runs on the grey step whole (tipends.TIP_GREY_END)
         self.node_xy = graph.to_full(graph.node_yx)
         self.incident = [[] for _ in range(len(graph.node_kind))]
         for s, ends in enumerate(graph.seg_nodes):

@@ -18,6 +18,7 @@ from appliance.localize.curves import BranchCurve, Poly, linspace
 from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
+from appliance.localize.forkcross import crossing_in_front, front_step_px
 from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_side_near,
                                          side_disparity_near, side_through_fork, taper_radius, turns_in_depth,
                                          weigh_bent_sides, weigh_sides)
@@ -269,6 +270,17 @@ ALONG_NEAR_PX = 4.0
 THROUGH_FORK = True
 THROUGH_MAX_MOVE_PX = 1.0       # (... moving the side's value by at most this, px: further, the rows past the fork are
                                 # another branch's; seed 119's fork, exact masks, a 5-row side moved 1.8 px)
+# a fork whose parent pieces run straight through the node with like radius and whose child is several times thinner,
+# the child's own curve at the node in front of the parent by about the parent's front-surface step (d r / f), is a
+# thin branch crossing in front of the parent, meeting it at its front surface, not at its axis
+# (forkcross.crossing_in_front: seed 910 T10, exact +20.19 mm, colour +19.09, at the trunk's axis; seed 132's false
+# fork, a thin branch's end over a trunk; docs/localize-cross28.md). Placed there, at the thicker side's front surface
+# d (1 + r / f), after every decision (910 T10: -0.38 / -1.49 mm; seed 132's is then withheld by the feature check,
+# its trunk pieces reading 5.2 px behind it) ...
+CROSSING_IN_FRONT = True
+# ... or, with this off, withheld (measured: 910 T10 withheld, 900-931 recall 0.600 -> 0.596 / 0.592 -> 0.588)
+CROSSING_IN_FRONT_PLACED = True
+
 # a fork on a flat parent (a side of it flat: its disparity from bark texture, ~0.2 px rms at 750-1500 mm) with a
 # steep child whose own row crossings, read as a parent side's (forkdisp.side_disparity_near), come within
 # FLAT_CHILD_READ_PX of the fork takes the mean of its disparity and that read: the child's rows clear of a flat
@@ -586,6 +598,13 @@ class ForkPlacing:
         if parents and agree and outline is not None:      # a branch running on past the parent crosses it: no fork
             sin_t = abs(outline[1][0] * e2[1] - outline[1][1] * e2[0])
             agree = not passes_through(self.sm.left_mask, xy, out, r_par / max(sin_t, 0.2) + 2.0, rad[child])
+        front_d = None
+        if agree and CROSSING_IN_FRONT and final and child_ok and len(segs) == 3 and crossing_in_front(
+                (rad[pa], rad[pb]), float(np.dot(dirs[pa], dirs[pb])), rad[child], d, float(at(child)), self.sm.f_px):
+            if CROSSING_IN_FRONT_PLACED:
+                front_d = d + front_step_px(d, max(rad[pa], rad[pb]), self.sm.f_px)    # (set last, below)
+            else:
+                agree = False
         if agree and d_known is not None:
             self.uvd[node][2] = d_known
         elif agree and SIDES_WEIGHTED and final and len(d_par) == 2 and all(self.curves[s].by_row for s in parents):
@@ -666,6 +685,8 @@ class ForkPlacing:
                 and all(self._steep_known(s, xy, side_near) for s in parents):
             self.uvd[node][2] -= centre_bias_px(float(self.uvd[node][2]), float(xy[0]), r_mean,
                                                 self.sm.f_px, self.sm.cx_px, self.sm.offset_px)
+        if front_d is not None:
+            self.uvd[node][2] = front_d     # (a thin branch crossing in front: at the parent's front surface)
         if not parents or not agree or outline is None:
             # (without the child's outline the fork's place is only the slide back along the
             # parent, mostly 10-100 px off: withheld)

@@ -9,10 +9,10 @@ from appliance.acquire.frame import (
     AcquireError, DeviceLost, DeviceNotFound, DriverInfo, FormatNotSupported, InvalidDevice, OutOfSync,
     PermissionDenied, StereoDriver, StereoFrame,
 )
-from appliance.acquire.open import open_driver
+from appliance.acquire.open import check_device, open_driver
 
 __all__ = [
     "AcquireError", "DeviceLost", "DeviceNotFound", "DeviceSpec", "DriverInfo", "FormatNotSupported",
-    "InvalidDevice", "OutOfSync", "PermissionDenied", "StereoDriver", "StereoFrame", "open_driver",
+    "InvalidDevice", "OutOfSync", "PermissionDenied", "StereoDriver", "StereoFrame", "check_device", "open_driver",
     "parse_device",
 ]

@@ -2,9 +2,34 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from appliance.acquire.device import parse_device
 from appliance.acquire.driver import PairedDriver, SideBySideDriver
-from appliance.acquire.frame import StereoDriver
+from appliance.acquire.frame import DeviceNotFound, StereoDriver
+
+
+def check_device(device: str) -> None:
+    """Raise the error :func:`open_driver` would give for a device that is not there, without opening it.
+
+    Cheap (no camera is touched, no network is used), so that a caller with slow set-up to do (the run
+    loop's localizer loads its kernels) can report a typo'd device first. It checks the string, that each
+    ``/dev/videoN`` exists and can be read, and that a ``fake:`` path exists; a GigE camera is only
+    found by opening it.
+
+    Raises
+    ------
+    InvalidDevice, DeviceNotFound, PermissionDenied
+        One line naming the device.
+    """
+    spec = parse_device(device)
+    if spec.kind == "v4l2":
+        from appliance.acquire.v4l2 import check_readable
+
+        for target in spec.targets:
+            check_readable(target)
+    elif spec.kind == "fake" and not Path(spec.targets[0]).exists():
+        raise DeviceNotFound(f"fake:{spec.targets[0]}: no such folder or file")
 
 
 def open_driver(device: str, cfg, *, api: int | None = None) -> StereoDriver:

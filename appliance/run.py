@@ -43,7 +43,7 @@ from typing import Callable
 import numpy as np
 
 from appliance import software_version
-from appliance.acquire import AcquireError, StereoFrame, open_driver
+from appliance.acquire import AcquireError, StereoFrame, check_device, open_driver
 from appliance.calibrate.model import StereoCalibration
 from appliance.config import Config
 from appliance.config.load import config_to_dict
@@ -171,6 +171,7 @@ class _Loop:
         self.replay = opts.device.startswith("fake:") and cfg.camera.fake_rate_hz <= 0
         self.frames_q: queue.Queue = queue.Queue(maxsize=2)
         self.log_q: queue.Queue = queue.Queue(maxsize=cfg.logging.queue_frames)
+        check_device(opts.device)     # a typo'd device fails now, not after the kernels load (seconds)
         # built here even with worker processes: a bad calibration or setting fails now, in one line
         # (its kernels are loaded only where it localizes)
         self.localizer = Localizer(calib, cfg.localize, variant=opts.variant, warm=opts.workers == 1)

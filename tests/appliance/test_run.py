@@ -270,6 +270,7 @@ def test_a_full_disk_stops_logging_but_not_localizing(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--device", "fake:/nonexistent/folder"], "fake:/nonexistent/folder"),
+    (["--device", "/dev/video9"], "/dev/video9: no such device"),
     (["--calib", "/nonexistent/calib.yaml"], "/nonexistent/calib.yaml"),
 ])
 def test_bad_input_is_one_line_naming_it(args, message):

@@ -363,6 +363,22 @@ def test_a_lone_flat_side_carried_far_to_the_fork_gives_way_to_the_median_of_thr
 
 
 @pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_side_carried_a_few_px_to_the_fork_is_averaged_with_the_steep_childs_own_rows(
+        rendered_scene, monkeypatch, rule):
+    # seed 981's fork 10, exact masks (Z 1284 mm): a flat parent fitted on one side of the fork, its level carried 7 px
+    # past its span to the fork (its texture next to the fork within FLAT_NEAR_MIN_PX of it), -0.42 px: +3.96 mm; the
+    # steep child's own crossings, read as a parent side's from 12 px of the fork, +0.11 px. With the rule
+    # (forkends.LONE_FLAT_CHILD_READ) the mean of the two: -0.16 px, +1.46 mm.
+    monkeypatch.setattr(forkends, "LONE_FLAT_CHILD_READ", rule)
+    row = score_row(rendered_scene(981), 10, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.0 and abs(row.disparity_err_px) < 0.25
+    else:
+        assert row.dz_mm > 3.5
+
+
+@pytest.mark.parametrize("rule", [False, True])
 def test_a_lone_carried_flat_sides_fork_that_took_the_childs_carried_curve_takes_the_median_of_three(
         rendered_scene, monkeypatch, rule):
     # seed 825's fork 12, exact masks (Z 1280 mm): a flat parent fitted on 19 columns on one side of the fork (a

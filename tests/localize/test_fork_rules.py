@@ -280,8 +280,10 @@ def test_a_fork_whose_sides_disagree_with_no_piece_known_there_is_withheld(rende
 def test_a_lone_flat_side_outvoted_by_the_child_and_its_outline_gives_way_to_the_mean(rendered_scene, monkeypatch, rule):
     # seed 378's fork 11, exact masks: a flat parent fitted on one side (200 columns, its bark texture 0.78 px
     # low along all of them), the child's curve +0.97 px and its right outline +0.86 px from it: +6.9 mm; the
-    # mean of the three +1.5 mm.
+    # mean of the three +1.5 mm. (Without this rule forkends.LONE_FLAT_CHILD_READ, after every decision, averages
+    # the lone side with the child's own rows: +0.8 mm; off here, the rule tested on its own.)
     monkeypatch.setattr(forkends, "LONE_FLAT_OUTVOTED", rule)
+    monkeypatch.setattr(forkends, "LONE_FLAT_CHILD_READ", False)
     row = score_row(rendered_scene(378), 11, exact=True)
     assert row.result_id >= 0
     if rule:

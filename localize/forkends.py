@@ -293,6 +293,13 @@ CROSSING_IN_FRONT_PLACED = True
 # (docs/localize-forkp27.md)
 FLAT_CHILD_READ = False
 FLAT_CHILD_READ_PX = 10.0
+# ... on for a fork whose parent is a lone flat side carried a few px past its span to the fork (at most
+# CHILD_CARRY_PX; further: LONE_CARRIED_MEDIAN's case), its texture next to the fork agreeing with its curve
+# (forkdisp.flat_side_near within FLAT_NEAR_MIN_PX): the fork's one reading is that side's level carried, and a
+# child read within LONE_FLAT_CHILD_READ_PX is a second, independent one: their mean (seeds 981 T10 and 972 T14
+# of 964-995, both mask sources: the side 0.34-0.42 px far, the child read within 0.12 px; docs/localize-gross29.md)
+LONE_FLAT_CHILD_READ = True
+LONE_FLAT_CHILD_READ_PX = 15.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -680,6 +687,14 @@ class ForkPlacing:
             v = self._child_read(child, xy)
             if v is not None:
                 self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
+        elif LONE_FLAT_CHILD_READ and final and agree and outline is not None and len(parents) == 1 and child_ok \
+                and self.curves[child].by_row and not self.curves[parents[0]].by_row and parents[0] not in side_near \
+                and parents[0] in flat_read and float(self.uvd[node][2]) == float(at(parents[0])) \
+                and 0.0 < self._carried_px(parents[0], xy) <= CHILD_CARRY_PX:
+            # (after every decision: a lone flat side's level carried to the fork, and the steep child's own rows)
+            v = self._child_read(child, xy, LONE_FLAT_CHILD_READ_PX)
+            if v is not None:
+                self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):
@@ -694,15 +709,15 @@ class ForkPlacing:
         else:
             self.hidden.discard(int(node))
 
-    def _child_read(self, child: int, xy: np.ndarray) -> "SideNear | None":
+    def _child_read(self, child: int, xy: np.ndarray, reach_px: float = FLAT_CHILD_READ_PX) -> "SideNear | None":
         """A steep child's own disparity at the fork ``xy`` (2,) from its crossings nearest it, read as a parent side's
         (:func:`forkdisp.side_disparity_near`: its rows clear of the crotch, as wide as its span's, and its span's
         next to them, a line read at the fork's row), where its kept rows come within ``FLAT_CHILD_READ_PX`` of the
-        fork (``FLAT_CHILD_READ``); None otherwise."""
+        fork (``FLAT_CHILD_READ``; ``reach_px``, px); None otherwise."""
         c = self.curves[child]
         v = side_disparity_near(c, self.runs_l, self.runs_r, _t_at(c, xy), f_px=self.sm.f_px, cx_px=self.sm.cx_px,
                                 offset_px=self.sm.offset_px)
-        return v if v is not None and v.nearest_px <= FLAT_CHILD_READ_PX else None
+        return v if v is not None and v.nearest_px <= reach_px else None
 
     def _through_fork(self, s: int, other: int, xy: np.ndarray, v0) -> "SideNear | None":
         """A lone steep parent side ``s``'s read through the fork ``xy`` (2,) (``THROUGH_FORK``): where its own read

@@ -280,8 +280,10 @@ def test_a_fork_whose_sides_disagree_with_no_piece_known_there_is_withheld(rende
 def test_a_lone_flat_side_outvoted_by_the_child_and_its_outline_gives_way_to_the_mean(rendered_scene, monkeypatch, rule):
     # seed 378's fork 11, exact masks: a flat parent fitted on one side (200 columns, its bark texture 0.78 px
     # low along all of them), the child's curve +0.97 px and its right outline +0.86 px from it: +6.9 mm; the
-    # mean of the three +1.5 mm.
+    # mean of the three +1.5 mm. (Without this rule forkends.LONE_FLAT_CHILD_READ, after every decision, averages
+    # the lone side with the child's own rows: +0.8 mm; off here, the rule tested on its own.)
     monkeypatch.setattr(forkends, "LONE_FLAT_OUTVOTED", rule)
+    monkeypatch.setattr(forkends, "LONE_FLAT_CHILD_READ", False)
     row = score_row(rendered_scene(378), 11, exact=True)
     assert row.result_id >= 0
     if rule:
@@ -360,6 +362,22 @@ def test_a_lone_flat_side_carried_far_to_the_fork_gives_way_to_the_median_of_thr
         assert abs(row.dz_mm) < 1.8
     else:
         assert row.dz_mm < -2.3
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_flat_side_carried_a_few_px_to_the_fork_is_averaged_with_the_steep_childs_own_rows(
+        rendered_scene, monkeypatch, rule):
+    # seed 981's fork 10, exact masks (Z 1284 mm): a flat parent fitted on one side of the fork, its level carried 7 px
+    # past its span to the fork (its texture next to the fork within FLAT_NEAR_MIN_PX of it), -0.42 px: +3.96 mm; the
+    # steep child's own crossings, read as a parent side's from 12 px of the fork, +0.11 px. With the rule
+    # (forkends.LONE_FLAT_CHILD_READ) the mean of the two: -0.16 px, +1.46 mm.
+    monkeypatch.setattr(forkends, "LONE_FLAT_CHILD_READ", rule)
+    row = score_row(rendered_scene(981), 10, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 2.0 and abs(row.disparity_err_px) < 0.25
+    else:
+        assert row.dz_mm > 3.5
 
 
 @pytest.mark.parametrize("rule", [False, True])

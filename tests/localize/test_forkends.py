@@ -150,6 +150,10 @@ def test_a_steep_childs_own_rows_next_to_the_fork_are_read_where_they_come_near_
     fp.curves, fp.runs_l, fp.runs_r = {1: c}, runs_l, runs_r
     fp.sm = SimpleNamespace(f_px=1450.0, cx_px=160.0, offset_px=0.0)
     v = fp._child_read(1, np.array([165.0, 150.0]))
+    # (a reach of its own: LONE_FLAT_CHILD_READ_PX, 15)
+    v_far = fp._child_read(1, np.array([165.0, 150.0]), crotch_rows + 2.0)
+    assert v_far is not None and v_far.nearest_px <= crotch_rows + 1.0
+    assert fp._child_read(1, np.array([165.0, 150.0]), crotch_rows - 2.0) is None
     if crotch_rows > forkends.FLAT_CHILD_READ_PX:
         assert v is None
     else:

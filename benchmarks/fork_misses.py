@@ -1,7 +1,7 @@
 """Every true fork the improved localizer misses, by cause (issue 5's fork recall), from a trace of ForkPlacing.fork.
 
     python benchmarks/fork_misses.py [--extra N | --seeds A-B] [--masks true|colour] [-v] [--pickle OUT]
-                                     [--set MODULE.NAME=VALUE ...] [--junctions]
+                                     [--set MODULE.NAME=VALUE ...] [--junctions] [--false]
 
 Scenes as ``localize_accuracy.py`` (fixtures plus ``--extra`` seeds 100.., or ``--seeds A-B``), read from the
 cache only: a scene not rendered yet is skipped, never rendered. Each pair runs the improved localizer with
@@ -24,6 +24,11 @@ curve (minus the fork's), the angles (child to parent, child to the rows), radii
 along the parent's axis (the outline check's offset, px). ``--set forkends.SECTIONS_MIN_MOVE_PX=0.0`` sets a
 module constant of ``appliance.localize`` first (an experiment without editing the code); ``--pickle`` keeps
 the records for other analyses.
+
+``--false`` also classes every false fork (a reported fork matched to no true one) by where it lies against the
+truth (``false_fork``: placed off a missed true fork, a second place of a found one, a tip on a branch, a crossing,
+on one branch, off the axes), and for the placed-off ones how (``placed_off``: the offset along and across the
+parent's line, the child's angle, the junction's distance; docs/localize-forks29.md).
 
 ``--junctions`` splits the forks with no junction by cause (``junction_split``, ``no_junction_cause``): the
 skeleton's stages of the left mask (recorded by wrapping the names ``localizer`` calls: before pruning, after
@@ -360,6 +365,81 @@ def _fmt(m: dict) -> str:
                                           f"{m['far'][2]}"))
 
 
+def false_fork(truth, res, fid: int, found: set, f_px: float) -> tuple[str, str]:
+    """Where false fork ``fid`` (a reported fork matched to no true one) lies against the truth, original left
+    image: (class, details). Each true branch's axis (1 mm steps) projected; a branch counts as under the fork if
+    its axis passes within its own image radius + 5 px; its depth there against the fork's. Classes, the first
+    that holds: ``placed off`` (a true fork within 40 px, missed: one false and one missed), ``second place of a
+    found fork`` (within 40 px, found), ``tip on a branch`` (a true tip within 40 px and another branch under
+    it), ``crossing`` (two or more branches under it, no fork or tip near: ``at one depth`` if their depths
+    there differ by less than the sum of their radii + 5 mm), ``on one branch`` (a bend, a leaf's edge),
+    ``off the axes``."""
+    f = next(q for q in res.features if q.id == fid)
+    q = np.asarray(f.left_px, float)
+    tf = truth.features
+    def nearest(kind):
+        k = np.flatnonzero((tf.kind == kind) & tf.visible_left)
+        if not len(k):
+            return np.inf, -1
+        dd = np.hypot(*(tf.left_px[k] - q).T)
+        return float(dd.min()), int(k[dd.argmin()])
+    d_fork, j_fork = nearest("bifurcation")
+    d_tip, j_tip = nearest("endpoint")
+    under = []
+    for b, br in enumerate(truth.branches):
+        _, pts, rr = _resample(np.asarray(br.axis_mm, float), np.asarray(br.radius_mm, float))
+        px = truth.rig.project(pts, "left")
+        dd = np.hypot(*(px - q).T)
+        i = int(dd.argmin())
+        r_px = f_px * rr[i] / pts[i, 2]
+        if dd[i] <= r_px + 5.0:
+            under.append((b, float(dd[i]), float(pts[i, 2] - f.xyz_mm[2]), float(rr[i]), float(r_px)))
+    det = (f"fork {d_fork:.0f} px (T{j_fork}{' found' if j_fork in found else ''}), tip {d_tip:.0f} px (T{j_tip}); "
+           f"under it: " + (", ".join(f"B{b} {dd:.0f} px off axis (r {rp:.0f} px), dZ {dz:+.1f} mm"
+                                      for b, dd, dz, _, rp in under) or "none"))
+    if d_fork <= 40 and j_fork not in found:
+        return f"placed off ({'5-15' if d_fork <= 15 else '15-40'} px)", det
+    if d_fork <= 40:
+        return "second place of a found fork", det
+    if len(under) >= 2 and d_tip <= 40:
+        return "tip on a branch", det
+    if len(under) >= 2:
+        zs = sorted(under, key=lambda u: u[1])[:2]
+        one = abs(zs[0][2] - zs[1][2]) < zs[0][3] + zs[1][3] + 5.0
+        return f"crossing ({'at one depth' if one else 'apart in depth'})", det
+    if under:
+        return "on one branch", det
+    return "off the axes", det
+
+
+def placed_off(calib, truth, res, fid: int, recs: dict) -> str:
+    """How false fork ``fid``, placed off a true fork, lies against it (rectified left view): the junction whose
+    place it is, the offset along the parent's line (``+``: towards the child's outward side) and across it
+    (``+``: towards the child), the child's angle to the parent, the junction's distance from the place."""
+    f = next(q for q in res.features if q.id == fid)
+    q = rectified_points(calib, np.asarray(f.left_px, float), 0)[0]
+    tf = truth.features
+    k = np.flatnonzero(tf.kind == "bifurcation")
+    t = rectified_points(calib, tf.left_px[k], 0)
+    uv = t[np.hypot(*(t - q).T).argmin()]
+    placed = [(np.hypot(*(rec["xy"] - q)), node, rec) for node, rec in recs.items()
+              if "xy" in rec and not rec["hidden"]]
+    if not placed:
+        return ""
+    dist, node, rec = min(placed, key=lambda x: x[0])
+    e1, e2 = rec["e1"], rec["e2"]
+    out = e2 if np.dot(rec["c2"] - rec["xy"], e2) >= 0 else -e2
+    along_dir = e1 if np.dot(out, e1) >= 0 else -e1
+    n = np.array([-e1[1], e1[0]])
+    n = n if np.dot(out, n) >= 0 else -n
+    v = rec["xy"] - uv
+    ang = np.degrees(np.arcsin(min(1.0, abs(e1[0] * e2[1] - e1[1] * e2[0]))))
+    return (f"; node {node} ({dist:.1f} px from it), {'along_fork' if rec.get('along') else 'outline'} place "
+            f"{np.dot(v, along_dir):+.1f} px along, {np.dot(v, n):+.1f} across the parent, child at {ang:.0f} deg, "
+            f"radii {rec['r_par']:.1f} / {rec['rad'][rec['child']]:.1f} px, junction "
+            f"{np.hypot(*(rec['node_xy'] - rec['xy'])):.0f} px from the place")
+
+
 def cause(rec: dict) -> str:
     """What ``fork`` did with one junction (see the module's doc)."""
     if "xy" not in rec:
@@ -409,6 +489,7 @@ def main() -> int:
     ap.add_argument("--set", action="append", default=[], metavar="MODULE.NAME=VALUE")
     ap.add_argument("--pickle", type=Path)
     ap.add_argument("-v", action="store_true")
+    ap.add_argument("--false", action="store_true", help="also class every false fork (false_fork)")
     ap.add_argument("--junctions", action="store_true",
                     help="split the forks without a junction by cause (junction_split; slower: also skeletons of "
                          "the right mask and a full-size thinning)")
@@ -419,6 +500,7 @@ def main() -> int:
     stages = StageTrace() if a.junctions else None
     split, split_rows = Counter(), []
     counts, n_seen, n_found, n_false, saved = Counter(), 0, 0, 0, []
+    false_counts = Counter()
     for name, lp, rp, tp in scene_list(a.extra, a.seeds):
         if not (tp.exists() and lp.exists() and rp.exists() and tp.with_suffix(".npz").exists()):
             print(f"{name}: not rendered, skipped")
@@ -433,6 +515,15 @@ def main() -> int:
         tf = truth.features
         rows = [r for r in score_result(res, truth, name=name).rows if r.kind == "bifurcation"]
         n_false += sum(r.truth_index < 0 for r in rows)
+        if a.false:
+            found = {r.truth_index for r in rows if r.truth_index >= 0 and r.result_id >= 0}
+            for r in rows:
+                if r.truth_index < 0:
+                    why, det = false_fork(truth, res, r.result_id, found, float(calib.f_px))
+                    if why.startswith("placed off"):
+                        det += placed_off(calib, truth, res, r.result_id, trace.recs)
+                    false_counts[why] += 1
+                    print(f"{name} false fork {r.result_id}: {why}; {det}")
         for r in rows:
             j = r.truth_index
             if j < 0 or not (tf.visible_left[j] and tf.visible_right[j]):
@@ -484,6 +575,10 @@ def main() -> int:
     print(f"\nforks seen in both views {n_seen}, found {n_found}, missed {n_seen - n_found}; false forks {n_false}")
     for k, v in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])):
         print(f"{v:4d}  {k}")
+    if false_counts:
+        print("\nfalse forks, by where they lie:")
+        for k, v in sorted(false_counts.items(), key=lambda kv: (-kv[1], kv[0])):
+            print(f"{v:4d}  {k}")
     if split:
         print("\nno junction, by cause:")
         for k, v in sorted(split.items(), key=lambda kv: (-kv[1], kv[0])):

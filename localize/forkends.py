@@ -29,6 +29,7 @@ from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_c
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
                                           scattered_read_contradicted, short_side_unconfirmed, short_turning_flat_side,
                                           vouched_by_span)
+from appliance.localize.graph import JUNCTION
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -300,6 +301,15 @@ FLAT_CHILD_READ_PX = 10.0
 # of 964-995, both mask sources: the side 0.34-0.42 px far, the child read within 0.12 px; docs/localize-gross29.md)
 LONE_FLAT_CHILD_READ = True
 LONE_FLAT_CHILD_READ_PX = 15.0
+# a fork whose skeleton junction is split in two, joined by a one-point piece (each junction then has fewer than
+# three usable pieces and placed nothing): the pair's pieces together, from the pair's middle. Off: on the twenty sets
+# it finds 10 forks more but adds 7 false ones and a fork 69 mm off (612-643 colour max 5.28 -> 69.33 mm)
+# (docs/localize-forks29.md)
+SPLIT_JUNCTION = True
+SPLIT_PIECES = 3                # ... a Y: the pair's pieces three (four: a crossing, or a fork beside one: measured)
+SPLIT_CHECKED = True
+SPLIT_AGREE_PX = 4.0
+SPLIT_CLEAR_PX = 10.0
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -365,9 +375,17 @@ class ForkPlacing:
             self._deferred.add(node)
             return
         segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
+        p = self.node_xy[node]
+        if len(segs) < 3 and SPLIT_JUNCTION:
+            # a junction split in two by a one-point piece: the pair's pieces together, from the pair's middle
+            other = self._split_partner(node)
+            if other is not None:
+                segs = segs + [s for s in self.incident[other] if self._usable(s) and s not in segs]
+                p = 0.5 * (self.node_xy[node] + self.node_xy[other])
+                if SPLIT_CHECKED and not self._split_pair_stands(node, other, segs):
+                    return
         if len(segs) < 3:
             return
-        p = self.node_xy[node]
         r = self._node_radius(node)
         near, rad, dirs = {}, {}, {}
         for s in segs:                  # (cached: both fork rounds ask)
@@ -708,6 +726,75 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _outline_place_from(self, segs: list, p: np.ndarray, r: float) -> np.ndarray | None:
+        """Where the child's outline places a fork of pieces ``segs`` taken as meeting at ``p`` (2,) px, their points within ``r`` px of it (the
+        parent, child and lines chosen as ``fork`` does, without its caches; the parent's line behind the fork
+        first, then through both sides); None when the outline gives no place."""
+        near, rad, dirs = {}, {}, {}
+        for s in segs:
+            seg_pts = self.seg_points(s)
+            pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
+            if not ok:
+                pts = seg_pts[np.argsort(dist)[:15]]
+                v = pts.sum(0) / len(pts) - p
+                u = v / max(np.hypot(*v), 1e-9)
+            near[s], rad[s], dirs[s] = pts, self._seg_radius(s, pts), u
+        thin = min(segs, key=rad.get)
+        rest = [s for s in segs if s != thin]
+        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
+            pa, pb = rest
+        else:
+            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+        child = next(s for s in segs if s not in (pa, pb))
+        c1, e1 = kernels_forks.tls_line_pair(near[pa], near[pb])
+        c2, e2 = _line(near[child])
+        behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
+        r_par = max(rad[pa], rad[pb])
+        for cl, el in ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)]:
+            xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
+            if xy is not None:
+                return xy
+        return None
+
+    def _split_pair_stands(self, node: int, other: int, segs: list) -> bool:
+        """Whether a split junction's pair (``SPLIT_JUNCTION``) is one fork to place (``SPLIT_CHECKED``): the child's
+        outline places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), and no piece of
+        another branch passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing)."""
+        places = [self._outline_place_from(segs, self.node_xy[n], self._node_radius(n)) for n in (node, other)]
+        if any(q is None for q in places) or np.hypot(*(places[0] - places[1])) > SPLIT_AGREE_PX:
+            return False
+        xy = 0.5 * (places[0] + places[1])
+        own = set(self.incident[node]) | set(self.incident[other])
+        for s in range(len(self.g.seg_yx)):
+            if s in own or self.g.seg_recovered[s] or len(self.g.seg_yx[s]) < 2:
+                continue
+            pts = self.seg_points(s)
+            reach = max(self._seg_radius(s, pts), 1.0) + SPLIT_CLEAR_PX
+            if float(np.min(np.hypot(pts[:, 0] - xy[0], pts[:, 1] - xy[1]))) <= reach:
+                return False
+        return True
+
+    def _usable(self, s: int) -> bool:
+        """Whether piece ``s`` takes part in a fork (seen, not bridged; two skeleton points or more)."""
+        return not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2
+
+    def _split_partner(self, node: int) -> int | None:
+        """The junction joined to ``node`` by a one-point piece, where the two are one fork split in two
+        (``SPLIT_JUNCTION``): each has fewer than three usable pieces of its own, together ``SPLIT_PIECES`` (a Y;
+        four are a crossing or a fork beside one: measured, not taken). Only the pair's lower node takes it (the other
+        returns as before: one fork per pair). None otherwise."""
+        for s in self.incident[node]:
+            if self.g.seg_recovered[s] or len(self.g.seg_yx[s]) >= 2:
+                continue
+            other = next((m for m in self.g.seg_nodes[s] if m >= 0 and m != node), None)
+            if other is None or other < node or self.g.node_kind[other] != JUNCTION:
+                continue
+            mine = {t for t in self.incident[node] if self._usable(t)}
+            theirs = {t for t in self.incident[other] if self._usable(t)}
+            if len(theirs) < 3 and len(mine | theirs) == SPLIT_PIECES:
+                return int(other)
+        return None
 
     def _child_read(self, child: int, xy: np.ndarray, reach_px: float = FLAT_CHILD_READ_PX) -> "SideNear | None":
         """A steep child's own disparity at the fork ``xy`` (2,) from its crossings nearest it, read as a parent side's

@@ -375,15 +375,17 @@ class ForkPlacing:
             self._deferred.add(node)
             return
         segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
-        p = self.node_xy[node]
+        p, split_xy = self.node_xy[node], None
         if len(segs) < 3 and SPLIT_JUNCTION:
             # a junction split in two by a one-point piece: the pair's pieces together, from the pair's middle
             other = self._split_partner(node)
             if other is not None:
                 segs = segs + [s for s in self.incident[other] if self._usable(s) and s not in segs]
                 p = 0.5 * (self.node_xy[node] + self.node_xy[other])
-                if SPLIT_CHECKED and not self._split_pair_stands(node, other, segs):
-                    return
+                if SPLIT_CHECKED:
+                    split_xy = self._split_pair_place(node, other, segs)
+                    if split_xy is None:
+                        return
         if len(segs) < 3:
             return
         r = self._node_radius(node)
@@ -435,6 +437,8 @@ class ForkPlacing:
             if xy is not None:
                 outline = (cl, el)
                 break
+        if xy is not None and split_xy is not None:
+            xy = split_xy               # (a split junction's pair: the place both its nodes agree on)
         if outline is not None and PARENT_FROM_SECTIONS:
             # the parent's line near the crotch is pulled towards the child: its axis again from its
             # own cross-sections clear of the crotch on both sides, and the child's outline against it
@@ -757,13 +761,14 @@ class ForkPlacing:
                 return xy
         return None
 
-    def _split_pair_stands(self, node: int, other: int, segs: list) -> bool:
-        """Whether a split junction's pair (``SPLIT_JUNCTION``) is one fork to place (``SPLIT_CHECKED``): the child's
-        outline places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), and no piece of
-        another branch passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing)."""
+    def _split_pair_place(self, node: int, other: int, segs: list) -> np.ndarray | None:
+        """Where a split junction's pair (``SPLIT_JUNCTION``) is one fork (``SPLIT_CHECKED``): the child's outline
+        places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), and no piece of another branch
+        passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing). The two places' mean (2,)
+        px; None otherwise (not placed)."""
         places = [self._outline_place_from(segs, self.node_xy[n], self._node_radius(n)) for n in (node, other)]
         if any(q is None for q in places) or np.hypot(*(places[0] - places[1])) > SPLIT_AGREE_PX:
-            return False
+            return None
         xy = 0.5 * (places[0] + places[1])
         own = set(self.incident[node]) | set(self.incident[other])
         for s in range(len(self.g.seg_yx)):
@@ -772,8 +777,8 @@ class ForkPlacing:
             pts = self.seg_points(s)
             reach = max(self._seg_radius(s, pts), 1.0) + SPLIT_CLEAR_PX
             if float(np.min(np.hypot(pts[:, 0] - xy[0], pts[:, 1] - xy[1]))) <= reach:
-                return False
-        return True
+                return None
+        return xy
 
     def _usable(self, s: int) -> bool:
         """Whether piece ``s`` takes part in a fork (seen, not bridged; two skeleton points or more)."""

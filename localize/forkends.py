@@ -302,11 +302,14 @@ FLAT_CHILD_READ_PX = 10.0
 LONE_FLAT_CHILD_READ = True
 LONE_FLAT_CHILD_READ_PX = 15.0
 # a fork whose skeleton junction is split in two, joined by a one-point piece (each junction then has fewer than
-# three usable pieces and placed nothing): the pair's pieces together, from the pair's middle. Off: on the twenty sets
-# it finds 10 forks more but adds 7 false ones and a fork 69 mm off (612-643 colour max 5.28 -> 69.33 mm)
-# (docs/localize-forks29.md)
+# three usable pieces and placed nothing): the pair's pieces together, from the pair's middle (docs/localize-forks29.md:
+# unchecked, on the twenty sets +10 forks, +7 false ones and a fork 69 mm off, 615 T10 colour) ...
 SPLIT_JUNCTION = True
 SPLIT_PIECES = 3                # ... a Y: the pair's pieces three (four: a crossing, or a fork beside one: measured)
+# ... only where the child's outline places it alike taken from either node of the pair (within SPLIT_AGREE_PX px),
+# at those places' mean, and no piece of another branch lies within SPLIT_CLEAR_PX px of its own radius of that place
+# (615 T10: a branch crossing the fork, its disparity taken; 940 T9, 898, 874: the two nodes' places 17-125 px
+# apart) (docs/localize-split29.md)
 SPLIT_CHECKED = True
 SPLIT_AGREE_PX = 4.0
 SPLIT_CLEAR_PX = 10.0
@@ -437,8 +440,6 @@ class ForkPlacing:
             if xy is not None:
                 outline = (cl, el)
                 break
-        if xy is not None and split_xy is not None:
-            xy = split_xy               # (a split junction's pair: the place both its nodes agree on)
         if outline is not None and PARENT_FROM_SECTIONS:
             # the parent's line near the crotch is pulled towards the child: its axis again from its
             # own cross-sections clear of the crotch on both sides, and the child's outline against it
@@ -454,6 +455,8 @@ class ForkPlacing:
             hit = along_fork(self.sm.left_mask, p0, e1, e2 if np.dot(c2 - p0, e2) >= 0 else -e2, r_par, rad[child])
             if hit is not None:
                 xy, outline, along = hit[0], (hit[1], hit[2]), True
+        if outline is not None and split_xy is not None:
+            xy = split_xy               # (a split junction's pair: the place both its nodes agree on)
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further

@@ -313,6 +313,10 @@ SPLIT_PIECES = 3                # ... a Y: the pair's pieces three (four: a cros
 SPLIT_CHECKED = True
 SPLIT_AGREE_PX = 4.0
 SPLIT_CLEAR_PX = 10.0
+# ... and one node of the pair at least SPLIT_OFF_AXIS parent radii off the parent's line (the child's side of the split
+# lies near the parent's outline: 1.0-1.5 radii on seeds 132, 138, 153, 1006, 1018; 0.5 on 643 T5, a thick parent's
+# pair deep inside it, placed 19 px back along the parent)
+SPLIT_OFF_AXIS = 0.8
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -734,10 +738,11 @@ class ForkPlacing:
         else:
             self.hidden.discard(int(node))
 
-    def _outline_place_from(self, segs: list, p: np.ndarray, r: float) -> np.ndarray | None:
-        """Where the child's outline places a fork of pieces ``segs`` taken as meeting at ``p`` (2,) px, their points within ``r`` px of it (the
-        parent, child and lines chosen as ``fork`` does, without its caches; the parent's line behind the fork
-        first, then through both sides); None when the outline gives no place."""
+    def _outline_place_from(self, segs: list, p: np.ndarray, r: float) -> tuple[np.ndarray | None, float]:
+        """Where the child's outline places a fork of pieces ``segs`` taken as meeting at ``p`` (2,) px, their points
+        within ``r`` px of it (the parent, child and lines chosen as ``fork`` does, without its caches; the parent's
+        line behind the fork first, then through both sides), None when the outline gives no place; and how far ``p``
+        lies from the parent's line through both sides, in parent radii."""
         near, rad, dirs = {}, {}, {}
         for s in segs:
             seg_pts = self.seg_points(s)
@@ -758,20 +763,25 @@ class ForkPlacing:
         c2, e2 = _line(near[child])
         behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
         r_par = max(rad[pa], rad[pb])
+        off = abs(float((p[0] - c1[0]) * e1[1] - (p[1] - c1[1]) * e1[0])) / max(r_par, 1.0)
         for cl, el in ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)]:
             xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
             if xy is not None:
-                return xy
-        return None
+                return xy, off
+        return None, off
 
     def _split_pair_place(self, node: int, other: int, segs: list) -> np.ndarray | None:
         """Where a split junction's pair (``SPLIT_JUNCTION``) is one fork (``SPLIT_CHECKED``): the child's outline
         places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), and no piece of another branch
         passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing). The two places' mean (2,)
         px; None otherwise (not placed)."""
-        places = [self._outline_place_from(segs, self.node_xy[n], self._node_radius(n)) for n in (node, other)]
-        if any(q is None for q in places) or np.hypot(*(places[0] - places[1])) > SPLIT_AGREE_PX:
+        (q0, off0), (q1, off1) = (self._outline_place_from(segs, self.node_xy[n], self._node_radius(n))
+                                  for n in (node, other))
+        places = [q0, q1]
+        if q0 is None or q1 is None or np.hypot(*(q0 - q1)) > SPLIT_AGREE_PX:
             return None
+        if max(off0, off1) < SPLIT_OFF_AXIS:
+            return None             # (both nodes deep inside the parent: its own skeleton split, seed 643 T5)
         xy = 0.5 * (places[0] + places[1])
         own = set(self.incident[node]) | set(self.incident[other])
         for s in range(len(self.g.seg_yx)):

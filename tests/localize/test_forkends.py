@@ -270,8 +270,10 @@ def test_a_split_pair_stands_where_both_nodes_outline_places_agree_and_no_other_
     a, b = pairs[0]
     segs = sorted({s for n in (a, b) for s in placer.incident[n] if placer._usable(s)})
     assert len(segs) == 3
-    places = [placer._outline_place_from(segs, placer.node_xy[n], placer._node_radius(n)) for n in (a, b)]
+    hits = [placer._outline_place_from(segs, placer.node_xy[n], placer._node_radius(n)) for n in (a, b)]
+    places = [q for q, _ in hits]
     assert all(q is not None for q in places)
+    assert max(off for _, off in hits) >= 0.8           # the child's node near the parent's outline (SPLIT_OFF_AXIS)
     assert np.hypot(*(places[0] - places[1])) <= 4.0            # the two nodes' places agree ...
     assert all(np.hypot(*(q - (100.0, 100.0))) < 8.0 for q in places)   # ... near the drawn fork
     xy = placer._split_pair_place(a, b, segs)

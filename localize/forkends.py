@@ -772,17 +772,17 @@ class ForkPlacing:
 
     def _split_pair_place(self, node: int, other: int, segs: list) -> np.ndarray | None:
         """Where a split junction's pair (``SPLIT_JUNCTION``) is one fork (``SPLIT_CHECKED``): the child's outline
-        places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), and no piece of another branch
-        passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing). The two places' mean (2,)
-        px; None otherwise (not placed)."""
+        places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), one node lies at least
+        ``SPLIT_OFF_AXIS`` parent radii off the parent's line (the child's, near the parent's outline), and no piece of
+        another branch passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing). The two
+        places' mean (2,) px; None otherwise (not placed)."""
         (q0, off0), (q1, off1) = (self._outline_place_from(segs, self.node_xy[n], self._node_radius(n))
                                   for n in (node, other))
-        places = [q0, q1]
         if q0 is None or q1 is None or np.hypot(*(q0 - q1)) > SPLIT_AGREE_PX:
             return None
         if max(off0, off1) < SPLIT_OFF_AXIS:
             return None             # (both nodes deep inside the parent: its own skeleton split, seed 643 T5)
-        xy = 0.5 * (places[0] + places[1])
+        xy = 0.5 * (q0 + q1)
         own = set(self.incident[node]) | set(self.incident[other])
         for s in range(len(self.g.seg_yx)):
             if s in own or self.g.seg_recovered[s] or len(self.g.seg_yx[s]) < 2:

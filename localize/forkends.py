@@ -29,6 +29,7 @@ from appliance.localize.forkvouch import (carried_side_outvoted, child_outline_c
                                           known_side_stands, lone_carried_median, none_vouched, outvoted,
                                           scattered_read_contradicted, short_side_unconfirmed, short_turning_flat_side,
                                           vouched_by_span)
+from appliance.localize.graph import JUNCTION
 
 # a hidden end's centre line meeting a piece at less than this is that branch running on behind
 # the occluder (bent), not a child meeting its parent
@@ -300,6 +301,22 @@ FLAT_CHILD_READ_PX = 10.0
 # of 964-995, both mask sources: the side 0.34-0.42 px far, the child read within 0.12 px; docs/localize-gross29.md)
 LONE_FLAT_CHILD_READ = True
 LONE_FLAT_CHILD_READ_PX = 15.0
+# a fork whose skeleton junction is split in two, joined by a one-point piece (each junction then has fewer than
+# three usable pieces and placed nothing): the pair's pieces together, from the pair's middle (docs/localize-forks29.md:
+# unchecked, on the twenty sets +10 forks, +7 false ones and a fork 69 mm off, 615 T10 colour) ...
+SPLIT_JUNCTION = True
+SPLIT_PIECES = 3                # ... a Y: the pair's pieces three (four: a crossing, or a fork beside one: measured)
+# ... only where the child's outline places it alike taken from either node of the pair (within SPLIT_AGREE_PX px),
+# at those places' mean, and no piece of another branch lies within SPLIT_CLEAR_PX px of its own radius of that place
+# (615 T10: a branch crossing the fork, its disparity taken; 940 T9, 898, 874: the two nodes' places 17-125 px
+# apart) (docs/localize-split29.md)
+SPLIT_CHECKED = True
+SPLIT_AGREE_PX = 4.0
+SPLIT_CLEAR_PX = 10.0
+# ... and one node of the pair at least SPLIT_OFF_AXIS parent radii off the parent's line (the child's side of the split
+# lies near the parent's outline: 1.0-1.5 radii on seeds 132, 138, 153, 1006, 1018; 0.5 on 643 T5, a thick parent's
+# pair deep inside it, placed 19 px back along the parent)
+SPLIT_OFF_AXIS = 0.8
 
 
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -365,9 +382,19 @@ class ForkPlacing:
             self._deferred.add(node)
             return
         segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
+        p, split_xy = self.node_xy[node], None
+        if len(segs) < 3 and SPLIT_JUNCTION:
+            # a junction split in two by a one-point piece: the pair's pieces together, from the pair's middle
+            other = self._split_partner(node)
+            if other is not None:
+                segs = segs + [s for s in self.incident[other] if self._usable(s) and s not in segs]
+                p = 0.5 * (self.node_xy[node] + self.node_xy[other])
+                if SPLIT_CHECKED:
+                    split_xy = self._split_pair_place(node, other, segs)
+                    if split_xy is None:
+                        return
         if len(segs) < 3:
             return
-        p = self.node_xy[node]
         r = self._node_radius(node)
         near, rad, dirs = {}, {}, {}
         for s in segs:                  # (cached: both fork rounds ask)
@@ -432,6 +459,8 @@ class ForkPlacing:
             hit = along_fork(self.sm.left_mask, p0, e1, e2 if np.dot(c2 - p0, e2) >= 0 else -e2, r_par, rad[child])
             if hit is not None:
                 xy, outline, along = hit[0], (hit[1], hit[2]), True
+        if outline is not None and split_xy is not None:
+            xy = split_xy               # (a split junction's pair: the place both its nodes agree on)
         if xy is None:
             # the skeleton junction lies where the child's outline leaves the parent's, ahead of
             # the fork in the child's direction: the fork slides back along the parent further
@@ -708,6 +737,82 @@ class ForkPlacing:
             self.hidden.add(int(node))
         else:
             self.hidden.discard(int(node))
+
+    def _outline_place_from(self, segs: list, p: np.ndarray, r: float) -> tuple[np.ndarray | None, float]:
+        """Where the child's outline places a fork of pieces ``segs`` taken as meeting at ``p`` (2,) px, their points
+        within ``r`` px of it (the parent, child and lines chosen as ``fork`` does, without its caches; the parent's
+        line behind the fork first, then through both sides), None when the outline gives no place; and how far ``p``
+        lies from the parent's line through both sides, in parent radii."""
+        near, rad, dirs = {}, {}, {}
+        for s in segs:
+            seg_pts = self.seg_points(s)
+            pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
+            if not ok:
+                pts = seg_pts[np.argsort(dist)[:15]]
+                v = pts.sum(0) / len(pts) - p
+                u = v / max(np.hypot(*v), 1e-9)
+            near[s], rad[s], dirs[s] = pts, self._seg_radius(s, pts), u
+        thin = min(segs, key=rad.get)
+        rest = [s for s in segs if s != thin]
+        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
+            pa, pb = rest
+        else:
+            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+        child = next(s for s in segs if s not in (pa, pb))
+        c1, e1 = kernels_forks.tls_line_pair(near[pa], near[pb])
+        c2, e2 = _line(near[child])
+        behind = min((pa, pb), key=lambda s: np.dot(dirs[s], dirs[child]))
+        r_par = max(rad[pa], rad[pb])
+        off = abs(float((p[0] - c1[0]) * e1[1] - (p[1] - c1[1]) * e1[0])) / max(r_par, 1.0)
+        for cl, el in ([_line(near[behind])] if len(near[behind]) >= 3 else []) + [(c1, e1)]:
+            xy = self._fork_from_child_outline(cl, el, c2, e2, cl + np.dot(p - cl, el) * el, r_par, rad[child])
+            if xy is not None:
+                return xy, off
+        return None, off
+
+    def _split_pair_place(self, node: int, other: int, segs: list) -> np.ndarray | None:
+        """Where a split junction's pair (``SPLIT_JUNCTION``) is one fork (``SPLIT_CHECKED``): the child's outline
+        places it alike taken from either node of the pair (within ``SPLIT_AGREE_PX``), one node lies at least
+        ``SPLIT_OFF_AXIS`` parent radii off the parent's line (the child's, near the parent's outline), and no piece of
+        another branch passes over that place (within ``SPLIT_CLEAR_PX`` beyond its radius: a crossing). The two
+        places' mean (2,) px; None otherwise (not placed)."""
+        (q0, off0), (q1, off1) = (self._outline_place_from(segs, self.node_xy[n], self._node_radius(n))
+                                  for n in (node, other))
+        if q0 is None or q1 is None or np.hypot(*(q0 - q1)) > SPLIT_AGREE_PX:
+            return None
+        if max(off0, off1) < SPLIT_OFF_AXIS:
+            return None             # (both nodes deep inside the parent: its own skeleton split, seed 643 T5)
+        xy = 0.5 * (q0 + q1)
+        own = set(self.incident[node]) | set(self.incident[other])
+        for s in range(len(self.g.seg_yx)):
+            if s in own or self.g.seg_recovered[s] or len(self.g.seg_yx[s]) < 2:
+                continue
+            pts = self.seg_points(s)
+            reach = max(self._seg_radius(s, pts), 1.0) + SPLIT_CLEAR_PX
+            if float(np.min(np.hypot(pts[:, 0] - xy[0], pts[:, 1] - xy[1]))) <= reach:
+                return None
+        return xy
+
+    def _usable(self, s: int) -> bool:
+        """Whether piece ``s`` takes part in a fork (seen, not bridged; two skeleton points or more)."""
+        return not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2
+
+    def _split_partner(self, node: int) -> int | None:
+        """The junction joined to ``node`` by a one-point piece, where the two are one fork split in two
+        (``SPLIT_JUNCTION``): each has fewer than three usable pieces of its own, together ``SPLIT_PIECES`` (a Y;
+        four are a crossing or a fork beside one: measured, not taken). Only the pair's lower node takes it (the other
+        returns as before: one fork per pair). None otherwise."""
+        for s in self.incident[node]:
+            if self.g.seg_recovered[s] or len(self.g.seg_yx[s]) >= 2:
+                continue
+            other = next((m for m in self.g.seg_nodes[s] if m >= 0 and m != node), None)
+            if other is None or other < node or self.g.node_kind[other] != JUNCTION:
+                continue
+            mine = {t for t in self.incident[node] if self._usable(t)}
+            theirs = {t for t in self.incident[other] if self._usable(t)}
+            if len(theirs) < 3 and len(mine | theirs) == SPLIT_PIECES:
+                return int(other)
+        return None
 
     def _child_read(self, child: int, xy: np.ndarray, reach_px: float = FLAT_CHILD_READ_PX) -> "SideNear | None":
         """A steep child's own disparity at the fork ``xy`` (2,) from its crossings nearest it, read as a parent side's

@@ -319,6 +319,18 @@ SPLIT_CLEAR_PX = 10.0
 SPLIT_OFF_AXIS = 0.8
 
 
+def _parent_pair(segs: list, rad: dict, dirs: dict) -> tuple[int, int]:
+    """The two parent pieces of a junction's ``segs``: of three, the two others where one is under 0.8 of their
+    thinner's radius (``rad``, px); otherwise the two whose directions from the junction (``dirs``) are most
+    nearly opposite."""
+    thin = min(segs, key=rad.get)
+    rest = [s for s in segs if s != thin]
+    if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
+        return rest[0], rest[1]
+    _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+    return pa, pb
+
+
 def _line(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Total-least-squares line through points (N, 2): centroid and unit direction (the direction of
     the largest spread; compiled: :func:`kernels_forks.tls_line`)."""
@@ -401,23 +413,9 @@ class ForkPlacing:
             c = self.curves.get(s)
             hit = self._near_cache.get((node, s))
             if hit is None or hit[0] is not c:
-                # (self._near_points and the piece's direction from the junction, compiled in one call:
-                # kernels_forknear.near_or_nearest, the same values; fewer than 3 points: the 15 nearest,
-                # by numpy's sort where tied distances leave their order to it)
-                seg_pts = self.seg_points(s)
-                pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
-                if not ok:
-                    pts = seg_pts[np.argsort(dist)[:15]]
-                    v = pts.sum(0) / len(pts) - p
-                    u = v / max(np.hypot(*v), 1e-9)
-                hit = self._near_cache[node, s] = (c, pts, self._seg_radius(s, pts), u)
+                hit = self._near_cache[node, s] = (c, *self._near_dir(s, p, r))
             near[s], rad[s], dirs[s] = hit[1], hit[2], hit[3]
-        thin = min(segs, key=rad.get)
-        rest = [s for s in segs if s != thin]
-        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
-            pa, pb = rest
-        else:
-            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+        pa, pb = _parent_pair(segs, rad, dirs)
         children = [s for s in segs if s not in (pa, pb)]
         child = max(children, key=lambda s: (s in self.curves, rad[s]))
         parents = [s for s in (pa, pb) if s in self.curves]
@@ -738,6 +736,18 @@ class ForkPlacing:
         else:
             self.hidden.discard(int(node))
 
+    def _near_dir(self, s: int, p: np.ndarray, r: float) -> tuple[np.ndarray, float, np.ndarray]:
+        """Piece ``s``'s skeleton points within ``r`` px of the junction ``p`` (2,) (fewer than 3: its 15 nearest, by
+        numpy's sort where tied distances leave their order to it), their radius (px) and the piece's direction (2,)
+        from ``p`` (``kernels_forknear.near_or_nearest``: ``_near_points`` and the direction in one compiled call)."""
+        seg_pts = self.seg_points(s)
+        pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
+        if not ok:
+            pts = seg_pts[np.argsort(dist)[:15]]
+            v = pts.sum(0) / len(pts) - p
+            u = v / max(np.hypot(*v), 1e-9)
+        return pts, self._seg_radius(s, pts), u
+
     def _outline_place_from(self, segs: list, p: np.ndarray, r: float) -> tuple[np.ndarray | None, float]:
         """Where the child's outline places a fork of pieces ``segs`` taken as meeting at ``p`` (2,) px, their points
         within ``r`` px of it (the parent, child and lines chosen as ``fork`` does, without its caches; the parent's
@@ -745,19 +755,8 @@ class ForkPlacing:
         lies from the parent's line through both sides, in parent radii."""
         near, rad, dirs = {}, {}, {}
         for s in segs:
-            seg_pts = self.seg_points(s)
-            pts, dist, u, ok = kernels_forknear.near_or_nearest(seg_pts, float(p[0]), float(p[1]), float(r))
-            if not ok:
-                pts = seg_pts[np.argsort(dist)[:15]]
-                v = pts.sum(0) / len(pts) - p
-                u = v / max(np.hypot(*v), 1e-9)
-            near[s], rad[s], dirs[s] = pts, self._seg_radius(s, pts), u
-        thin = min(segs, key=rad.get)
-        rest = [s for s in segs if s != thin]
-        if len(segs) == 3 and rad[thin] < 0.8 * min(rad[s] for s in rest):
-            pa, pb = rest
-        else:
-            _, pa, pb = min((np.dot(dirs[a], dirs[b]), a, b) for i, a in enumerate(segs) for b in segs[i + 1:])
+            near[s], rad[s], dirs[s] = self._near_dir(s, p, r)
+        pa, pb = _parent_pair(segs, rad, dirs)
         child = next(s for s in segs if s not in (pa, pb))
         c1, e1 = kernels_forks.tls_line_pair(near[pa], near[pb])
         c2, e2 = _line(near[child])

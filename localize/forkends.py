@@ -393,7 +393,7 @@ class ForkPlacing:
         if not final and not needed:
             self._deferred.add(node)
             return
-        segs = [s for s in self.incident[node] if not self.g.seg_recovered[s] and len(self.g.seg_yx[s]) >= 2]
+        segs = [s for s in self.incident[node] if self._usable(s)]
         p, split_xy = self.node_xy[node], None
         if len(segs) < 3 and SPLIT_JUNCTION:
             # a junction split in two by a one-point piece: the pair's pieces together, from the pair's middle
@@ -784,7 +784,7 @@ class ForkPlacing:
         xy = 0.5 * (q0 + q1)
         own = set(self.incident[node]) | set(self.incident[other])
         for s in range(len(self.g.seg_yx)):
-            if s in own or self.g.seg_recovered[s] or len(self.g.seg_yx[s]) < 2:
+            if s in own or not self._usable(s):
                 continue
             pts = self.seg_points(s)
             reach = max(self._seg_radius(s, pts), 1.0) + SPLIT_CLEAR_PX

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import signal
 import threading
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from appliance.commands.common import ConfigOption, effective_config
+from appliance.commands.common import ConfigOption, effective_config, stop_on_signals
 
 
 def command(
@@ -42,8 +41,7 @@ def command(
             typer.echo(line)
 
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop_on_signals(stop)
     sim = ArmSim(port, baud or cfg.serial.baud, faults, on_event)
     try:
         counts = sim.run(stop, duration)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import signal
 import threading
 from dataclasses import replace
 from pathlib import Path
@@ -12,7 +11,7 @@ import typer
 from rich.console import Console
 from rich.live import Live
 
-from appliance.commands.common import ConfigOption, effective_config
+from appliance.commands.common import ConfigOption, effective_config, stop_on_signals
 
 CalibOption = Annotated[Path, typer.Option("--calib", help="Calibration file (appliance calibrate --out).")]
 
@@ -57,8 +56,7 @@ def command(
                       frames=frames, variant="paper" if paper else "improved",
                       live_port=live_port if live else None, workers=workers)
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop_on_signals(stop)
 
     console = Console(stderr=True)
     with Live(console=console, transient=False, auto_refresh=False,

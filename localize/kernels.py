@@ -9,7 +9,7 @@ so there is no import cycle).
 
 Compiled on first use and cached on disk: under ``NUMBA_CACHE_DIR`` if set, else beside the modules in
 ``__pycache__``, else in the user's cache directory (``~/.cache/numba``); later processes load the cache
-(~0.1 s). Where none is writable, in memory in each process (:func:`_cacheable`).
+(~2 s). Where none is writable, in memory in each process (:func:`_cacheable`).
 """
 
 from __future__ import annotations
@@ -27,13 +27,13 @@ def _cacheable() -> bool:
     """Whether numba has a writable place for this file's compiled code (``NUMBA_CACHE_DIR``, else
     beside the file, else the user's cache directory). Where it has none (a read-only install, an
     unwritable home) ``cache=True`` would raise at import: the kernels then compile in memory in each
-    process (~10 s on first use), with a warning."""
+    process (~170 s on first use), with a warning."""
     try:
         numba.njit(cache=True)(_probe)
         return True
     except RuntimeError:
         warnings.warn(f"numba has no writable cache directory for {__file__} (set NUMBA_CACHE_DIR to one): "
-                      "the localizer's kernels compile in memory in each process (~10 s on first use)",
+                      "the localizer's kernels compile in memory in each process (~3 min on first use)",
                       RuntimeWarning, stacklevel=2)
         return False
 
@@ -55,15 +55,17 @@ def kernel_modules() -> tuple:
                                     kernels_match,
                                     kernels_ncc, kernels_patchshare, kernels_points, kernels_refine, kernels_runs,
                                     kernels_segclean, kernels_segment, kernels_stubs, kernels_tips, kernels_walks)
-    return (kernels_fit, kernels_runs, kernels_walks, kernels_graph, kernels_segment, kernels_ncc,
-            kernels_dense, kernels_refine, kernels_tips, kernels_forks, kernels_front, kernels_check,
-            kernels_match, kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare,
-            kernels_colruns, kernels_points, kernels_forknear, kernels_stubs)
+    # the costliest (dense, after the two it calls most; graph; match) first, half of the ~170 s of CPU of a cold
+    # compile: two processes taking the list from opposite ends (tests/conftest.py) meet about halfway
+    return (kernels_fit, kernels_runs, kernels_dense, kernels_graph, kernels_match, kernels_walks, kernels_segment,
+            kernels_ncc, kernels_tips, kernels_forks, kernels_stubs, kernels_refine, kernels_front, kernels_check,
+            kernels_forkglue, kernels_segclean, kernels_endreads, kernels_patchshare, kernels_colruns,
+            kernels_points, kernels_forknear)
 
 
 def warm_up() -> None:
     """Compile (or load from the disk cache) every kernel for the argument types the localizer
-    passes, on tiny inputs: ~10 s the first time without a cache, ~0.1 s from the cache, then
+    passes, on tiny inputs: ~170 s of CPU the first time without a cache, ~2 s from the cache, then
     nothing. :class:`~appliance.localize.Localizer` calls it when built, so that no frame waits
     for a compile (a live stream, a worker process). Each module's ``warm_up``, in the order of
     :func:`kernel_modules`."""

@@ -55,8 +55,8 @@ def _exclusive(path: Path):
 @pytest.fixture(scope="session", autouse=True)
 def _compiled_kernels(_shared_dir):
     """Compile the localizer's numba kernels into their disk cache once, before the first test: the first
-    compile takes about a minute, and must not eat the deadline of a test that starts `appliance` as a
-    process (those then load the kernels from the cache in a fraction of a second).
+    compile takes about 3 min of CPU, and must not eat the deadline of a test that starts `appliance` as a
+    process (those then load the kernels from the cache in about 2 s).
 
     Under xdist each kernels module is compiled under a lock, the workers taking the modules from opposite
     ends of the list: a module is compiled by one process (numba's cache writes are atomic renames, but two
@@ -104,17 +104,21 @@ def rendered_scene(_shared_dir):
     return scene
 
 
-# Folders whose tests wait for real processes, pseudo-terminals, sockets and real time (the run loop, the arm
-# link, the camera drivers, the logs' crash tests): `make test` runs them on their own after the rest, which
-# runs on two processes (README, "Test time"). The calibrate command's processes get 120 s and nothing there
-# counts time: calibrate and config run with the rest.
-SERIAL_FOLDERS = ("acquire", "appliance", "arm", "logs")
+# The tests that wait for real time (rates, deadlines, signals, a killed writer's last second) or hold real
+# devices (pseudo-terminals, the GigE fake camera): `make test` runs them on their own after the rest, which runs
+# on two processes (README, "Test time"). Entries are node-id prefixes under tests/: a file, or a file's tests
+# whose names start so. Tests that only start processes and check what they wrote run with the rest.
+SERIAL = ("acquire/test_fake.py", "acquire/test_v4l2.py", "acquire/test_gige.py", "appliance/test_live.py",
+          "appliance/test_run.py::test_a_signal_finishes", "appliance/test_run.py::test_sigkill",
+          "appliance/test_run.py::test_a_camera_faster", "appliance/test_run.py::test_a_lost_camera",
+          "arm/test_link.py", "arm/test_sim.py", "arm/test_run_e2e.py",
+          "logs/test_crash.py", "logs/test_disk.py", "logs/test_replay.py")
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Mark the tests of :data:`SERIAL_FOLDERS` ``serial`` (before ``-m`` selects by marks)."""
-    tests = Path(__file__).resolve().parent
+    """Mark the tests of :data:`SERIAL` ``serial`` (before ``-m`` selects by marks)."""
+    prefixes = tuple(f"tests/{entry}" for entry in SERIAL)
     for item in items:
-        if item.path.resolve().relative_to(tests).parts[0] in SERIAL_FOLDERS:
+        if item.nodeid.startswith(prefixes):
             item.add_marker(pytest.mark.serial)

@@ -56,11 +56,19 @@ def wait_for_pairs(folder: Path, proc: subprocess.Popen, seconds: float) -> None
     time.sleep(seconds)
 
 
-def test_run_logs_every_topic_for_every_pair(tmp_path):
-    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path), "-q")
+@pytest.fixture(scope="module")
+def fixture_run(tmp_path_factory):
+    """(finished process, log) of one `appliance run` on the fixtures with the defaults, for the tests that read
+    such a log (each ~4 s of CPU)."""
+    folder = tmp_path_factory.mktemp("fixture_run")
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(folder), "-q")
     assert r.returncode == 0, r.stderr
+    return r, only_log(folder)
+
+
+def test_run_logs_every_topic_for_every_pair(fixture_run):
+    r, log = fixture_run
     assert f"pairs {N_SCENES}, localized {N_SCENES}" in r.stdout
-    log = only_log(tmp_path)
     counts: dict[str, int] = {}
     with open(log, "rb") as f:
         reader = make_reader(f)
@@ -152,10 +160,8 @@ def test_replay_reproduces_a_lossless_log_exactly(tmp_path):
     assert len(read_results(only_log(tmp_path / "again"))) == N_SCENES
 
 
-def test_a_log_replays_through_the_run_loop(tmp_path):
-    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / "first"), "-q")
-    assert r.returncode == 0, r.stderr
-    first = only_log(tmp_path / "first")
+def test_a_log_replays_through_the_run_loop(tmp_path, fixture_run):
+    first = fixture_run[1]
     r = appliance("run", "--device", f"fake:{first}", "--calib", str(RIG), "--log", str(tmp_path / "again"), "-q")
     assert r.returncode == 0, r.stderr
     assert f"pairs {N_SCENES}, localized {N_SCENES}" in r.stdout
@@ -165,32 +171,29 @@ def test_a_log_replays_through_the_run_loop(tmp_path):
     assert len(read_results(again)) == N_SCENES
 
 
-def test_replay_with_other_settings_reports_the_differences(tmp_path):
-    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path), "-q")
-    assert r.returncode == 0, r.stderr
+def test_replay_with_other_settings_reports_the_differences(tmp_path, fixture_run):
+    log = fixture_run[1]
     (tmp_path / "a_file").write_text("")      # an output under a file: refused before any frame is replayed
-    r = appliance("replay", str(only_log(tmp_path)), "--json", str(tmp_path / "a_file" / "replay.json"))
+    r = appliance("replay", str(log), "--json", str(tmp_path / "a_file" / "replay.json"))
     assert r.returncode == 1 and "frames replayed" not in r.stdout
     assert r.stderr.strip().startswith("error: ") and "replay.json: cannot make its folder" in r.stderr
     out = tmp_path / "replay.json"
-    r = appliance("replay", str(only_log(tmp_path)), "--variant", "paper", "--json", str(out))
+    r = appliance("replay", str(log), "--variant", "paper", "--json", str(out))
     assert r.returncode == 0, r.stderr
     diffs = json.loads(out.read_text())["diffs"]
     assert len(diffs) == N_SCENES
     assert any(not d["identical"] and (d["added"] or d["removed"] or d["max_abs_dz_mm"] > 0) for d in diffs)
 
 
-def test_localizer_processes_give_the_same_results_in_order(tmp_path):
-    logs = {}
-    for workers in ("1", "2"):
-        r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path / workers),
-                      "--workers", workers, "-q")
-        assert r.returncode == 0, r.stderr
-        assert "resource_tracker" not in r.stderr and "leaked" not in r.stderr    # shared frames freed once
-        logs[workers] = [(seq, json.dumps({**res.to_dict(), "timings_ms": {}, "stamp_ns": 0}, sort_keys=True))
-                         for seq, _, res in read_results(only_log(tmp_path / workers))]
-    assert [seq for seq, _ in logs["2"]] == list(range(N_SCENES))
-    assert logs["1"] == logs["2"]
+def test_localizer_processes_give_the_same_results_in_order(tmp_path, fixture_run):
+    r = appliance("run", "--device", f"fake:{SCENES}", "--calib", str(RIG), "--log", str(tmp_path), "--workers", "2",
+                  "-q")
+    assert r.returncode == 0, r.stderr
+    assert "resource_tracker" not in r.stderr and "leaked" not in r.stderr    # shared frames freed once
+    one, two = ([(seq, json.dumps({**res.to_dict(), "timings_ms": {}, "stamp_ns": 0}, sort_keys=True))
+                 for seq, _, res in read_results(log)] for log in (fixture_run[1], only_log(tmp_path)))
+    assert [seq for seq, _ in two] == list(range(N_SCENES))
+    assert one == two
 
 
 def test_a_lost_camera_is_reopened_and_the_run_goes_on(tmp_path):

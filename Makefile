@@ -35,7 +35,7 @@ demo: $(BIN)/.installed
 	@echo "overlays: $(OUT)/overlay_*.png   log: $(OUT)/logs"
 
 # The suite on two processes, then the tests that wait for real processes and real time on their own
-# (tests/conftest.py: SERIAL_FOLDERS); exit status 5 is "no test selected" (a PYTEST_ARGS subset).
+# (tests/conftest.py: SERIAL); exit status 5 is "no test selected" (a PYTEST_ARGS subset).
 test: $(BIN)/.installed
 	$(BIN)/pytest -n 2 -m "not serial" $(PYTEST_ARGS) || [ $$? -eq 5 ]
 	$(BIN)/pytest -m serial $(PYTEST_ARGS) || [ $$? -eq 5 ]

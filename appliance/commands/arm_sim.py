@@ -26,7 +26,7 @@ def command(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No line per message.")] = False,
     config: ConfigOption = None,
 ) -> None:
-    """Decode frames, check CRCs, print obstacles, answer ACK/NACK; stop with Ctrl-C."""
+    """Decode frames, check CRCs, print obstacles, answer ACK/NACK; stop with Ctrl-C (twice: at once)."""
     from appliance.arm.sim import ArmSim, describe, parse_faults
 
     cfg = effective_config(config)

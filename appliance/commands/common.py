@@ -40,7 +40,8 @@ def output_paths(*paths: Path | None) -> None:
 
 
 def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTERM)) -> None:
-    """Set ``stop`` on any of ``signals``; call from the main thread.
+    """Set ``stop`` on the first of ``signals``; a second one ends the process at once (its default action: the
+    user means it, say a run stuck on a dead device). Call from the main thread.
 
     The event is set by a watcher thread woken through ``signal.set_wakeup_fd``, never by the handler
     itself: a handler runs on the main thread between two bytecodes, and if that thread was inside
@@ -50,8 +51,16 @@ def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTER
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
     signal.set_wakeup_fd(write_fd)
+    received = []
+
+    def on_signal(signum, _frame) -> None:
+        received.append(signum)           # (no lock taken here: see above)
+        if len(received) > 1:
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+
     for sig in signals:
-        signal.signal(sig, lambda *_: None)
+        signal.signal(sig, on_signal)
     wanted = {int(s) for s in signals}
 
     def watch() -> None:

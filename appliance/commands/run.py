@@ -41,8 +41,9 @@ def command(
 ) -> None:
     """Localize branches in every stereo pair from a camera; log to MCAP and send to the arm.
 
-    Ends on Ctrl-C / SIGTERM (queues drained, log finished with its index), after --frames
-    pairs, or at the end of a fake: replay. A lost camera is reopened with back-off.
+    Ends on Ctrl-C / SIGTERM (queues drained, log finished with its index; a second one ends it at
+    once, the log then restored by `appliance logs recover`), after --frames pairs, or at the end of a
+    fake: replay. A lost camera is reopened with back-off.
     """
     from appliance.calibrate.model import load_calibration
     from appliance.run import RunOptions, run_loop

@@ -1,7 +1,9 @@
-"""stop_on_signals: a signal sets the stop event even when it lands while the event's lock is held."""
+"""stop_on_signals: a signal sets the stop event even when it lands while the event's lock is held; a second ends
+the process."""
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import textwrap
@@ -36,3 +38,15 @@ def test_other_signals_do_not_stop():
                        timeout=30)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "not stopped"
+
+
+def test_a_second_signal_ends_the_process_at_once():
+    child = CHILD.replace('print("stopped" if stop.wait(10) else "not stopped", flush=True)',
+                          'print("stopped" if stop.wait(10) else "not stopped", flush=True)\n'
+                          'os.kill(os.getpid(), signal.{sig})\n'
+                          'threading.Event().wait(10)\n'
+                          'print("still running", flush=True)')
+    r = subprocess.run([sys.executable, "-c", child.format(sig="SIGTERM")], capture_output=True, text=True,
+                       timeout=30)
+    assert r.returncode == -signal.SIGTERM, (r.returncode, r.stderr)
+    assert r.stdout.split() == ["stopped"]

@@ -178,6 +178,22 @@ def true_angles(truth, calib, j: int, rec: dict, uv: np.ndarray) -> dict:
     return out
 
 
+def right_view(rec: dict, uv: np.ndarray, uv_r: np.ndarray) -> dict:
+    """The right view's place from the child's outline (the first ``right`` record with a place: the outline
+    check's, ``_outline_agrees``) against the true fork there ``uv_r`` (rectified right view): ``right`` its
+    offset along the parent's line (px, the left's sense), ``both`` the mean of it and the left's (``cur``)."""
+    e2, c2, xy = rec["e2"], rec["c2"], rec["xy"]
+    out = e2 if np.dot(c2 - xy, e2) >= 0 else -e2
+    el = np.asarray(rec["outline"][1], float)
+    e = el if np.dot(out, el) >= 0 else -el
+    for c, er, p in rec.get("right", []):
+        if p is not None:
+            er = er if np.dot(er, e) >= 0 else -er
+            right = float(np.dot(p - uv_r, er))
+            return {"right": right, "both": 0.5 * (right + float(np.dot(xy - uv, e)))}
+    return {}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", metavar="A-B", type=fm._seed_range)
@@ -198,7 +214,7 @@ def main() -> int:
             rec["mask"] = placer.sm.left_mask
         return out
     forkends.ForkPlacing.fork = fork
-    keys = ("cur", "mid2", "crotch", "low", "width", "fit", "outer")
+    keys = ("cur", "mid2", "crotch", "low", "width", "fit", "outer", "right", "both")
     rows = []
     for name, lp, rp, tp in fm.scene_list(a.extra, a.seeds):
         if not (tp.exists() and lp.exists() and rp.exists()):
@@ -225,6 +241,7 @@ def main() -> int:
             if q is None or q["t"] > a.max_deg:
                 continue
             q.update(true_angles(truth, calib, j, rec, uv))
+            q.update(right_view(rec, uv, fm.rectified_points(calib, tf.right_px[j], 1)[0]))
             q.update(name=name, j=j, off=off, found=r.result_id >= 0)
             rows.append(q)
             g = lambda k: q.get(k, np.nan)  # noqa: E731

@@ -198,6 +198,7 @@ class Trace:
             sides.append(dict(seg=int(s), src=src, d=sn.d_px if sn is not None else curve_d, d_curve=curve_d,
                               nearest_px=None if sn is None else float(sn.nearest_px),
                               n_rows=None if sn is None else int(getattr(sn, "n_rows", -1)),
+                              slope=None if sn is None else float(getattr(sn, "slope", np.nan)),
                               carried_px=float(b._carried_px(s, xy)), radius_px=float(c.radius_px),
                               t_range=tuple(float(t) for t in c.t_range), by_row=bool(c.by_row)))
         rule = None
@@ -247,7 +248,8 @@ def describe(tr: Trace, node: int, kind: str, d_final: float, d_err: float) -> t
         slope = "+".join(sorted({"steep" if s["src"].startswith("steep") else "flat" for s in f["sides"]})) or "-"
         rule = f["rule"] + ("+axis" if f["axis"] else "") + ("+later" if f["d"] is not None and abs(f["d"] - d_final) > 1e-6 else "")
         parts = [f"{s['src']} {s['d'] - d_true:+.2f}" + (f" (curve {s['d_curve'] - d_true:+.2f})" if s["d_curve"] != s["d"] else "")
-                 + (f" @{s['nearest_px']:.0f}px" if s["nearest_px"] is not None else f" carried {s['carried_px']:.0f}px")
+                 + (f" @{s['nearest_px']:.0f}px" + (f" slope {s['slope']:+.2f}" if s["by_row"] else "")
+                    if s["nearest_px"] is not None else f" carried {s['carried_px']:.0f}px")
                  for s in f["sides"]]
         if f["d_child"] is not None:
             parts.append(f"child {f['d_child'] - d_true:+.2f} carried {f['child_carried']:.0f}px")

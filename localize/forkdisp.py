@@ -54,6 +54,16 @@ SIDE_GROWN_MAX_W = 0.5
 # :func:`span_rows_read`): a read still, carried from the span (the rules that weigh a read by its reach see it so).
 LONE_GAP_ROW_UNREAD = True
 LONE_GAP_ROW_MIN_PX = 6.0
+# A side inclined steeply in depth (its read line's disparity slope, px per row, times f / (d - offset): how many mm
+# its depth changes per mm along its rows, at least SIDE_TURN_MIN_INCLINE) is read again with only the span's
+# SIDE_TURN_SPAN_ROWS rows next to its end: the line's slope from the span's far rows is off by 10-20 % on such a
+# side (1033's parent: 0.18 px/row read, 0.15 true; 980's: 0.146, 0.178 true), and carried over the span's half and
+# the gap to the fork that is 0.5-0.9 px (1033 T11, 980 T13). Measured on 1.56-1.80 (1033 T11, 980 T13, 999 T9, 564
+# T7, 643 T9, 153 T7); the sides at 0.9-1.35 (614 T9, 675 T9, 681 T7, 146 T7, 147 T11, at 725-950 mm) moved as many
+# forks the wrong way as the right one with the shorter line (docs/localize-gross30.md)
+SIDE_TURN_SHORT = True
+SIDE_TURN_MIN_INCLINE = 1.45
+SIDE_TURN_SPAN_ROWS = 20
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -90,8 +100,26 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     -------
     SideNear or None
         None when the fork lies within ``gap_min_px`` of the span (the fit is read there) or further
-        than ``max_gap_px`` from it, or fewer than ``min_rows`` rows are found.
+        than ``max_gap_px`` from it, or fewer than ``min_rows`` rows are found. A side inclined in depth by
+        ``SIDE_TURN_MIN_INCLINE`` mm per mm or more (its line's slope times ``f_px / (d - offset_px)``; with
+        ``f_px`` given) is read again with ``SIDE_TURN_SPAN_ROWS`` span rows (``SIDE_TURN_SHORT``).
     """
+    kw = dict(gap_min_px=gap_min_px, tol_d_px=tol_d_px, width_tol_px=width_tol_px, min_rows=min_rows,
+              max_gap_px=max_gap_px, f_px=f_px, cx_px=cx_px, offset_px=offset_px, past_rows=past_rows)
+    v = _side_read(c, runs_l, runs_r, t_fork, span_rows, **kw)
+    if SIDE_TURN_SHORT and v is not None and span_rows > SIDE_TURN_SPAN_ROWS and f_px is not None \
+            and abs(v.slope) * f_px >= SIDE_TURN_MIN_INCLINE * max(v.d_px - offset_px, 1.0):
+        # (a side turning fast in depth: its line's slope from the span's far rows carried to the fork is off)
+        w = _side_read(c, runs_l, runs_r, t_fork, SIDE_TURN_SPAN_ROWS, **kw)
+        if w is not None:
+            return w
+    return v
+
+
+def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_rows: int, gap_min_px: float,
+               tol_d_px: float, width_tol_px: float, min_rows: int, max_gap_px: int, f_px: float | None,
+               cx_px: float | None, offset_px: float, past_rows: int) -> SideNear | None:
+    """One read of :func:`side_disparity_near` with the span's ``span_rows`` rows (its arguments, px)."""
     if not c.by_row or not math.isfinite(t_fork):
         return None
     lo, hi = c.t_range

@@ -476,8 +476,10 @@ def test_a_fork_whose_childs_texture_lies_at_another_depth_is_withheld(rendered_
 def test_a_fork_whose_steep_sides_and_child_all_disagree_is_withheld(rendered_scene, monkeypatch, rule):
     # seed 639's fork 11, exact masks: one steep side read 34 rows from the fork at 139.09 px, the other side another
     # branch (496 px, carried 100 rows), the child's curve carried 49 rows at 143.84: the median of three took the
-    # child, the side's read replaced it (truth 136.96: +19 mm). No two of the three readings agree.
+    # child, the side's read replaced it (truth 136.96: +19 mm). No two of the three readings agree. (The side's read
+    # as it was: with forkdisp.SIDE_TURN_SHORT it is read on the span's 20 rows, the fork +12 mm, withheld alike.)
     monkeypatch.setattr(forkends, "STEEP_NONE_AGREE_WITHHELD", rule)
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", False)
     row = score_row(rendered_scene(639), 11, exact=True)
     if rule:
         assert row is None or row.result_id < 0

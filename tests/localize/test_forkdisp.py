@@ -133,6 +133,40 @@ def test_an_oblique_side_turning_in_depth_is_read_at_each_views_slope():
     assert abs(near.d_px - d_ax(150.0)) <= 0.1
 
 
+def test_a_side_inclined_steeply_in_depth_is_read_from_the_span_rows_next_to_its_end(monkeypatch):
+    # an oblique parent whose disparity grows 0.2 px per row over the fork's 12 rows of gap and the span's first
+    # 20 rows, and 0.12 px per row further into the span (it turns in depth; at ~78 px of disparity and f 1450 px
+    # ~3.7 mm of depth per mm along its rows): a line through the span's 40 rows takes the far rows' slope and is
+    # off at the fork; with the 20 rows next to the span's end it is not
+    u_ax = lambda v: 600.0 - 1.6 * v
+    d_ax = lambda v: 40.0 + 0.2 * np.minimum(v, 220.0) + 0.12 * np.maximum(v - 220.0, 0.0)
+    left = oblique(u_ax, -1.6)
+    right = oblique(lambda v: u_ax(v) - d_ax(v), -1.76)
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    t = np.arange(200.0, 281.0)
+    c = BranchCurve(0, True, (200.0, 280.0), Poly.fit(t, u_ax(t), 1), Poly.fit(t, d_ax(t), 1), 8.0, len(t))
+    fork, f = 188.0, 1450.0
+    near = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert near is not None and abs(near.slope) * f >= forkdisp.SIDE_TURN_MIN_INCLINE * near.d_px
+    assert abs(near.d_px - d_ax(fork)) <= 0.1
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", False)
+    long = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert long is not None and abs(long.d_px - d_ax(fork)) >= 0.2
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", True)
+    # the same side seen further (f / d four times smaller: inclined 0.9 mm per mm) keeps the span's 40 rows
+    far = side_disparity_near(c, runs_l, runs_r, fork, f_px=f / 4.0)
+    assert far is not None and far.d_px == long.d_px and far.n_rows == long.n_rows
+    # a side inclined gently keeps them too: the rule off or on alike
+    d_slow = lambda v: 40.0 + 0.02 * np.minimum(v, 220.0) + 0.012 * np.maximum(v - 220.0, 0.0)
+    runs_r = find_runs(oblique(lambda v: u_ax(v) - d_slow(v), -1.62), soft=True)
+    c = BranchCurve(0, True, (200.0, 280.0), Poly.fit(t, u_ax(t), 1), Poly.fit(t, d_slow(t), 1), 8.0, len(t))
+    on = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", False)
+    off = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert off is not None and on is not None and abs(on.slope) * f < forkdisp.SIDE_TURN_MIN_INCLINE * on.d_px
+    assert on.d_px == off.d_px and on.n_rows == off.n_rows
+
+
 def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):
     # a drawn Y at 30 deg: the child's blob keeps the upper side's fit ~50 rows short of the fork;
     # that side is read from its own rows there, and the fork keeps the parent's disparity

@@ -72,7 +72,6 @@ FORK_RULES = {          # a source line's start -> the rule it applies (the last
 AXIS_LINE = "self.uvd[node][2] -= centre_bias_px("
 TIP_RULES = {
     "self.uvd[node][2] = d_end": "flat-runend",
-    "self.uvd[node][2] = d_set": "flat-runend",          # (the run end as set: tipends' END_MEAN_FINAL, CAP_RADIUS_SILHOUETTE)
     "d_end = self.uvd[node][2]": "flat-stub",
     "uvd = right_cap_tip(": "merged-right-cap",
     "self.uvd[node][2] = d_cap": "steep-cap",

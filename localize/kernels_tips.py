@@ -445,23 +445,11 @@ def end_outline_agrees(rl, rr, ux, uy, ox, d, r, h):
 
 
 @numba.njit(**_JIT)
-def _interquartile_mean(a):
-    """The mean of the middle half of the 1-D float array ``a`` (NaN-free; sorted, ``len(a) // 4`` values off each
-    end: all of 1-3 values, the middle two of 4)."""
-    s = np.sort(a)
-    q = len(s) // 4
-    return s[q:len(s) - q].mean()
-
-
-@numba.njit(**_JIT)
-def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px, outvote,
-                  rows_mean):
+def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px, outvote):
     """``ends.EndPlacer._end_disparity``: the disparity of a flat piece's end from the ends of its row
     runs in both views (``rl``, ``rr``: :func:`runs_tables`; ``valid_r`` where the rectified right view
     sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``; ``outvote``:
-    ``tipends.END_ROWS_OUTVOTE``, the rows' own vote where the axis row's end agrees with too few; ``rows_mean``:
-    ``tipends.END_ROWS_MEAN``, the interquartile mean of the rows agreeing with the axis row's end rather than their
-    median). Returns whether it has one, and the disparity (px)."""
+    ``tipends.END_ROWS_OUTVOTE``, the rows' own vote where the axis row's end agrees with too few). Returns whether it has one, and the disparity (px)."""
     row = np.int64(np.rint(uy))
     if not 0 <= row < h:
         return False, 0.0
@@ -537,7 +525,7 @@ def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min,
                 de[n_de] = el - er
                 n_de += 1
         if n_de >= 3:
-            d = _interquartile_mean(de[:n_de]) if rows_mean else _median(de[:n_de])
+            d = _median(de[:n_de])
         elif outvote and n_all >= 3:
             # the axis row's end agrees with too few rows: the rows that agree among themselves (a majority of
             # at least 3, within 1 px of their median) outvote it (one row's outline bulging in one view)
@@ -563,7 +551,7 @@ def warm_up() -> None:
     cap_disparity(np.zeros(1, np.int64), np.zeros(1), rt, rt, valid, valid, *(0.0,) * 6, 1.0, 4, 4,
                   0.2, 1.0, 4.0, 8.0, 0.7, 4, 0.6, 8, 1.0, 0.8, 1.5)
     end_outline_agrees(rt, rt, 0.0, 0.0, 1.0, 0.0, 1.0, 4)
-    end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0, True, True)
+    end_disparity(rt, rt, valid, *(0.0,) * 9, 1.0, 4, 4, 2.0, True)
 
 
 def runs_tables(runs) -> tuple:

@@ -17,8 +17,7 @@ from appliance.localize.merged_tips import right_cap_tip
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tipbark import bark_backs_run_end
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
-                                     cap_shapes_offsets, occluder_confirmed, reads_round, right_flanks_filled,
-                                     silhouette_radius_shift)
+                                     cap_shapes_offsets, occluder_confirmed, reads_round, right_flanks_filled)
 from appliance.localize.walks import WALK_EDGE_BIAS
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
@@ -97,26 +96,6 @@ TIP_BARK = True
 # 7 / 11 (exact / colour masks) on the fifteen sets before them, no true one; without the further radius it hid seed
 # 554's tip 17 (exact masks), whose cap ended half a pixel past the walk's reach
 TIP_MASK_RUNS_ON = True
-
-# a flat tip's run-end disparity is the interquartile mean of the rows across its cap (within half a piece radius of
-# the cap centre's row) whose run ends agree with the axis row's (1 px), not their median: each row's run ends are off
-# by the outline's own noise (a row's scatter ~0.2 px exact, ~0.12 px colour masks, sd within one tip), only in part
-# shared along the edge, and the median of 5-11 rows keeps more of it than the middle half's mean (traced flat tips,
-# 60 scenes and five hold-out sets: |error| p95 1000-1500 mm 0.30 -> 0.25 px exact, 0.22 -> 0.19 colour, offline;
-# docs/localize-tipband28.md). Off: on the seventeen sets it lowers nine set-mask p95s by up to 0.30 mm but raises nine
-# by up to 0.07 mm, 804-835's max by 0.79 mm (flat tips with a few rows off within the 1 px the median ignored) and
-# loses one true tip (740-771): not within the rule of no loss
-END_ROWS_MEAN = False
-
-# a flat tip's run-end disparity less the silhouette offset of its cap's own radius (tips.cap_centre's: half the width
-# 1.5 radii behind the end), not the piece's (the kernel's, kernels_tips.end_disparity): a tapering branch's piece
-# radius is 1.1 (median) to 1.5 (p95) times the tip's, and the offset grows with the radius. Run ends read over the 60
-# scenes and five hold-out sets (378 flat tips, 500-1500 mm) follow the piece radius' offset with slope 0.76
-# (0.70-0.84), the cap radius' with 0.87 (0.80-0.94; the true radius' 0.88-0.93): the piece radius over-corrected the
-# outward pointing tips, -0.03 px in median, seed 139 T2 -0.47 px (docs/localize-tipband28.md). Off: on the seventeen
-# sets 254 / 262 tips nearer, 191 / 194 further (exact / colour), but seven set-mask p95s or maxima up 0.02-0.05 mm by
-# one tip each (the outline's noise reorders them): not within the rule of no loss
-CAP_RADIUS_SILHOUETTE = False
 
 # a steep tip whose right view runs on past its cap into something wider (the end-shift check waived:
 # TipPlacing._wider_on_right) and none of whose cap rows reads a depth (TipPlacing._cap_disparity None) is hidden:
@@ -287,36 +266,31 @@ class TipPlacing:
             # sub-pixel: subpixel.refine_runs) when the two agree (2 px) or the end's outline agrees
             # row by row
             d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r)
-            from_runs = d_end is not None
             if d_end is None and c.segment in self.cap_segments:
                 d_end = self.uvd[node][2]     # a flat stub's curve has its cap's disparity (tips.py)
             elif d_end is None and r > 2.0:
                 # the run end is this tip's only depth of its own: a centre line inclined to the
                 # rows leaves the cap where the row's own run may end sooner, read it further inside
                 d_end = self._end_disparity(uv_edge, out, self.uvd[node][2], r, 0.5 * r)
-                from_runs = d_end is not None
             if d_end is None or not self._carried_agrees(c, node, d_end):
                 self.hidden.add(int(node))
                 return None
-            # (the checks below read the run end as the kernel gives it; the tip takes it with its cap's offset)
-            d_set = self._cap_radius_silhouette(uv_edge, out, r, d_end) if from_runs and CAP_RADIUS_SILHOUETTE \
-                else d_end
             if abs(d_end - self.uvd[node][2]) <= 2.0:
-                self.uvd[node][2] = d_set
+                self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r) and not right_flanks_filled(
                     self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r):
                 # an occluder's edge lies in front of the branch it cuts: an end further away
                 # than the texture says is the cap's own (the texture's is off, and so is the
                 # end shift below, measured with it)
                 cap_behind = d_end < self.uvd[node][2]
-                self.uvd[node][2] = d_set
+                self.uvd[node][2] = d_end
             elif TIP_BARK and not right_flanks_filled(self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r) \
                     and bark_backs_run_end(self.sm.left_gray, self.sm.right_gray, uv_edge, out, r, self.uvd[node][2],
                                            d_end, self.sm.f_px, self.sm.offset_px):
                 # the outline fails on a few rows (something touching the cap in one view), but the bark next
                 # to the tip reads the run end, not the piece's level: a short piece turning in depth (tipbark)
                 cap_behind = d_end < self.uvd[node][2]
-                self.uvd[node][2] = d_set
+                self.uvd[node][2] = d_end
             # else the right run's end is not the cap's (something touches it there, along the row or
             # beside the cap: tips.right_flanks_filled): the texture's stands
         if not self._seen_right(self.uvd[node], r):
@@ -382,20 +356,6 @@ class TipPlacing:
         if split > expected + self.cfg.oblique_end_ratio:
             return sides
         return (self._walk_out(c, node, sign * mid * r + 0.4 * r)[0], self._walk_out(c, node, sign * mid * r - 0.4 * r)[0])
-
-    def _cap_radius_silhouette(self, uv_edge: np.ndarray, out: np.ndarray, r: float, d_end: float) -> float:
-        """A flat tip's run-end disparity ``d_end`` (px, less the silhouette offset of the piece radius ``r``, as
-        :func:`kernels_tips.end_disparity` gives it) with the offset of its cap's own radius instead
-        (:func:`tips.cap_centre`'s ``rho``, read from the left mask's width 1.5 ``r`` behind the end):
-        :func:`tips.silhouette_radius_shift`. ``d_end`` as it is where the cap's width cannot be read."""
-        shapes, offsets = cap_shapes_offsets(self.sm.left_mask, [(uv_edge, out, r)])
-        centre = cap_centre(shapes[0], float(offsets[0]), r)
-        if centre is None:
-            return d_end
-        w = self.sm.left_mask.shape[1]
-        side = 1.0 if float(out[0]) > 0 else -1.0
-        return d_end + silhouette_radius_shift(float(uv_edge[0]), d_end, r, centre[2], side, float(self.sm.f_px),
-                                               0.5 * (w - 1))
 
     def _carried_agrees(self, c: BranchCurve, node: int, d_end: float) -> bool:
         """Whether a flat tip's run-end disparity ``d_end`` (px) may stand on a piece without texture.
@@ -566,8 +526,7 @@ class TipPlacing:
         The round cap's silhouette ends one image radius beyond the cap centre in both views, so the run ends
         are corresponding points. Right runs of a similar length ending in the disparity range are candidates;
         the one nearest ``d_prior`` wins. With the radius ``r`` (px), the median over the rows within half a
-        radius of the axis (at least 3 within 1 px of the axis row's; their interquartile mean with
-        ``END_ROWS_MEAN``): on 28 rendered scenes the median error of such tips drops by a third to a half
+        radius of the axis (at least 3 within 1 px of the axis row's): on 28 rendered scenes the median error of such tips drops by a third to a half
         (docs/localize-subpixel.md). Where the axis row's end agrees with fewer than 3 of those rows
         (``END_ROWS_OUTVOTE``), the median of the rows that agree among themselves (a majority of at least 3
         within 1 px of their median; a right run the axis row's end misses is read a radius inside): one row's
@@ -580,7 +539,7 @@ class TipPlacing:
         rl, rr, _, valid_r = TipPlacing._tip_tables(self)
         args = (float(uv_edge[0]), float(uv_edge[1]), float(out[0]), float(out[1]), float(d_prior), float(r),
                 float(inside_px), float(sm.d_range_px[0]), float(sm.d_range_px[1]), float(sm.f_px), h, w,
-                END_RUN_CUT_PX, END_ROWS_OUTVOTE, END_ROWS_MEAN)
+                END_RUN_CUT_PX, END_ROWS_OUTVOTE)
         ok, d = kernels_tips.end_disparity(rl, rr, valid_r, *args)
         grey = self.__dict__.get("runs_grey_end")
         if ok and grey is not None:         # (TIP_GREY_END: a soft mask's runs on the grey step)

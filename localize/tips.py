@@ -265,30 +265,6 @@ def silhouette_offset_px(u_px, d_px, half_width_px, side, f_px: float, cx_px: fl
     return f_px * (ext_l - ext_r - (x_l - x_r))
 
 
-def silhouette_radius_shift(u_px: float, d_px: float, r_read: float, rho: float, side: float, f_px: float,
-                            cx_px: float) -> float:
-    """How far (px of disparity) an outline extreme's disparity corrected with the silhouette offset of the
-    radius ``r_read`` moves when corrected with that of ``rho`` instead: ``silhouette_offset_px(.., r_read, ..) -
-    silhouette_offset_px(.., rho, ..)`` at the column ``u_px`` and disparity ``d_px``. Added to a run end's
-    disparity taken less the offset of a flat piece's radius ``r_read``, it gives the disparity less the offset
-    of its cap's own radius ``rho`` (a tapering branch's cap is narrower than its piece: the offset, which grows
-    with the radius, was over-corrected; zero where ``rho == r_read``).
-
-    Parameters
-    ----------
-    u_px, d_px : float
-        The outline's column and disparity, px (rectified).
-    r_read, rho : float
-        The radius the offset was taken with, and the cap's own radius, px.
-    side : float
-        -1 for an end pointing left (-u), +1 for one pointing right.
-    f_px, cx_px : float
-        Rectified focal length and principal point column (the image's middle is close enough), px.
-    """
-    return float(silhouette_offset_px(u_px, d_px, r_read, side, f_px, cx_px)
-                 - silhouette_offset_px(u_px, d_px, rho, side, f_px, cx_px))
-
-
 def _last_on(mask: np.ndarray, starts: np.ndarray, directions: np.ndarray, s: np.ndarray,
              n_s: np.ndarray | None = None) -> np.ndarray:
     """Where each line ``starts[k] + s directions[k]`` (s ascending, evenly spaced) last has the

@@ -12,7 +12,7 @@ from appliance.localize import caps, kernels_ncc, kernels_tips, tips
 from appliance.localize.curves import median
 from appliance.localize.edges import find_runs
 from appliance.localize.ends import EndPlacer
-from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_ROWS_MEAN, END_ROWS_OUTVOTE, END_RUN_CUT_PX,
+from appliance.localize.tipends import (CAP_SPLIT_PX, CAP_SPLIT_SHARE, END_ROWS_OUTVOTE, END_RUN_CUT_PX,
                                        OWN_CAP_PX, OWN_CAP_ROWS, OWN_EDGE_PX, OWN_EDGE_ROWS, OWN_EDGE_SHARE,
                                        OWN_EDGE_WIDTH, cap_row_scale)
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, _last_on_np, at_view_edge, silhouette_offset_px,
@@ -169,23 +169,6 @@ def _ref_end_outline_agrees(b, uv_edge, out, d, r):
     return bool((np.abs(e_l[ir >= 0] - e_r - d) <= 1.2).mean() >= 0.8)
 
 
-def _ref_interquartile_mean(a):
-    """The mean of the middle half of ``a`` (a quarter of its values, rounded down, off each end), in numpy."""
-    s = np.sort(np.asarray(a, float))
-    q = len(s) // 4
-    return float(np.mean(s[q:len(s) - q]))
-
-
-def test_interquartile_mean_kernel_is_numpys():
-    rng = np.random.default_rng(7)
-    for n in range(1, 24):
-        a = rng.normal(100.0, 0.3, n)
-        np.testing.assert_allclose(kernels_tips._interquartile_mean(a), _ref_interquartile_mean(a), rtol=0, atol=1e-12)
-    # the middle half only: outliers on either side leave it
-    a = np.array([0.0, 10.0, 10.1, 10.2, 10.3, 10.4, 10.5, 99.0])
-    assert abs(kernels_tips._interquartile_mean(a) - 10.25) <= 1e-12
-
-
 def _ref_end_disparity(b, uv_edge, out, d_prior, r=0.0, inside_px=1.0, outvote=END_ROWS_OUTVOTE):
     """ends.EndPlacer._end_disparity before the pass (``outvote``: tipends.END_ROWS_OUTVOTE)."""
     sm = b.sm
@@ -237,7 +220,7 @@ def _ref_end_disparity(b, uv_edge, out, d_prior, r=0.0, inside_px=1.0, outvote=E
     d_all = el - er
     de = d_all[near & (np.abs(d_all - d) <= 1.0)]
     if len(de) >= 3:
-        d = _ref_interquartile_mean(de) if END_ROWS_MEAN else float(median(de))
+        d = float(median(de))
     elif outvote and np.isfinite(d_all).sum() >= 3:
         d_all = d_all[np.isfinite(d_all)]
         agree = d_all[np.abs(d_all - median(d_all)) <= 1.0]

@@ -8,7 +8,7 @@ import pytest
 from appliance.localize.edges import find_runs
 from appliance.localize.tips import (
     cap_shape, cap_shapes, flat_cap_curves, front_disparity, occluder_confirmed, right_flanks_filled, round_cap, round_end,
-    silhouette_offset_px, silhouette_radius_shift,
+    silhouette_offset_px,
 )
 
 from .shapes import end_placer
@@ -116,29 +116,6 @@ def test_silhouette_offset_matches_a_spheres_grazing_rays():
             assert abs(approx - exact) <= 0.02 * abs(exact) + 0.003
             assert abs(exact) > 0.005                                  # (a real effect)
 
-
-
-def test_a_run_ends_offset_taken_with_the_caps_own_radius_gives_the_centres_disparity():
-    # a tapering branch's end: a sphere of the cap's radius (4 mm) on a piece whose radius reads 6 mm. The
-    # extreme's disparity less the piece radius' offset is off the centre's; moved by silhouette_radius_shift
-    # to the cap's radius it is the centre's (as the offset alone is for a sphere of that radius)
-    f, b, cx = 1450.0, 120.0, 640.0
-    for x_mm, z_mm, side in ((300.0, 1000.0, 1.0), (-300.0, 1100.0, -1.0), (-250.0, 900.0, 1.0)):
-        rho_mm, r_mm = 4.0, 6.0
-
-        def extreme(x_cam):                  # rectified column of the sphere's extreme seen from x_cam
-            dist = np.hypot(x_mm - x_cam, z_mm)
-            return cx + f * np.tan(np.arctan2(x_mm - x_cam, z_mm) + side * np.arcsin(rho_mm / dist))
-        d = f * b / z_mm                                        # the centre's disparity
-        u_end = extreme(0.0)                                    # (the run end's column, as the tip's kernel takes it)
-        raw = extreme(0.0) - extreme(b)                         # the run ends' disparity
-        by_piece = raw - silhouette_offset_px(u_end, raw, f * r_mm / z_mm, side, f, cx)
-        shift = silhouette_radius_shift(u_end, by_piece, f * r_mm / z_mm, f * rho_mm / z_mm, side, f, cx)
-        assert abs(by_piece - d) > 0.04                          # (the piece's radius over-corrects)
-        assert abs(by_piece + shift - d) <= 0.01
-        # outward-pointing ends (side and column alike) move nearer, inward ones further
-        assert np.sign(shift) == np.sign(side * (u_end - cx))
-    assert silhouette_radius_shift(1000.0, 150.0, 7.0, 7.0, 1.0, f, cx) == 0.0
 
 
 def _rod(square: bool = False, oblique: float = 0.0, touch: bool = False) -> np.ndarray:

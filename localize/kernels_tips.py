@@ -445,7 +445,8 @@ def end_outline_agrees(rl, rr, ux, uy, ox, d, r, h):
 
 
 @numba.njit(**_JIT)
-def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px, outvote):
+def end_disparity(rl, rr, valid_r, ux, uy, ox, oy, d_prior, r, inside_px, d_min, d_max, f_px, h, w, cut_px,
+                  outvote):
     """``ends.EndPlacer._end_disparity``: the disparity of a flat piece's end from the ends of its row
     runs in both views (``rl``, ``rr``: :func:`runs_tables`; ``valid_r`` where the rectified right view
     sees the scene, (0, 0): everywhere in the image; ``cut_px``: ``ends.END_RUN_CUT_PX``; ``outvote``:

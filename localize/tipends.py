@@ -526,11 +526,11 @@ class TipPlacing:
         The round cap's silhouette ends one image radius beyond the cap centre in both views, so the run ends
         are corresponding points. Right runs of a similar length ending in the disparity range are candidates;
         the one nearest ``d_prior`` wins. With the radius ``r`` (px), the median over the rows within half a
-        radius of the axis (at least 3 within 1 px of the axis row's): on 28 rendered scenes the median error of such tips drops by a third to a half
-        (docs/localize-subpixel.md). Where the axis row's end agrees with fewer than 3 of those rows
-        (``END_ROWS_OUTVOTE``), the median of the rows that agree among themselves (a majority of at least 3
-        within 1 px of their median; a right run the axis row's end misses is read a radius inside): one row's
-        outline bulging in one view does not set the end. The row's left run is the one ``inside_px`` back along
+        radius of the axis (at least 3 within 1 px of the axis row's): on 28 rendered scenes the median error of
+        such tips drops by a third to a half (docs/localize-subpixel.md). Where the axis row's end agrees with
+        fewer than 3 of those rows (``END_ROWS_OUTVOTE``), the median of the rows that agree among themselves (a
+        majority of at least 3 within 1 px of their median; a right run the axis row's end misses is read a radius
+        inside): one row's outline bulging in one view does not set the end. The row's left run is the one ``inside_px`` back along
         the row from ``uv_edge``. With a soft mask's runs on the grey step (``TIP_GREY_END``) their reading stands
         where it differs from this one by over ``GREY_END_MIN_PX``.
         """

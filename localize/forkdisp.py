@@ -64,6 +64,9 @@ LONE_GAP_ROW_MIN_PX = 6.0
 SIDE_TURN_SHORT = True
 SIDE_TURN_MIN_INCLINE = 1.45
 SIDE_TURN_SPAN_ROWS = 20
+# turn31 trial: such a side read with a parabola through the span's SIDE_SPAN_ROWS rows instead
+SIDE_TURN_QUAD = True
+SIDE_TURN_QUAD_MIN_ROWS = 20
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -110,6 +113,10 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if SIDE_TURN_SHORT and v is not None and span_rows > SIDE_TURN_SPAN_ROWS and f_px is not None \
             and abs(v.slope) * f_px >= SIDE_TURN_MIN_INCLINE * max(v.d_px - offset_px, 1.0):
         # (a side turning fast in depth: its line's slope from the span's far rows carried to the fork is off)
+        if SIDE_TURN_QUAD:
+            w = _side_read(c, runs_l, runs_r, t_fork, span_rows, deg=2, **kw)
+            if w is not None and w.n_rows >= SIDE_TURN_QUAD_MIN_ROWS:
+                return w
         w = _side_read(c, runs_l, runs_r, t_fork, SIDE_TURN_SPAN_ROWS, **kw)
         if w is not None:
             return w
@@ -118,8 +125,9 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
 
 def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_rows: int, gap_min_px: float,
                tol_d_px: float, width_tol_px: float, min_rows: int, max_gap_px: int, f_px: float | None,
-               cx_px: float | None, offset_px: float, past_rows: int) -> SideNear | None:
-    """One read of :func:`side_disparity_near` with the span's ``span_rows`` rows (its arguments, px)."""
+               cx_px: float | None, offset_px: float, past_rows: int, deg: int = 1) -> SideNear | None:
+    """One read of :func:`side_disparity_near` with the span's ``span_rows`` rows (its arguments, px); ``deg`` 2:
+    a parabola through the rows instead of a line."""
     if not c.by_row or not math.isfinite(t_fork):
         return None
     lo, hi = c.t_range
@@ -139,10 +147,10 @@ def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_r
     line = (int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
             float(tol_d_px), float(width_tol_px), int(min_rows), 3.5)
     args = (*views, n_gap + int(past_rows), *line)
-    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0)
+    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0, deg)
     if ok and nearest > SIDE_GROWN_SHORT_PX:     # (stops short of the fork: the crotch's widened rows with them)
         grown = kernels_forks.side_near(*args, float(SIDE_GROWN_FRAC), float(SIDE_GROWN_PX), float(SIDE_GROWN_TOL_PX),
-                                        float(SIDE_GROWN_MAX_W))
+                                        float(SIDE_GROWN_MAX_W), deg)
         if grown[0] and grown[2] >= n_rows + SIDE_GROWN_MIN_ROWS:
             ok, d, n_rows, n_gap_k, nearest, mad, slope = grown
     if not ok or (n_gap_k == 0 and hi - lo < 2 * span_rows):
@@ -150,7 +158,7 @@ def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_r
         return None
     v = SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
     if LONE_GAP_ROW_UNREAD and not past_rows and rests_on_lone_gap_row(v):
-        return span_rows_read(views, line, n_gap)
+        return span_rows_read(views, line, n_gap, deg)
     return v
 
 
@@ -200,13 +208,13 @@ def side_through_fork(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float,
     return side_disparity_near(c, runs_l, runs_r, t_fork, past_rows=past, **kw)
 
 
-def span_rows_read(views: tuple, line: tuple, n_gap: int) -> SideNear | None:
+def span_rows_read(views: tuple, line: tuple, n_gap: int, deg: int = 1) -> SideNear | None:
     """The read of :func:`side_disparity_near` from the span's rows alone (no row between the span and the
     fork: ``kernels_forks.side_near`` with no gap), read at the fork's row: what a read resting on a lone gap
     row (:func:`rests_on_lone_gap_row`) is replaced by. ``views``: both views' runs as the kernel takes them;
     ``line``: the kernel's arguments after ``n_gap``; ``n_gap``: the rows between the span and the fork. None
     where too few of the span's rows are kept."""
-    ok, d, n_rows, _, nearest, mad, slope = kernels_forks.side_near(*views, 0, *line, 0.0, 0.0, 0.0, 0.0)
+    ok, d, n_rows, _, nearest, mad, slope = kernels_forks.side_near(*views, 0, *line, 0.0, 0.0, 0.0, 0.0, deg)
     return SideNear(d, n_rows, 0, n_gap, nearest, mad, slope) if ok else None
 
 

@@ -64,7 +64,14 @@ LONE_GAP_ROW_MIN_PX = 6.0
 SIDE_TURN_SHORT = True
 SIDE_TURN_MIN_INCLINE = 1.45
 SIDE_TURN_SPAN_ROWS = 20
-# turn31 trial: such a side read with a parabola through the span's SIDE_SPAN_ROWS rows instead
+# ... and read first with a parabola in the row through the span's SIDE_SPAN_ROWS rows (and the gap's), where it
+# keeps SIDE_TURN_QUAD_MIN_ROWS rows (else the 20-row line): what such a side's line is off by is mostly the parent's
+# own bend in depth, not its crossings. 980 T13's parent (exact masks): the line through the true disparities on the
+# read's own rows is +0.83 px off at the fork over 40 rows, +0.37 over 20 (its 30 mm pieces cross 12-17 rows each,
+# their slopes 0.174, 0.189, 0.132, 0.129 px/row from the fork on), the crossings' own error +0.06 / +0.42; a side
+# turning by a given angle changes its disparity slope (1 + k^2) times more at k mm of depth per mm along its rows.
+# The parabola: 980 T13 -5.09 -> -3.78 mm (colour -1.54 -> -1.27), 999 T9 colour -1.18 -> -0.94, 564 T7 -1.72 ->
+# -1.67 / +4.22 -> +3.93 (docs/localize-turn31.md)
 SIDE_TURN_QUAD = True
 SIDE_TURN_QUAD_MIN_ROWS = 20
 
@@ -105,7 +112,8 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         None when the fork lies within ``gap_min_px`` of the span (the fit is read there) or further
         than ``max_gap_px`` from it, or fewer than ``min_rows`` rows are found. A side inclined in depth by
         ``SIDE_TURN_MIN_INCLINE`` mm per mm or more (its line's slope times ``f_px / (d - offset_px)``; with
-        ``f_px`` given) is read again with ``SIDE_TURN_SPAN_ROWS`` span rows (``SIDE_TURN_SHORT``).
+        ``f_px`` given) is read again with a parabola through the same rows (``SIDE_TURN_QUAD``, where it keeps
+        ``SIDE_TURN_QUAD_MIN_ROWS``), else with ``SIDE_TURN_SPAN_ROWS`` span rows (``SIDE_TURN_SHORT``).
     """
     kw = dict(gap_min_px=gap_min_px, tol_d_px=tol_d_px, width_tol_px=width_tol_px, min_rows=min_rows,
               max_gap_px=max_gap_px, f_px=f_px, cx_px=cx_px, offset_px=offset_px, past_rows=past_rows)

@@ -64,6 +64,16 @@ LONE_GAP_ROW_MIN_PX = 6.0
 SIDE_TURN_SHORT = True
 SIDE_TURN_MIN_INCLINE = 1.45
 SIDE_TURN_SPAN_ROWS = 20
+# ... and read first with a parabola in the row through the span's SIDE_SPAN_ROWS rows (and the gap's), where it
+# keeps SIDE_TURN_QUAD_MIN_ROWS rows (else the 20-row line): what such a side's line is off by is mostly the parent's
+# own bend in depth, not its crossings. 980 T13's parent (exact masks): the line through the true disparities on the
+# read's own rows is +0.83 px off at the fork over 40 rows, +0.37 over 20 (its 30 mm pieces cross 12-17 rows each,
+# their slopes 0.174, 0.189, 0.132, 0.129 px/row from the fork on), the crossings' own error +0.06 / +0.42; a side
+# turning by a given angle changes its disparity slope (1 + k^2) times more at k mm of depth per mm along its rows.
+# The parabola: 980 T13 -5.09 -> -3.78 mm (colour -1.54 -> -1.27), 999 T9 colour -1.18 -> -0.94, 564 T7 -1.72 ->
+# -1.67 / +4.22 -> +3.93 (docs/localize-turn31.md)
+SIDE_TURN_QUAD = True
+SIDE_TURN_QUAD_MIN_ROWS = 20
 
 
 def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, gap_min_px: float = SIDE_GAP_MIN_PX,
@@ -102,7 +112,8 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
         None when the fork lies within ``gap_min_px`` of the span (the fit is read there) or further
         than ``max_gap_px`` from it, or fewer than ``min_rows`` rows are found. A side inclined in depth by
         ``SIDE_TURN_MIN_INCLINE`` mm per mm or more (its line's slope times ``f_px / (d - offset_px)``; with
-        ``f_px`` given) is read again with ``SIDE_TURN_SPAN_ROWS`` span rows (``SIDE_TURN_SHORT``).
+        ``f_px`` given) is read again with a parabola through the same rows (``SIDE_TURN_QUAD``, where it keeps
+        ``SIDE_TURN_QUAD_MIN_ROWS``), else with ``SIDE_TURN_SPAN_ROWS`` span rows (``SIDE_TURN_SHORT``).
     """
     kw = dict(gap_min_px=gap_min_px, tol_d_px=tol_d_px, width_tol_px=width_tol_px, min_rows=min_rows,
               max_gap_px=max_gap_px, f_px=f_px, cx_px=cx_px, offset_px=offset_px, past_rows=past_rows)
@@ -110,6 +121,10 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
     if SIDE_TURN_SHORT and v is not None and span_rows > SIDE_TURN_SPAN_ROWS and f_px is not None \
             and abs(v.slope) * f_px >= SIDE_TURN_MIN_INCLINE * max(v.d_px - offset_px, 1.0):
         # (a side turning fast in depth: its line's slope from the span's far rows carried to the fork is off)
+        if SIDE_TURN_QUAD:
+            w = _side_read(c, runs_l, runs_r, t_fork, span_rows, deg=2, **kw)
+            if w is not None and w.n_rows >= SIDE_TURN_QUAD_MIN_ROWS:
+                return w
         w = _side_read(c, runs_l, runs_r, t_fork, SIDE_TURN_SPAN_ROWS, **kw)
         if w is not None:
             return w
@@ -118,8 +133,9 @@ def side_disparity_near(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: floa
 
 def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_rows: int, gap_min_px: float,
                tol_d_px: float, width_tol_px: float, min_rows: int, max_gap_px: int, f_px: float | None,
-               cx_px: float | None, offset_px: float, past_rows: int) -> SideNear | None:
-    """One read of :func:`side_disparity_near` with the span's ``span_rows`` rows (its arguments, px)."""
+               cx_px: float | None, offset_px: float, past_rows: int, deg: int = 1) -> SideNear | None:
+    """One read of :func:`side_disparity_near` with the span's ``span_rows`` rows (its arguments, px); ``deg`` 2:
+    a parabola through the rows instead of a line."""
     if not c.by_row or not math.isfinite(t_fork):
         return None
     lo, hi = c.t_range
@@ -139,10 +155,10 @@ def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_r
     line = (int(span_rows), sg, float(end), s_end, slope_s, d_end, slope_d, ratio, float(t_fork),
             float(tol_d_px), float(width_tol_px), int(min_rows), 3.5)
     args = (*views, n_gap + int(past_rows), *line)
-    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0)
+    ok, d, n_rows, n_gap_k, nearest, mad, slope = kernels_forks.side_near(*args, 0.0, 0.0, 0.0, 0.0, deg)
     if ok and nearest > SIDE_GROWN_SHORT_PX:     # (stops short of the fork: the crotch's widened rows with them)
         grown = kernels_forks.side_near(*args, float(SIDE_GROWN_FRAC), float(SIDE_GROWN_PX), float(SIDE_GROWN_TOL_PX),
-                                        float(SIDE_GROWN_MAX_W))
+                                        float(SIDE_GROWN_MAX_W), deg)
         if grown[0] and grown[2] >= n_rows + SIDE_GROWN_MIN_ROWS:
             ok, d, n_rows, n_gap_k, nearest, mad, slope = grown
     if not ok or (n_gap_k == 0 and hi - lo < 2 * span_rows):
@@ -150,7 +166,7 @@ def _side_read(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float, span_r
         return None
     v = SideNear(d, n_rows, n_gap_k, n_gap, nearest, mad, slope)
     if LONE_GAP_ROW_UNREAD and not past_rows and rests_on_lone_gap_row(v):
-        return span_rows_read(views, line, n_gap)
+        return span_rows_read(views, line, n_gap, deg)
     return v
 
 
@@ -200,13 +216,13 @@ def side_through_fork(c: BranchCurve, runs_l: Runs, runs_r: Runs, t_fork: float,
     return side_disparity_near(c, runs_l, runs_r, t_fork, past_rows=past, **kw)
 
 
-def span_rows_read(views: tuple, line: tuple, n_gap: int) -> SideNear | None:
+def span_rows_read(views: tuple, line: tuple, n_gap: int, deg: int = 1) -> SideNear | None:
     """The read of :func:`side_disparity_near` from the span's rows alone (no row between the span and the
     fork: ``kernels_forks.side_near`` with no gap), read at the fork's row: what a read resting on a lone gap
     row (:func:`rests_on_lone_gap_row`) is replaced by. ``views``: both views' runs as the kernel takes them;
     ``line``: the kernel's arguments after ``n_gap``; ``n_gap``: the rows between the span and the fork. None
     where too few of the span's rows are kept."""
-    ok, d, n_rows, _, nearest, mad, slope = kernels_forks.side_near(*views, 0, *line, 0.0, 0.0, 0.0, 0.0)
+    ok, d, n_rows, _, nearest, mad, slope = kernels_forks.side_near(*views, 0, *line, 0.0, 0.0, 0.0, 0.0, deg)
     return SideNear(d, n_rows, 0, n_gap, nearest, mad, slope) if ok else None
 
 

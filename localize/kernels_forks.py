@@ -328,9 +328,39 @@ def _line_fit(x, y):
 
 
 @numba.njit(**_JIT)
+def _quad_fit(x, y):
+    """Least-squares parabola ``y = c x^2 + a x + b`` (normal equations, Cramer's rule; ``x`` scaled by its
+    largest magnitude): (ok, c, a, b), not ok when the rows span too few distinct values."""
+    n = len(x)
+    sc = 0.0
+    for i in range(n):
+        sc = max(sc, abs(x[i]))
+    if n < 3 or sc <= 0:
+        return False, 0.0, 0.0, 0.0
+    s0, s1, s2, s3, s4, t0, t1, t2 = float(n), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for i in range(n):
+        u = x[i] / sc
+        u2 = u * u
+        s1 += u
+        s2 += u2
+        s3 += u2 * u
+        s4 += u2 * u2
+        t0 += y[i]
+        t1 += u * y[i]
+        t2 += u2 * y[i]
+    det = s0 * (s2 * s4 - s3 * s3) - s1 * (s1 * s4 - s3 * s2) + s2 * (s1 * s3 - s2 * s2)
+    if abs(det) <= 1e-12 * max(s0 * s2 * s4, 1e-300):
+        return False, 0.0, 0.0, 0.0
+    b = (t0 * (s2 * s4 - s3 * s3) - s1 * (t1 * s4 - s3 * t2) + s2 * (t1 * s3 - s2 * t2)) / det
+    a = (s0 * (t1 * s4 - s3 * t2) - t0 * (s1 * s4 - s3 * s2) + s2 * (s1 * t2 - t1 * s2)) / det
+    c = (s0 * (s2 * t2 - t1 * s3) - s1 * (s1 * t2 - t1 * s2) + t0 * (s1 * s3 - s2 * s2)) / det
+    return True, c / (sc * sc), a / sc, b
+
+
+@numba.njit(**_JIT)
 def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x1_r, width_r, span_r, centre_r,
               n_gap, span_rows, sg, end, s_end, slope_s, d_end, slope_d, ratio, t_fork, tol_d_px, width_tol_px,
-              min_rows, k_mad, grow_frac, grow_px, grow_tol_px, grow_max_w):
+              min_rows, k_mad, grow_frac, grow_px, grow_tol_px, grow_max_w, deg=1):
     """:func:`forkdisp.side_disparity_near` compiled from its rows on: the rows ``(i - n_gap) sg + end``
     (i = 0 .. n_gap + span_rows), the curve carried along its tangent at the span's ``end`` (column
     ``s_end + slope_s dt``, disparity ``d_end + slope_d dt``, the right view's widths ``ratio`` times
@@ -341,7 +371,9 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     within ``grow_max_w`` span widths of the fork's, counts where its centre is within half the excess
     more of the line and its right crossing is as much wider (within ``grow_tol_px``; 0, 0: none counts).
     Returns (found, d at the fork, rows kept, of them in the gap, nearest kept row's distance to the fork
-    (px), scaled MAD, slope); equal to the numpy steps up to the rounding of the line fits' product sums."""
+    (px), scaled MAD, slope); equal to the numpy steps up to the rounding of the line fits' product sums.
+    ``deg`` 2: a parabola in the row through the same rows (its value and slope at the fork; ``forkdisp``'s
+    ``SIDE_TURN_QUAD``)."""
     fail = (False, 0.0, 0, 0, 0.0, 0.0, 0.0)
     n = n_gap + span_rows + 1
     rows = np.empty(n)
@@ -411,12 +443,16 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
     if n2 < min_rows:
         return fail
     x, y, kk = x[:n2], y[:n2], kk[:n2]
-    ok, a, b = _line_fit(x, y)
+    c2 = 0.0
+    if deg == 2:
+        ok, c2, a, b = _quad_fit(x, y)
+    else:
+        ok, a, b = _line_fit(x, y)
     if not ok:
         return fail
     res = np.empty(n2)
     for j in range(n2):
-        res[j] = y[j] - (a * x[j] + b)
+        res[j] = y[j] - ((c2 * x[j] + a) * x[j] + b)
     med = kernels_stats._median(res)
     dev = np.empty(n2)
     for j in range(n2):
@@ -436,7 +472,10 @@ def side_near(keys_l, rows_l, x1_l, width_l, span_l, centre_l, keys_r, rows_r, x
             if keep[j]:
                 xk[j2], yk[j2] = x[j], y[j]
                 j2 += 1
-        ok, a, b = _line_fit(xk, yk)
+        if deg == 2:
+            ok, c2, a, b = _quad_fit(xk, yk)
+        else:
+            ok, a, b = _line_fit(xk, yk)
         if not ok:
             return fail
     n_gap_k = 0
@@ -646,7 +685,7 @@ def warm_up() -> None:
     ro_i.setflags(write=False)                                # (Runs' cached tables are read-only)
     ro_f.setflags(write=False)
     side_near(ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_i, ro_i, ro_i, 4, ro_f, ro_f, 1, 1, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0,
-              1.0, 0.0, 2.5, 1.2, 12, 3.5, 0.2, 2.5, 0.6, 0.5)
+              1.0, 0.0, 2.5, 1.2, 12, 3.5, 0.2, 2.5, 0.6, 0.5, 1)
     runs_agree(np.zeros((3, 2)), 1.0, 1.0, 3, ro_i, ro_i, ro_i, 4, ro_f, ro_f, ro_f, 4, ro_f, ro_f, 0.0, 1.0)
     v = np.array([1.0, 0.0])
     curve_points(v, v[:1], 0.0, 1.0, 0.0, 1.0, True, 0.0, 1.0, 2)

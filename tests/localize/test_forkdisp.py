@@ -146,6 +146,7 @@ def test_a_side_inclined_steeply_in_depth_is_read_from_the_span_rows_next_to_its
     t = np.arange(200.0, 281.0)
     c = BranchCurve(0, True, (200.0, 280.0), Poly.fit(t, u_ax(t), 1), Poly.fit(t, d_ax(t), 1), 8.0, len(t))
     fork, f = 188.0, 1450.0
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_QUAD", False)       # (the line through the 20 rows: the parabola's fallback)
     near = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
     assert near is not None and abs(near.slope) * f >= forkdisp.SIDE_TURN_MIN_INCLINE * near.d_px
     assert abs(near.d_px - d_ax(fork)) <= 0.1
@@ -165,6 +166,37 @@ def test_a_side_inclined_steeply_in_depth_is_read_from_the_span_rows_next_to_its
     off = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
     assert off is not None and on is not None and abs(on.slope) * f < forkdisp.SIDE_TURN_MIN_INCLINE * on.d_px
     assert on.d_px == off.d_px and on.n_rows == off.n_rows
+
+
+def test_a_side_turning_steadily_in_depth_is_read_with_a_parabola(monkeypatch):
+    # an oblique parent whose disparity slope falls steadily from 0.2 px per row at the fork to 0.12 at the
+    # span's far end 92 rows on (a parent bending in depth, ~3.7 mm of depth per mm along its rows at the fork):
+    # a line through the span's 40 rows, or its 20 rows next to its end, takes the slope of rows further in and
+    # is off at the fork; a parabola through the 40 rows is not (SIDE_TURN_QUAD). The crotch's 12 rows between the
+    # fork and the span are not read (blank in both views: the read is carried from the span, as 980 T13's)
+    fork, f = 188.0, 1450.0
+    u_ax = lambda v: 600.0 - 1.6 * v
+    d_ax = lambda v: 77.6 + 0.2 * (v - fork) - 4.35e-4 * (v - fork) ** 2
+    left = oblique(u_ax, -1.6)
+    right = oblique(lambda v: u_ax(v) - d_ax(v), -1.76)
+    left[int(fork):200] = 0
+    right[int(fork):200] = 0
+    runs_l, runs_r = find_runs(left, soft=True), find_runs(right, soft=True)
+    t = np.arange(200.0, 281.0)
+    c = BranchCurve(0, True, (200.0, 280.0), Poly.fit(t, u_ax(t), 1), Poly.fit(t, d_ax(t), 1), 8.0, len(t))
+    quad = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert quad is not None and abs(quad.d_px - d_ax(fork)) <= 0.1
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_QUAD", False)
+    short = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert short is not None and abs(short.d_px - d_ax(fork)) >= 0.15
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", False)
+    long = side_disparity_near(c, runs_l, runs_r, fork, f_px=f)
+    assert long is not None and abs(long.d_px - d_ax(fork)) >= 0.3
+    # seen further (f / d four times smaller: under SIDE_TURN_MIN_INCLINE) the side keeps its line
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_QUAD", True)
+    monkeypatch.setattr(forkdisp, "SIDE_TURN_SHORT", True)
+    far = side_disparity_near(c, runs_l, runs_r, fork, f_px=f / 4.0)
+    assert far is not None and far.d_px == long.d_px and far.n_rows == long.n_rows
 
 
 def test_a_fork_reads_its_parent_side_carried_past_its_span(monkeypatch):

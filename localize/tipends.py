@@ -117,14 +117,15 @@ TIP_GREY_END = True
 GREY_END_DEV_PX = 1.5
 GREY_END_MIN_PX = 0.5
 
-# fresh31 (docs/localize-fresh31.md): a flat tip whose right run end lies within 2 px of its piece's texture level (taken
-# as the tip's disparity without the outline checks the farther ends get) is withheld where the right view has clearly
-# more mask beside the end than the left (tips.right_flanks_filled: something touches the cap in the right view only, so
-# the run end found is that thing's, not the cap's). Seed 1113 T13, colour masks: a short flat twig turning in depth
-# (its texture 137.4 -> 140.5 px over 55 px, kept as the constant 138.07: too few clean patches for a line) whose tip
-# lies over a leaf in the right view (the colour mask joins the two); the run end 138.01 was the leaf's and the texture
-# level's, the truth 142.16: -4.15 px, +37.19 mm. Its flank share difference +0.49 (the bound 0.25); on 1092-1123 and
-# the 60 scenes no other flat-runend tip exceeds 0.00 (the largest -0.01 .. -0.31).
+# fresh31 (docs/localize-fresh31.md): a flat tip on a piece whose disparity is one level (a constant: a short piece
+# without a clean texture line, dense._flat_finish) and whose right run end lies within 2 px of it (taken without the
+# outline checks the farther ends get) is withheld where the right view has clearly more mask beside the end than the
+# left (tips.right_flanks_filled: something touches the cap in the right view only; the run end found is that thing's).
+# Seed 1113 T13, colour masks: a 71 px flat twig turning in depth (its texture 137.4 -> 140.5 px over 54 px, kept as
+# the constant 138.07) whose cap lies over a leaf in the right view (the colour mask joins them; the truth: the tip
+# hidden there); the run end 138.01, the truth 142.16: -4.15 px, +37.19 mm; flank share difference +0.49 (bound
+# FLANK_SHARE 0.25). Without the constant's condition it withheld seed 377 T11 (colour, +0.68 mm, flank +0.28: a
+# 388 px texture line, its level at the tip the run end's within 0.15 px).
 FLAT_END_FLANKS_WITHHELD = True
 
 
@@ -286,10 +287,10 @@ class TipPlacing:
                 self.hidden.add(int(node))
                 return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
-                if FLAT_END_FLANKS_WITHHELD and right_flanks_filled(self.sm.left_mask, self.sm.right_mask, uv_edge,
-                                                                    out, d_end, r):
-                    # the right run's end is not the cap's (something touches it there) and the texture's level
-                    # near it confirms nothing: no depth of the tip's own (seed 1113 T13)
+                if FLAT_END_FLANKS_WITHHELD and len(c.d_poly.coef) == 1 and right_flanks_filled(
+                        self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r):
+                    # the right run's end is not the cap's (something touches it there) and the piece's one level
+                    # says nothing of the tip's own depth: no depth of the tip's own (seed 1113 T13)
                     self.hidden.add(int(node))
                     return None
                 self.uvd[node][2] = d_end

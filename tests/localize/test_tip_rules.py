@@ -102,7 +102,7 @@ def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(rendered_scene
 
 @pytest.mark.parametrize("rule", [False, True])
 def test_a_flat_tip_whose_right_run_ends_on_something_touching_it_is_withheld(rendered_scene, monkeypatch, rule):
-    # fresh31, seed 1113's tip 13 (Z 1060 mm, colour masks): a short flat twig turning in depth, kept at its texture's
+    # fresh31, seed 1113's tip 13 (Z 1236 mm, colour masks): a short flat twig turning in depth, kept at its texture's
     # constant (138.07 px); in the right view a leaf lies over its cap (the colour mask joins them) and the right run's
     # end read 138.01 px, within 2 px of the constant: taken, the truth 142.16 (+37.2 mm; the cap itself hidden in the right
     # view). The right flanks are filled

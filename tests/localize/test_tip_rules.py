@@ -104,10 +104,9 @@ def test_a_tip_past_its_texture_along_a_turn_in_depth_is_withheld(rendered_scene
 def test_a_flat_tip_whose_right_run_ends_on_something_touching_it_is_withheld(rendered_scene, monkeypatch, rule):
     # fresh31, seed 1113's tip 13 (Z 1236 mm, colour masks): a short flat twig turning in depth, kept at its texture's
     # constant (138.07 px); in the right view a leaf lies over its cap (the colour mask joins them) and the right run's
-    # end read 138.01 px, within 2 px of the constant: taken, the truth 142.16 (+37.2 mm; the cap itself hidden in the right
-    # view). The right flanks are filled
-    # there (tips.right_flanks_filled, share difference +0.49): the run end is not the cap's, the tip is withheld.
-    # The tip is hidden in the right view (the truth's visibility): scored only where reported.
+    # end read 138.01 px, within 2 px of the constant: taken, the truth 142.16 (+37.2 mm). The right flanks are filled
+    # there (tips.right_flanks_filled, share difference +0.49) and the right cap is not round: the run end is not the
+    # cap's, the tip is withheld. (The truth has the cap hidden in the right view: scored only where reported.)
     monkeypatch.setattr(tipends, "FLAT_END_FLANKS_WITHHELD", rule)
     left, right, truth, calib = rendered_scene(1113)
     res = Localizer(calib, load_config().localize).localize(left, right)

@@ -206,6 +206,12 @@ LONE_CARRIED_MEDIAN = True
 # constant carried 39 px, +0.71 px, the child's 32-row fit carried 25 rows, -0.72, the outline +0.35; the child's
 # +6.8 mm, the median -3.3 mm)
 CARRIED_CHILD_MEDIAN = True
+# fresh31 (docs/localize-fresh31.md): a fork whose disparity is still a lone flat parent side's curve carried further
+# than CHILD_CARRY_PX past its fitted span (not read next to the fork), which the child's right outline contradicts by
+# more than OUTLINE_MAX_SHIFT_PX (too far to move it: the rule above) and no child's curve confirms, is withheld: no
+# reading of the fork's own stands. Seed 1093 T5, exact masks: the side carried 48 px at -2.60 px, the outline +1.05
+# px, no child curve; +18.56 mm. On 1092-1123 and the 60 scenes the other such forks' outlines lie within 0.7 px.
+LONE_CARRIED_CONTRADICTED_WITHHELD = True
 
 # the child's fit vouches in _known_disparity (taken over the parent's sides) for at most this far (px)
 # past its span, not half its span (60-110 px for a long one: seed 362's fork took its child's flat curve
@@ -693,6 +699,11 @@ class ForkPlacing:
                                                 self.sm.f_px, self.sm.offset_px)
         if unread_apart and final:
             agree = False           # (UNREAD_SIDES_APART: the child and its right outline disagree)
+        if agree and LONE_CARRIED_CONTRADICTED_WITHHELD and final and d_out is not None and len(parents) == 1 \
+                and not from_outline and parents[0] not in side_near \
+                and self._carried_px(parents[0], xy) > CHILD_CARRY_PX and float(self.uvd[node][2]) == d \
+                and abs(d_out - d) > OUTLINE_MAX_SHIFT_PX and not (child_ok and _agree(at(child), d)):
+            agree = False           # (a flat parent: d_out is set only there)
         if LONE_CARRIED_MEDIAN and final and d_out is not None and len(parents) == 1 and child_ok \
                 and not from_outline and parents[0] not in side_near \
                 and self._carried_px(parents[0], xy) > CHILD_CARRY_PX and (float(self.uvd[node][2]) == d or (

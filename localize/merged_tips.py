@@ -27,6 +27,16 @@ from appliance.localize.tips import MAX_CAP_BACK, MIN_CAP_BACK, cap_shape
 # shows the tip's centre, one radius back from the cap's end; the walks' scatter on top)
 MAX_SHIFT_RADII = 1.6
 
+# fresh31 (docs/localize-fresh31.md): the tip takes the piece's fitted disparity, which the left view's crossings set;
+# where the left runs over the 2 radii of rows before the left end are narrower than the right's (at the curve's
+# disparity) by more than LEFT_NARROW_SHARE of the right's width and LEFT_NARROW_MIN_PX, the left outline is cut along
+# the body too (not only at the cap) and the crossings' middles, so the curve, are off: no tip. Seed 1122 T10, colour
+# masks: a dark leaf beside the branch in the left view takes half its width out of the colour mask over its last rows
+# (left 7.3 px, right 14.0 px, median of 10 rows): the curve +5.22 px, -27.88 mm. The tips this rule placed on the 60
+# scenes: right minus left -0.76 .. +0.52 px (seeds 115 T12, 146 T14, both masks), kept. None: off.
+LEFT_NARROW_SHARE = 0.25
+LEFT_NARROW_MIN_PX = 2.0
+
 
 def strict_round(shapes: list | None) -> bool:
     """Whether :func:`tips.cap_shape`'s first reading has both sides between a round cap's bounds
@@ -61,6 +71,8 @@ def right_cap_tip(b, c: BranchCurve, t_left: float, t_right: float, sign: float)
         return None
     out = step / speed
     sm = b.sm
+    if LEFT_NARROW_SHARE is not None and _left_narrowed(b, c, t_left, sign, r):
+        return None
     h, w = sm.left_mask.shape
     uv_r = uv - (float(c.d_at(t_right)[0]), 0.0)
     tip_r = uv_r - r * out
@@ -87,6 +99,26 @@ def right_cap_tip(b, c: BranchCurve, t_left: float, t_right: float, sign: float)
     if _in_front_right(sm, probe_r, d, half):
         return None
     return tip
+
+
+def _left_narrowed(b, c: BranchCurve, t_left: float, sign: float, r: float) -> bool:
+    """Whether the left runs of piece ``c`` on the rows within 2 radii ``r`` before its left end ``t_left`` (inside its
+    fitted span; ``sign`` the rows' direction out of the piece) are narrower than the right view's runs there (at the
+    curve's disparity) by more than ``LEFT_NARROW_SHARE`` of the right's width and ``LEFT_NARROW_MIN_PX`` (medians over
+    at least 3 rows found in both views)."""
+    lo, hi = c.t_range
+    rows = np.rint(t_left - sign * np.arange(1.0, max(2.0 * r, 4.0) + 1.0)).astype(int)
+    rows = rows[(rows >= lo) & (rows <= hi)]
+    if len(rows) < 3:
+        return False
+    u, d = c.s_at(rows), c.d_at(rows)
+    il, ir = b.runs_l.find(rows, u), b.runs_r.find(rows, u - d)
+    ok = (il >= 0) & (ir >= 0)
+    if np.count_nonzero(ok) < 3:
+        return False
+    wl, wr = b.runs_l.span_px[il[ok]], b.runs_r.span_px[ir[ok]]
+    w_right = float(np.median(wr))
+    return float(np.median(wr - wl)) > max(LEFT_NARROW_MIN_PX, LEFT_NARROW_SHARE * w_right)
 
 
 def _in_front_right(sm, uv_r: np.ndarray, d_branch_px: float, half: int) -> bool:

@@ -13,11 +13,12 @@ import numpy as np
 from appliance.localize import kernels_forkglue, kernels_match, kernels_tips
 from appliance.localize.curves import BranchCurve, Poly
 from appliance.localize.capslope import MIN_SLOPE, curve_slope, slope_corrected
-from appliance.localize.merged_tips import right_cap_tip
+from appliance.localize.merged_tips import right_cap_tip, strict_round
 from appliance.localize.texture import nearer_in_front
 from appliance.localize.tipbark import bark_backs_run_end
 from appliance.localize.tips import (CAP_EDGE_BACK, CAP_WIDTH_BACK, SPLIT_ROW_PX, VIEW_EDGE_PX, cap_centre,
-                                     cap_shapes_offsets, occluder_confirmed, reads_round, right_flanks_filled)
+                                     cap_shape, cap_shapes_offsets, occluder_confirmed, reads_round,
+                                     right_flanks_filled)
 from appliance.localize.walks import WALK_EDGE_BIAS
 
 # a tip's end in the right view may lie this far (px, along the branch) from the left view's:
@@ -116,6 +117,20 @@ WIDER_RIGHT_NEEDS_CAP = True
 TIP_GREY_END = True
 GREY_END_DEV_PX = 1.5
 GREY_END_MIN_PX = 0.5
+
+# fresh31 (docs/localize-fresh31.md): a flat tip on a piece whose disparity is one level (a constant: a short piece
+# without a clean texture line, dense._flat_finish) and whose right run end lies within 2 px of it (taken without the
+# outline checks the farther ends get) is withheld where the right view has clearly more mask beside the end than the
+# left (tips.right_flanks_filled: something touches the cap in the right view only; the run end found is that thing's).
+# Seed 1113 T13, colour masks: a 71 px flat twig turning in depth (its texture 137.4 -> 140.5 px over 54 px, kept as
+# the constant 138.07) whose cap lies over a leaf in the right view (the colour mask joins them; the truth: the tip
+# hidden there); the run end 138.01, the truth 142.16: -4.15 px, +37.19 mm; flank share difference +0.49 (bound
+# FLANK_SHARE 0.25). Without the constant's condition it withheld seed 377 T11 (colour, +0.68 mm, flank +0.28: a
+# 388 px texture line, its level at the tip the run end's within 0.15 px); without the right cap's (merged_tips.
+# strict_round: both sides of the right view's cap at the run end within a round cap's bounds, the cap whole there:
+# its end is the cap's, whatever lies beside it) seed 595 T15 (both masks, +0.36 / +0.44 mm, flank +0.32, a short
+# piece's constant; 1113 T13's right cap is not round). It also withholds a false tip of seed 538 (colour masks).
+FLAT_END_FLANKS_WITHHELD = True
 
 
 def cap_row_scale(rows: np.ndarray, row_c: float, cy_px: float, f_px: float) -> np.ndarray:
@@ -276,6 +291,13 @@ class TipPlacing:
                 self.hidden.add(int(node))
                 return None
             if abs(d_end - self.uvd[node][2]) <= 2.0:
+                if FLAT_END_FLANKS_WITHHELD and len(c.d_poly.coef) == 1 and right_flanks_filled(
+                        self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r) and not strict_round(
+                        cap_shape(self.sm.right_mask, uv_edge - np.array([d_end, 0.0]), out, r)):
+                    # the right run's end is not the cap's (something touches it there) and the piece's one level
+                    # says nothing of the tip's own depth: no depth of the tip's own (seed 1113 T13)
+                    self.hidden.add(int(node))
+                    return None
                 self.uvd[node][2] = d_end
             elif self._end_outline_agrees(uv_edge, out, d_end, r) and not right_flanks_filled(
                     self.sm.left_mask, self.sm.right_mask, uv_edge, out, d_end, r):

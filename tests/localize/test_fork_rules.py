@@ -522,3 +522,17 @@ def test_a_lone_unread_steep_side_carried_off_its_bark_is_withheld(rendered_scen
         assert row is None or row.result_id < 0
     else:
         assert row.result_id >= 0 and row.dz_mm > 10.0
+
+
+@pytest.mark.parametrize("withheld", [False, True])
+def test_a_fork_on_a_lone_flat_side_carried_far_and_contradicted_by_the_outline_is_withheld(rendered_scene,
+                                                                                             monkeypatch, withheld):
+    # fresh31, seed 1093's fork 5 (exact masks): a flat parent with one fitted side, carried 48 px past its span to the
+    # fork (-2.60 px there), not read next to it; the child without a curve; its right outline +1.05 px, 3.65 px from
+    # the side (too far to move it: OUTLINE_MAX_SHIFT_PX), yet the fork stood at the side's level: +18.6 mm. Withheld.
+    monkeypatch.setattr(forkends, "LONE_CARRIED_CONTRADICTED_WITHHELD", withheld)
+    row = score_row(rendered_scene(1093), 5, exact=True)
+    if withheld:
+        assert row is None or row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row is not None and row.result_id >= 0 and row.dz_mm >= 15.0

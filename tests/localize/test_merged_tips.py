@@ -84,3 +84,31 @@ def test_strict_round_wants_both_sides_of_a_whole_cap():
     assert strict_round(cap_shape(mr, edge - (d, 0.0), out, R))
     assert not strict_round(cap_shape(ml, edge, out, R))
     assert not strict_round(None)
+
+
+def _narrowed(calib, depth_mm: float, narrow_to_y: float):
+    """``_rod_pair`` with its left cap cut (as placed from the right view's cap) and, in the left view only, the rod's
+    left half covered by a grey thing in front (not branch) from the cap down to row ``narrow_to_y``."""
+    left, right, ml, mr, d = _rod_pair(calib, depth_mm, cut_left_y=57.0)
+    ys = np.arange(0, int(narrow_to_y) + 1)
+    xs = TOP[0] + (BOTTOM[0] - TOP[0]) * (ys - TOP[1]) / (BOTTOM[1] - TOP[1])      # the rod's axis on each row
+    for y, x in zip(ys, xs):
+        x0 = int(np.floor(x - R - 3))
+        x1 = int(np.floor(x))                      # up to the axis: the left half hidden
+        left[y, x0:x1] = 90
+        ml[y, x0:x1] = 0
+    return left, right, ml, mr, d
+
+
+def test_a_left_outline_narrowed_along_the_body_gives_no_tip_from_the_right_cap(monkeypatch):
+    # fresh31 (seed 1122 T10, colour masks: a leaf beside the branch took half its width out of the left mask over
+    # its last rows; the tip placed from the right cap took the curve's disparity, +5.22 px): the left runs over the
+    # two radii of rows before the left end half the right's width: no tip (merged_tips.LEFT_NARROW_SHARE)
+    from appliance.localize import merged_tips
+    calib = ideal_rig()
+    left, right, ml, mr, d = _narrowed(calib, 900.0, narrow_to_y=85.0)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert not _tips(res)
+    monkeypatch.setattr(merged_tips, "LEFT_NARROW_SHARE", None)
+    res = Localizer(calib, CFG).localize(left, right, mask_left=ml, mask_right=mr)
+    assert len(_tips(res)) == 1

@@ -214,6 +214,14 @@ CARRIED_CHILD_MEDIAN = True
 # one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
 KNOWN_VOUCH_CAPPED = True
 KNOWN_VOUCH_MAX_PX = 60.0
+# ... and a child's curve carried past its fitted span, known at the fork only by _reach's 12 px floor, does not
+# replace a steep parent side read from its own crossings whose nearest row lies within READ_OVER_CHILD_PX of the
+# fork (known there itself but for the 12 px bound): the parent's own rows against the child's end slope carried
+# into the crotch, where a child may bend at the parent's outline (docs/localize-forkoff30.md). Seed 1080 T13, exact
+# masks: the lone side read 12.7 px from the fork, -0.03 px; the child's 25-row fit carried 11.3 rows, -0.86 px (its
+# own rows next to the fork -0.60), taken: +6.86 mm (docs/localize-gross31.md)
+READ_OVER_FLOOR_CHILD = True
+READ_OVER_CHILD_PX = 24.0
 
 # a flat side's texture read next to the fork (forkdisp.flat_side_near) makes it known there in
 # _known_disparity, as a steep side's own crossings do, only if its patches agree (scaled MAD within this,
@@ -975,6 +983,12 @@ class ForkPlacing:
             d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
             return d_near if abs(d_near - d) > 0.5 else None
         if not near_p and child_ok and reach[child] <= 0:
+            read_p = [s for s in parents if s in (near or {}) and self.curves[s].by_row
+                      and near[s].nearest_px <= READ_OVER_CHILD_PX] \
+                if READ_OVER_FLOOR_CHILD and self._carried_px(child, xy) > 0 else []
+            if read_p:              # (a side read next to the fork against the child known only by the floor)
+                d_read = float(sum(at(s) for s in read_p) / len(read_p))
+                return d_read if abs(d_read - d) > 0.5 else None
             return float(at(child))
         if not near_p:
             # none reaches it: the one carried clearly least far (12 px less than any other)

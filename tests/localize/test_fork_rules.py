@@ -522,3 +522,19 @@ def test_a_lone_unread_steep_side_carried_off_its_bark_is_withheld(rendered_scen
         assert row is None or row.result_id < 0
     else:
         assert row.result_id >= 0 and row.dz_mm > 10.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_side_read_next_to_the_fork_stands_against_a_child_known_only_by_the_floor(rendered_scene, monkeypatch,
+                                                                                          rule):
+    # seed 1080's fork 13, exact masks (Z 1178 mm): a lone steep parent side (a 26-row fit) read from its own crossings,
+    # the nearest 12.7 px from the fork (just beyond the 12 px that make a side known there), -0.03 px; the child's
+    # 25-row fit carried 11.3 rows into the crotch, known there by the 12 px floor, -0.86 px: _known_disparity took
+    # the child, +6.86 mm. With the rule (forkends.READ_OVER_FLOOR_CHILD) the read stands: +0.3 mm.
+    monkeypatch.setattr(forkends, "READ_OVER_FLOOR_CHILD", rule)
+    row = score_row(rendered_scene(1080), 13, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 1.0
+    else:
+        assert row.dz_mm > 6.0

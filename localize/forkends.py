@@ -309,6 +309,12 @@ FLAT_CHILD_READ_PX = 10.0
 # of 964-995, both mask sources: the side 0.34-0.42 px far, the child read within 0.12 px; docs/localize-gross29.md)
 LONE_FLAT_CHILD_READ = True
 LONE_FLAT_CHILD_READ_PX = 15.0
+# ... and so for such a side taken by the median of three (the parent's two sides clearly apart, the other one off):
+# the fork's one reading is again that side's level carried a few px, the child's rows the second (seed 1089 T16:
+# a 36-column flat side carried 7-9 px, its texture agreeing, +0.60 / +0.68 px, the other side's 26-column
+# constant carried 33 px, +3.1; the child read 6-8 px from the fork -0.54 / -0.37 px: -2.76 / -3.09 mm,
+# docs/localize-gross31.md)
+MEDIAN_FLAT_CHILD_READ = True
 # a fork whose skeleton junction is split in two, joined by a one-point piece (each junction then has fewer than
 # three usable pieces and placed nothing): the pair's pieces together, from the pair's middle (docs/localize-forks29.md:
 # unchecked, on the twenty sets +10 forks, +7 false ones and a fork 69 mm off, 615 T10 colour) ...
@@ -727,6 +733,15 @@ class ForkPlacing:
                 and parents[0] in flat_read and float(self.uvd[node][2]) == float(at(parents[0])) \
                 and 0.0 < self._carried_px(parents[0], xy) <= CHILD_CARRY_PX:
             # (after every decision: a lone flat side's level carried to the fork, and the steep child's own rows)
+            v = self._child_read(child, xy, LONE_FLAT_CHILD_READ_PX)
+            if v is not None:
+                self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
+        elif MEDIAN_FLAT_CHILD_READ and final and agree and outline is not None and sides is not None and child_ok \
+                and self.curves[child].by_row and any(
+                    not self.curves[s].by_row and s not in side_near and s in flat_read
+                    and float(self.uvd[node][2]) == float(at(s)) and 0.0 < self._carried_px(s, xy) <= CHILD_CARRY_PX
+                    for s in parents):
+            # (after every decision: the median of three took a flat side's level carried a few px to the fork)
             v = self._child_read(child, xy, LONE_FLAT_CHILD_READ_PX)
             if v is not None:
                 self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)

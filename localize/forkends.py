@@ -214,13 +214,15 @@ CARRIED_CHILD_MEDIAN = True
 # one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
 KNOWN_VOUCH_CAPPED = True
 KNOWN_VOUCH_MAX_PX = 60.0
-# ... and a child's curve carried a few px past its fitted span (at most CHILD_CARRY_PX: within _reach's 12 px floor)
-# does not replace a steep parent side read from its own crossings whose nearest row lies within READ_OVER_CHILD_PX of
-# the fork (known there itself but for the 12 px bound): the parent's own rows against the child's end slope carried
-# into the crotch, where a child may bend at the parent's outline (docs/localize-forkoff30.md). Seed 1080 T13, exact
-# masks: the lone side read 12.7 px from the fork, -0.03 px; the child's 25-row fit carried 11.3 rows, -0.86 px (its
-# own rows next to the fork -0.60), taken: +6.86 mm. (With any carry the rule also took seed 542 T5's side read 21 px
-# off, +0.11 px, over its child's 45 px carried within half its span, +0.02: -0.15 -> -0.93 mm; docs/localize-gross31.md)
+# ... and a child's curve carried past its fitted span, known at the fork only by what its span vouches for (_reach's
+# 12 px floor, or half its span), does not replace a steep parent side read from its own crossings whose nearest row
+# lies within READ_OVER_CHILD_PX of the fork (known there itself but for the 12 px bound): the parent's own rows
+# against the child's end slope carried into the crotch, where a child may bend at the parent's outline
+# (docs/localize-forkoff30.md). Seed 1080 T13, exact masks: the lone side read 12.7 px from the fork, -0.03 px; the
+# child's 25-row fit carried 11.3 rows, -0.86 px (its own rows next to the fork -0.60), taken: +6.86 mm, now +0.26;
+# seed 1047 T7: the side read 15 / 17 px off, -0.05 / -0.16 px, the child carried 36-37 px, -0.57 / -0.49: +2.30 /
+# +1.97 mm, now +0.21 / +0.64; seed 542 T5 (exact) the other way, 0.09 px: a side read 21 px off +0.11, the child
+# carried 45 px +0.02, -0.15 -> -0.93 mm (docs/localize-gross31.md)
 READ_OVER_FLOOR_CHILD = True
 READ_OVER_CHILD_PX = 24.0
 
@@ -1001,7 +1003,7 @@ class ForkPlacing:
         if not near_p and child_ok and reach[child] <= 0:
             read_p = [s for s in parents if s in (near or {}) and self.curves[s].by_row
                       and near[s].nearest_px <= READ_OVER_CHILD_PX] \
-                if READ_OVER_FLOOR_CHILD and 0.0 < self._carried_px(child, xy) <= CHILD_CARRY_PX else []
+                if READ_OVER_FLOOR_CHILD and self._carried_px(child, xy) > 0 else []
             if read_p:              # (a side read next to the fork against the child known only by the floor)
                 d_read = float(sum(at(s) for s in read_p) / len(read_p))
                 return d_read if abs(d_read - d) > 0.5 else None

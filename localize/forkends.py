@@ -220,6 +220,17 @@ LONE_CARRIED_CONTRADICTED_WITHHELD = True
 # one side another branch 63 px off, the other carried 49 px of its 109, the median of three right.)
 KNOWN_VOUCH_CAPPED = True
 KNOWN_VOUCH_MAX_PX = 60.0
+# ... and a child's curve carried past its fitted span, known at the fork only by what its span vouches for (_reach's
+# 12 px floor, or half its span), does not replace a steep parent side read from its own crossings whose nearest row
+# lies within READ_OVER_CHILD_PX of the fork (known there itself but for the 12 px bound): the parent's own rows
+# against the child's end slope carried into the crotch, where a child may bend at the parent's outline
+# (docs/localize-forkoff30.md). Seed 1080 T13, exact masks: the lone side read 12.7 px from the fork, -0.03 px; the
+# child's 25-row fit carried 11.3 rows, -0.86 px (its own rows next to the fork -0.60), taken: +6.86 mm, now +0.26;
+# seed 1047 T7: the side read 15 / 17 px off, -0.05 / -0.16 px, the child carried 36-37 px, -0.57 / -0.49: +2.30 /
+# +1.97 mm, now +0.21 / +0.64; seed 542 T5 (exact) the other way, 0.09 px: a side read 21 px off +0.11, the child
+# carried 45 px +0.02, -0.15 -> -0.93 mm (docs/localize-gross31.md)
+READ_OVER_FLOOR_CHILD = True
+READ_OVER_CHILD_PX = 24.0
 
 # a flat side's texture read next to the fork (forkdisp.flat_side_near) makes it known there in
 # _known_disparity, as a steep side's own crossings do, only if its patches agree (scaled MAD within this,
@@ -307,6 +318,12 @@ FLAT_CHILD_READ_PX = 10.0
 # of 964-995, both mask sources: the side 0.34-0.42 px far, the child read within 0.12 px; docs/localize-gross29.md)
 LONE_FLAT_CHILD_READ = True
 LONE_FLAT_CHILD_READ_PX = 15.0
+# ... and so for such a side taken by the median of three (the parent's two sides clearly apart, the other one off):
+# the fork's one reading is again that side's level carried a few px, the child's rows the second (seed 1089 T16:
+# a 36-column flat side carried 7-9 px, its texture agreeing, +0.60 / +0.68 px, the other side's 26-column
+# constant carried 33 px, +3.1; the child read 6-8 px from the fork -0.54 / -0.37 px: -2.76 / -3.09 mm,
+# docs/localize-gross31.md)
+MEDIAN_FLAT_CHILD_READ = True
 # a fork whose skeleton junction is split in two, joined by a one-point piece (each junction then has fewer than
 # three usable pieces and placed nothing): the pair's pieces together, from the pair's middle (docs/localize-forks29.md:
 # unchecked, on the twenty sets +10 forks, +7 false ones and a fork 69 mm off, 615 T10 colour) ...
@@ -733,6 +750,15 @@ class ForkPlacing:
             v = self._child_read(child, xy, LONE_FLAT_CHILD_READ_PX)
             if v is not None:
                 self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
+        elif MEDIAN_FLAT_CHILD_READ and final and agree and outline is not None and sides is not None and child_ok \
+                and self.curves[child].by_row and any(
+                    not self.curves[s].by_row and s not in side_near and s in flat_read
+                    and float(self.uvd[node][2]) == float(at(s)) and 0.0 < self._carried_px(s, xy) <= CHILD_CARRY_PX
+                    for s in parents):
+            # (after every decision: the median of three took a flat side's level carried a few px to the fork)
+            v = self._child_read(child, xy, LONE_FLAT_CHILD_READ_PX)
+            if v is not None:
+                self.uvd[node][2] = 0.5 * (float(self.uvd[node][2]) + v.d_px)
         r_mean = sum(self.curves[s].radius_px for s in parents) / max(len(parents), 1)
         if CENTRE_TO_AXIS and final and parents and r_mean <= CENTRE_MAX_RADIUS_PX \
                 and all(self._steep_known(s, xy, side_near) for s in parents):
@@ -986,6 +1012,12 @@ class ForkPlacing:
             d_near = float(sum(at(s) for s in near_p) / len(near_p))      # (np.mean's value of one)
             return d_near if abs(d_near - d) > 0.5 else None
         if not near_p and child_ok and reach[child] <= 0:
+            read_p = [s for s in parents if s in (near or {}) and self.curves[s].by_row
+                      and near[s].nearest_px <= READ_OVER_CHILD_PX] \
+                if READ_OVER_FLOOR_CHILD and self._carried_px(child, xy) > 0 else []
+            if read_p:              # (a side read next to the fork against the child known only by the floor)
+                d_read = float(sum(at(s) for s in read_p) / len(read_p))
+                return d_read if abs(d_read - d) > 0.5 else None
             return float(at(child))
         if not near_p:
             # none reaches it: the one carried clearly least far (12 px less than any other)

@@ -536,3 +536,36 @@ def test_a_fork_on_a_lone_flat_side_carried_far_and_contradicted_by_the_outline_
         assert row is None or row.result_id < 0 or abs(row.dz_mm) <= 3.0
     else:
         assert row is not None and row.result_id >= 0 and row.dz_mm >= 15.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_lone_side_read_next_to_the_fork_stands_against_a_child_known_only_by_the_floor(rendered_scene, monkeypatch,
+                                                                                          rule):
+    # seed 1080's fork 13, exact masks (Z 1178 mm): a lone steep parent side (a 26-row fit) read from its own crossings,
+    # the nearest 12.7 px from the fork (just beyond the 12 px that make a side known there), -0.03 px; the child's
+    # 25-row fit carried 11.3 rows into the crotch, known there by the 12 px floor, -0.86 px: _known_disparity took
+    # the child, +6.86 mm. With the rule (forkends.READ_OVER_FLOOR_CHILD) the read stands: +0.3 mm.
+    monkeypatch.setattr(forkends, "READ_OVER_FLOOR_CHILD", rule)
+    row = score_row(rendered_scene(1080), 13, exact=True)
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 1.0
+    else:
+        assert row.dz_mm > 6.0
+
+
+@pytest.mark.parametrize("masks", ["true", "colour"])
+@pytest.mark.parametrize("rule", [False, True])
+def test_a_flat_side_carried_a_few_px_taken_by_the_median_of_three_is_averaged_with_the_childs_rows(
+        rendered_scene, monkeypatch, masks, rule):
+    # seed 1089's fork 16 (Z 897 mm): the parent's two flat sides clearly apart, one a 26-column constant carried 33 px,
+    # +3.1 px; the median of three took the other, a 36-column side carried 7-9 px past its span (its texture next to the
+    # fork agreeing with it), +0.60 / +0.68 px: -2.76 / -3.09 mm. The steep child's own rows read 6-8 px from the fork
+    # -0.54 / -0.37 px; with the rule (forkends.MEDIAN_FLAT_CHILD_READ) the mean of the two: +0.03 / +0.15 px.
+    monkeypatch.setattr(forkends, "MEDIAN_FLAT_CHILD_READ", rule)
+    row = score_row(rendered_scene(1089), 16, exact=masks == "true")
+    assert row.result_id >= 0
+    if rule:
+        assert abs(row.dz_mm) < 1.0
+    else:
+        assert row.dz_mm < -2.5

@@ -104,6 +104,14 @@ TIP_MASK_RUNS_ON = True
 # the right view, the piece's line carried 21 px to it: +1.29 px, +11.9 mm)
 WIDER_RIGHT_NEEDS_CAP = True
 
+# stub31 (docs/localize-stub31.md): the same where the right view's cap merges with something beside it rather than
+# past it (its end not shifted, so _wider_on_right is not asked): a steep tip none of whose cap rows reads a depth
+# whose right flanks at the piece's disparity hold clearly more mask than the left's (tips.right_flanks_filled, bound
+# FLANK_SHARE 0.25) is withheld. Seed 1106 T10, colour masks: a 12-row stub (r 4.7 px) whose right cap touches a
+# thick trunk beside it (flank shares 0.00 left / 0.51 right), the right end 0.6 px from the left's, no cap row read;
+# the short fit carried to the tip -0.74 px, +7.37 mm
+WIDER_BESIDE_NEEDS_CAP = True
+
 
 # a flat tip's run end (its disparity, _end_disparity) is also read on a soft mask's runs moved to the grey image's step
 # whole where it is clear (within GREY_END_DEV_PX of the mask's outline: subpixel.refine_runs' whole_dev_px), as a
@@ -341,6 +349,13 @@ class TipPlacing:
                 # the right view runs on past the cap into something wider and no row of the cap reads a
                 # depth near the piece's: the cap may lie behind that thing (hidden in the right view), and
                 # the piece's line carried to it is no depth of the tip's own (seed 723 T6)
+                self.hidden.add(int(node))
+                return None
+            if d_cap is None and WIDER_BESIDE_NEEDS_CAP and right_flanks_filled(
+                    self.sm.left_mask, self.sm.right_mask, uv_edge, out, self.uvd[node][2], r):
+                # the right view's cap merges with something beside it (its flanks filled there only) and no
+                # row of the cap reads a depth: the piece's line carried to the tip is no depth of its own
+                # (seed 1106 T10)
                 self.hidden.add(int(node))
                 return None
             if d_cap is not None:

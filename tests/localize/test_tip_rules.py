@@ -118,6 +118,23 @@ def test_a_flat_tip_whose_right_run_ends_on_something_touching_it_is_withheld(re
 
 
 @pytest.mark.parametrize("rule", [False, True])
+def test_a_steep_tip_whose_right_cap_merges_with_something_beside_it_and_reads_no_row_is_withheld(
+        rendered_scene, monkeypatch, rule):
+    # stub31, seed 1106's tip 10 (Z 1318 mm, colour masks): a 12-row stub (r 4.7 px) whose right cap touches a thick
+    # trunk beside it (the colour mask joins them; flank shares 0.00 left / 0.51 right), its right end 0.6 px from the
+    # left's (not shifted: tipends.WIDER_RIGHT_NEEDS_CAP is not asked); no cap row reads a depth and the short fit
+    # carried to the tip stood, -0.74 px, +7.37 mm. With tipends.WIDER_BESIDE_NEEDS_CAP it is withheld.
+    monkeypatch.setattr(tipends, "WIDER_BESIDE_NEEDS_CAP", rule)
+    left, right, truth, calib = rendered_scene(1106)
+    res = Localizer(calib, load_config().localize).localize(left, right)
+    row = next((r for r in score_result(res, truth).rows if r.truth_index == 10), None)
+    if rule:
+        assert row is None or row.result_id < 0 or abs(row.dz_mm) <= 3.0
+    else:
+        assert row is not None and row.result_id >= 0 and row.dz_mm >= 6.0
+
+
+@pytest.mark.parametrize("rule", [False, True])
 def test_a_tip_from_the_right_cap_on_a_left_outline_narrowed_along_its_body_is_withheld(rendered_scene, monkeypatch,
                                                                                        rule):
     # fresh31, seed 1122's tip 10 (colour masks): its left cap cut, placed from the right view's cap (merged_tips.py)

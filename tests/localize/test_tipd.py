@@ -322,9 +322,11 @@ def test_a_cap_hidden_in_the_right_view_behind_something_wider_is_no_tip(monkeyp
     # it (the branch's tip behind a nearer branch there, seed 723's tip 6): the right view runs on wider past
     # the end (the end-shift check waived) and no row of the cap reads a depth near the piece's (the bar's
     # edges are the rows' edges): hidden (tipends.WIDER_RIGHT_NEEDS_CAP); without the rule the piece's line
-    # carried to the tip stood as its depth
+    # carried to the tip stood as its depth. (The bar also fills the right cap's flanks: WIDER_BESIDE_NEEDS_CAP,
+    # off here, withholds it too, so that this rule is tested alone.)
     from appliance.localize import tipends
     monkeypatch.setattr(tipends, "WIDER_RIGHT_NEEDS_CAP", rule)
+    monkeypatch.setattr(tipends, "WIDER_BESIDE_NEEDS_CAP", False)
     calib = ideal_rig(**RIG)
     d_tip = calib.f_px * calib.baseline_mm / 900.0
     tip, r = (300.0, 90.0), 8.0

@@ -180,6 +180,10 @@ SCATTERED_READ_WITHHELD = True
 # ... and, where forkdisp.FLAT_NEAR_SHIFT moved the side's patches onto the fork, the same check is run on the read of
 # the unmoved patches too (seed 528's fork 14, colour masks: the moved read no longer withheld, -6.86 mm)
 FLAT_NEAR_SHIFT_UNMOVED = True
+# ... and the patches are moved only for a side whose unmoved patches were read: a side not read next to the fork stays
+# carried (seed 556's fork 10, exact masks: a thin side carried 54 px, unread, moved read +0.31 px, so the fork took the
+# sides' mean +0.28 px in place of CARRIED_FLAT_OUTVOTED's mean of three +0.20: -1.27 -> -1.84 mm, 548 p95 1.77 -> 1.81)
+FLAT_NEAR_SHIFT_READ = True
 # a lone flat side whose own fit reaches the fork (carried at most 1 px past its span: measured there, not read
 # again) is neither out-voted nor moved by the child's right outline (seed 540's fork 14, exact masks: a side fitted
 # on 144 columns up to the fork, 0.17 px off; the child carried 27 rows and its outline, 1.3 / 1.8 px off, agreeing
@@ -525,7 +529,7 @@ class ForkPlacing:
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, _t_at(c, xy),
                                    self.sm.f_px, self.sm.offset_px, **kw)
                 r_f = c.radius_px if kw['radius_px'] is None else float(kw['radius_px'])
-                if flat_near_offset(c, _t_at(c, xy), xy, r_f) is not None:
+                if flat_near_offset(c, _t_at(c, xy), xy, r_f) is not None and (v is not None or not FLAT_NEAR_SHIFT_READ):
                     # (forkdisp.FLAT_NEAR_SHIFT: the patches moved onto the fork; the unmoved read kept for the
                     # scattered-read check below: FLAT_NEAR_SHIFT_UNMOVED)
                     if v is not None and abs(v.d_px - at(s)) > FLAT_NEAR_MIN_PX:

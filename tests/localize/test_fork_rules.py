@@ -313,11 +313,12 @@ def test_a_lone_flat_sides_scattered_read_far_from_the_childs_outline_is_withhel
     # +- 0.50 px (they hold the child's bark, the child leaving towards the camera), the child's right outline
     # 199.04, truth 198.85: -12 mm. With the rule it is withheld.
     monkeypatch.setattr(forkends, "SCATTERED_READ_WITHHELD", rule)
+    # (forkdisp.FLAT_NEAR_SHIFT moves the patches onto the fork: reported without the rule at -6.9 mm)
     row = score_row(rendered_scene(528), 14, exact=False)
     if rule:
         assert row is None or row.result_id < 0          # (None: not seen in both views and not reported)
     else:
-        assert row.result_id >= 0 and row.dz_mm < -10.0
+        assert row.result_id >= 0 and row.dz_mm < -5.0
 
 
 @pytest.mark.parametrize("rule", [False, True])

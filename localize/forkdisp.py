@@ -350,7 +350,8 @@ FLAT_NEAR_MAX_SLOPE = 0.12
 # a flat side whose centre line carried to the fork passes it FLAT_NEAR_SHIFT_MIN_R of the parent's radius or more
 # away (its fit's end bends off, the parent bends at the fork) has its patches moved by that offset onto the fork
 # (``at_uv``): read along the carried line they lie on the branch's upper or lower part, where the surface is further
-# than the front that surface_to_axis takes off (seed 1074 T9, colour masks: 6.2 px off at r 8.9 px, -0.61 px)
+# than the front that surface_to_axis takes off (seed 1074 T9, colour masks: 6.2 px off at r 8.9 px, -0.61 px; moved
+# -0.44 px, the fork +3.97 -> +1.78 mm; forkends.FLAT_NEAR_SHIFT_UNMOVED, FLAT_NEAR_SHIFT_READ bound it)
 FLAT_NEAR_SHIFT = True
 FLAT_NEAR_SHIFT_MIN_R = 0.5
 

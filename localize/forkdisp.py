@@ -347,13 +347,20 @@ FLAT_NEAR_MAX_SHARE_DIFF = 0.15
 # 142.1-143.6 px, scaled MAD 0.79, carried to the fork at +1.31 px where its curve read -0.34: -11.4 mm). The
 # feature check's pieces likewise give no verdict beyond featurecheck.MAX_PIECE_SLOPE (0.12); None: always read
 FLAT_NEAR_MAX_SLOPE = 0.12
+# a flat side whose centre line carried to the fork passes it FLAT_NEAR_SHIFT_MIN_R of the parent's radius or more
+# away (its fit's end bends off, the parent bends at the fork) has its patches moved by that offset onto the fork
+# (``at_uv``): read along the carried line they lie on the branch's upper or lower part, where the surface is further
+# than the front that surface_to_axis takes off (seed 1074 T9, colour masks: 6.2 px off at r 8.9 px, -0.61 px; moved
+# -0.44 px, the fork +3.97 -> +1.78 mm; forkends.FLAT_NEAR_SHIFT_UNMOVED, FLAT_NEAR_SHIFT_READ bound it)
+FLAT_NEAR_SHIFT = True
+FLAT_NEAR_SHIFT_MIN_R = 0.5
 
 
 def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray, t_fork: float, f_px: float,
                    offset_px: float = 0.0, reach_px: float = FLAT_NEAR_PX, step_px: float = FLAT_STEP_PX,
                    min_score: float = 0.6, tol_d_px: float = 2.5, min_patches: int = 3,
                    radius_px: float | None = None, left_mask: np.ndarray | None = None,
-                   right_mask: np.ndarray | None = None) -> SideNear | None:
+                   right_mask: np.ndarray | None = None, at_uv: np.ndarray | None = None) -> SideNear | None:
     """A flat parent side's disparity at a fork from its bark texture next to the fork.
 
     A flat piece's disparity is a constant (pieces under 100 px) or a line fitted to texture patches
@@ -386,6 +393,9 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
         left view and in the right at the curve's disparity differ by at most ``FLAT_NEAR_MAX_SHARE_DIFF``
         (not a leaf in front of the side in one view: :func:`patchmask.share_difference`); None: every
         patch counts.
+    at_uv : ndarray (2,), optional
+        The fork (px): where the side's line at ``t_fork`` passes it ``FLAT_NEAR_SHIFT_MIN_R`` radii or more away,
+        the patches are moved by that offset (``FLAT_NEAR_SHIFT``).
 
     Returns
     -------
@@ -401,6 +411,10 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     uv = c.uv_at(t)
     d_c = float(c.d_at(t_fork)[0])
     r = c.radius_px if radius_px is None else float(radius_px)
+    if at_uv is not None:
+        off = flat_near_offset(c, t_fork, at_uv, r)
+        if off is not None:
+            uv = uv + off
     scale = 1.0 + r / f_px
     d_s = (d_c - offset_px) * scale + offset_px          # the curve's value on the surface
     hh = max(1, int(0.6 * c.radius_px))                 # (the flat fit's patches: the side's own radius)
@@ -422,6 +436,15 @@ def flat_side_near(c: BranchCurve, left_gray: np.ndarray, right_gray: np.ndarray
     m = float(median(d_ax))
     mad = 1.4826 * float(median(np.abs(d_ax - m)))
     return SideNear(m, len(d_ax), 0, int(max(lo - t_fork, t_fork - hi, 0.0)), float(x.min()), mad, 0.0)
+
+
+def flat_near_offset(c: BranchCurve, t_fork: float, at_uv, radius_px: float) -> np.ndarray | None:
+    """The offset (px, (2,)) from a flat side's centre line at ``t_fork`` to the fork ``at_uv`` where it is
+    ``FLAT_NEAR_SHIFT_MIN_R`` of the radius ``radius_px`` or more (``FLAT_NEAR_SHIFT``); else None."""
+    if not FLAT_NEAR_SHIFT:
+        return None
+    off = np.asarray(at_uv, float) - c.uv_at(np.array([t_fork]))[0]
+    return off if math.hypot(off[0], off[1]) >= FLAT_NEAR_SHIFT_MIN_R * radius_px else None
 
 
 def turns_in_depth(c: BranchCurve, t_px: float, max_slope: float | None = None) -> bool:

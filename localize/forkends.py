@@ -19,7 +19,7 @@ from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkcross import crossing_in_front, front_step_px
-from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_side_near,
+from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_near_offset, flat_side_near,
                                          side_disparity_near, side_through_fork, taper_radius, turns_in_depth,
                                          weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
@@ -177,6 +177,13 @@ LONE_FLAT_OUTVOTED = True
 # a fork whose lone flat side's texture read next to it is scattered and 2+ px from the child's right outline is
 # withheld (forkvouch.scattered_read_contradicted: seed 528's fork 14, colour masks, -12 mm)
 SCATTERED_READ_WITHHELD = True
+# ... and, where forkdisp.FLAT_NEAR_SHIFT moved the side's patches onto the fork, the same check is run on the read of
+# the unmoved patches too (seed 528's fork 14, colour masks: the moved read no longer withheld, -6.86 mm)
+FLAT_NEAR_SHIFT_UNMOVED = True
+# ... and the patches are moved only for a side whose unmoved patches were read: a side not read next to the fork stays
+# carried (seed 556's fork 10, exact masks: a thin side carried 54 px, unread, moved read +0.31 px, so the fork took the
+# sides' mean +0.28 px in place of CARRIED_FLAT_OUTVOTED's mean of three +0.20: -1.27 -> -1.84 mm, 548 p95 1.77 -> 1.81)
+FLAT_NEAR_SHIFT_READ = True
 # a lone flat side whose own fit reaches the fork (carried at most 1 px past its span: measured there, not read
 # again) is neither out-voted nor moved by the child's right outline (seed 540's fork 14, exact masks: a side fitted
 # on 144 columns up to the fork, 0.17 px off; the child carried 27 rows and its outline, 1.3 / 1.8 px off, agreeing
@@ -509,18 +516,26 @@ class ForkPlacing:
         # a side whose fit stops short of the fork is read again from its own crossings nearest it
         # (its crossings far from the junction's blob are the parent's alone: forkdisp.py); a fork
         # without the child's outline is withheld whatever its disparity (below): not read
-        side_near, flat_read = {}, set()
+        side_near, flat_read, unmoved = {}, set(), {}
         for s in parents if final and outline is not None else ():
             c = self.curves[s]
             if c.by_row:
                 v = side_disparity_near(c, self.runs_l, self.runs_r, _t_at(c, xy), f_px=self.sm.f_px,
                                         cx_px=self.sm.cx_px, offset_px=self.sm.offset_px)
             elif FLAT_NEAR:     # a flat side: its bark texture next to the fork (forkdisp.flat_side_near)
+                kw = dict(radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
+                                                         rad, near) if FLAT_TAPER else None,
+                          left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
                 v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, _t_at(c, xy),
-                                   self.sm.f_px, self.sm.offset_px,
-                                   radius_px=self._radius_at_fork(parents, xy, [t for t in (pa, pb) if t not in parents],
-                                                                  rad, near) if FLAT_TAPER else None,
-                                   left_mask=self.sm.left_mask, right_mask=self.sm.right_mask)
+                                   self.sm.f_px, self.sm.offset_px, **kw)
+                r_f = c.radius_px if kw['radius_px'] is None else float(kw['radius_px'])
+                if flat_near_offset(c, _t_at(c, xy), xy, r_f) is not None and (v is not None or not FLAT_NEAR_SHIFT_READ):
+                    # (forkdisp.FLAT_NEAR_SHIFT: the patches moved onto the fork; the unmoved read kept for the
+                    # scattered-read check below: FLAT_NEAR_SHIFT_UNMOVED)
+                    if v is not None and abs(v.d_px - at(s)) > FLAT_NEAR_MIN_PX:
+                        unmoved[s] = v
+                    v = flat_side_near(c, self.sm.left_gray, self.sm.right_gray, _t_at(c, xy),
+                                       self.sm.f_px, self.sm.offset_px, at_uv=xy, **kw)
                 # (within the patches' scatter of the curve, fitted on the whole piece, the curve stands)
                 if v is not None:
                     flat_read.add(s)
@@ -709,6 +724,11 @@ class ForkPlacing:
                 and parents[0] in side_near and scattered_read_contradicted(   # (flat_read: d_out was set)
                     float(self.uvd[node][2]), side_near[parents[0]].mad_px, d_out, child_ok and _agree(at(child), d)):
             agree = False
+        if agree and SCATTERED_READ_WITHHELD and FLAT_NEAR_SHIFT_UNMOVED and final and len(parents) == 1 \
+                and parents[0] in unmoved and scattered_read_contradicted(
+                    unmoved[parents[0]].d_px, unmoved[parents[0]].mad_px, d_out,
+                    child_ok and _agree(at(child), unmoved[parents[0]].d_px)):
+            agree = False           # (the same check on the side's unmoved patches: FLAT_NEAR_SHIFT_UNMOVED)
         if agree and CHILD_ELSEWHERE_WITHHELD and final and child not in self.curves and outline is not None:
             sin_c = abs(float(outline[1][0] * out[1] - outline[1][1] * out[0]))
             agree = not child_texture_elsewhere(self.sm.left_gray, self.sm.right_gray, xy, out,

@@ -19,9 +19,9 @@ from appliance.localize.forkalong import along_fork
 from appliance.localize.forkbark import steep_side_bark
 from appliance.localize.forkchild import child_texture_agrees, child_texture_elsewhere, passes_through
 from appliance.localize.forkcross import crossing_in_front, front_step_px
-from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_near_offset, flat_side_near,
-                                         side_disparity_near, side_through_fork, taper_radius, turns_in_depth,
-                                         weigh_bent_sides, weigh_sides)
+from appliance.localize.forkdisp import (THROUGH_SHORT_PX, SideNear, bent_sides_apply, flat_near_offset,
+                                         flat_side_near, side_disparity_near, side_through_fork, taper_radius,
+                                         turns_in_depth, weigh_bent_sides, weigh_sides)
 from appliance.localize.forkhidden import crotch_half_px, hidden_parent_disparity, hidden_side_reads
 from appliance.localize.forkplace import parent_axis
 from appliance.localize.forkoutline import shallow_outline_agrees
